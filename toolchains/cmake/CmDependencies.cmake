@@ -1,0 +1,41 @@
+# SPDX-License-Identifier: BSD-3-Clause
+# Debian 12 packages (toolchains/install-deps.sh). LCM and GLPK ship no CMake config: find_path/find_library
+# (pkg-config's lcm.pc needs an arm64 glib-2.0.pc that the multiarch runtime package lacks when cross-compiling).
+
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+
+find_path(GLPK_INCLUDE_DIR glpk.h REQUIRED)
+find_library(GLPK_LIBRARY glpk REQUIRED)
+if(NOT TARGET glpk::glpk)
+  add_library(glpk::glpk UNKNOWN IMPORTED)
+  set_target_properties(glpk::glpk PROPERTIES IMPORTED_LOCATION "${GLPK_LIBRARY}"
+                        INTERFACE_INCLUDE_DIRECTORIES "${GLPK_INCLUDE_DIR}")
+endif()
+
+find_path(LCM_INCLUDE_DIR lcm/lcm-cpp.hpp REQUIRED)
+find_library(LCM_LIBRARY lcm REQUIRED)
+if(NOT TARGET lcm::lcm)
+  add_library(lcm::lcm UNKNOWN IMPORTED)
+  set_target_properties(lcm::lcm PROPERTIES IMPORTED_LOCATION "${LCM_LIBRARY}"
+                        INTERFACE_INCLUDE_DIRECTORIES "${LCM_INCLUDE_DIR}")
+endif()
+
+# Header-only, from Debian: CLI11 (subcommands, --help, validation), nanoflann (k-d tree, used by registration).
+find_path(CLI11_INCLUDE_DIR CLI/CLI.hpp REQUIRED)
+if(NOT TARGET cm_cli11)
+  add_library(cm_cli11 INTERFACE)
+  target_include_directories(cm_cli11 SYSTEM INTERFACE "${CLI11_INCLUDE_DIR}")
+endif()
+
+# mimalloc interposes malloc process-wide when linked. Not with the sanitizers: ASan must own malloc.
+if(CM_SANITIZE)
+  set(CM_WITH_MIMALLOC OFF)
+else()
+  find_package(mimalloc 2.0 REQUIRED)
+  set(CM_WITH_MIMALLOC ON)
+endif()
+
+if(CM_BUILD_TESTS)
+  find_package(doctest REQUIRED)
+  include(doctest)
+endif()

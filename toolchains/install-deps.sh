@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Installs everything commerge needs on Debian 12 (bookworm), idempotently.
+#   toolchains/install-deps.sh            host build + tests (x86-64)
+#   toolchains/install-deps.sh --cross    also the aarch64 (Jetson Nano) cross toolchain, arm64 libraries,
+#                                         qemu-user, and the LCM arm64 overlay in .deps/sysroot-arm64-lcm
+#   toolchains/install-deps.sh --tools    also profiling / monitoring tools (time, valgrind, Xvfb, ...)
+# Runs apt-get as root (or through sudo). Safe to run again: installed packages are skipped by apt,
+# and the LCM overlay is only extracted when missing.
+set -euo pipefail
+
+cross=0
+tools=0
+for arg in "$@"; do
+  case "$arg" in
+    --cross) cross=1 ;;
+    --tools) tools=1 ;;
+    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    *) echo "install-deps.sh: unknown option '$arg' (see --help)" >&2; exit 2 ;;
+  esac
+done
+
+repo=$(cd "$(dirname "$0")/.." && pwd)
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+apt_install() { $SUDO apt-get install -y --no-install-recommends "$@"; }
+
+host_pkgs=(cmake make g++ pkg-config ca-certificates
+           liblcm-dev liblcm-bin liblcm-java default-jdk-headless
+           libeigen3-dev libglpk-dev doctest-dev libmimalloc-dev libnanoflann-dev
+           libcli11-dev time)
+missing=()
+for p in "${host_pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+done
+
+need_update=1
+if [ ${#missing[@]} -gt 0 ] || [ $cross -eq 1 ] || [ $tools -eq 1 ]; then
+  $SUDO apt-get update -q
+  need_update=0
+fi
+if [ ${#missing[@]} -gt 0 ]; then apt_install "${missing[@]}"; fi
+
+if [ $tools -eq 1 ]; then
+  apt_install valgrind heaptrack hyperfine nftables iproute2 xvfb imagemagick libjchart2d-java
+fi
+
+if [ $cross -eq 1 ]; then
+  if ! dpkg --print-foreign-architectures | grep -qx arm64; then
+    $SUDO dpkg --add-architecture arm64
+    $SUDO apt-get update -q
+  fi
+  # glpk, mimalloc and glib are Multi-Arch: same; apt may upgrade matching amd64 packages to keep lock-step.
+  apt_install g++-aarch64-linux-gnu qemu-user libc6-dev:arm64 \
+              libglpk-dev:arm64 libmimalloc-dev:arm64 libglib2.0-0:arm64
+  # LCM has no Multi-Arch field: installing liblcm1:arm64 would remove the host LCM (and make lcm-gen an
+  # aarch64 binary). Extract the arm64 packages into a private overlay instead (PLATFORM.md 3.2).
+  overlay="$repo/.deps/sysroot-arm64-lcm"
+  if [ ! -f "$overlay/usr/lib/aarch64-linux-gnu/liblcm.so" ]; then
+    debs="$repo/.deps/debs"
+    mkdir -p "$debs"
+    (cd "$debs" && rm -f liblcm*_arm64.deb && apt-get download liblcm1:arm64 liblcm-dev:arm64)
+    rm -rf "$overlay.tmp"
+    for d in "$debs"/liblcm1_*_arm64.deb "$debs"/liblcm-dev_*_arm64.deb; do dpkg-deb -x "$d" "$overlay.tmp"; done
+    rm -rf "$overlay" && mv "$overlay.tmp" "$overlay"
+  fi
+fi
+: "$need_update"
+echo "install-deps.sh: dependencies present (cross=$cross tools=$tools)"
