@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "platform/memory/peak_rss.hpp"
 
-#include <cinttypes>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -36,22 +35,6 @@ RssFigures ReadRss() {
   std::ostringstream ss;
   ss << in.rdbuf();
   return ParseProcStatus(ss.str());
-}
-
-std::string FormatBytes(std::int64_t bytes) {
-  if (bytes < 0) return "n/a";
-  char buf[64];
-  const double b = static_cast<double>(bytes);
-  if (bytes < 1024) {
-    std::snprintf(buf, sizeof buf, "%" PRId64 " B", bytes);
-  } else if (b < 1024.0 * 1024.0) {
-    std::snprintf(buf, sizeof buf, "%.1f KiB", b / 1024.0);
-  } else if (b < 1024.0 * 1024.0 * 1024.0) {
-    std::snprintf(buf, sizeof buf, "%.1f MiB", b / (1024.0 * 1024.0));
-  } else {
-    std::snprintf(buf, sizeof buf, "%.2f GiB", b / (1024.0 * 1024.0 * 1024.0));
-  }
-  return buf;
 }
 
 }  // namespace commerge::platform

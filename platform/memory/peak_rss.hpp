@@ -5,7 +5,11 @@
 #include <cstdint>
 #include <string>
 
+#include "core/common/bytes.hpp"  // FormatBytes for callers printing these figures
+
 namespace commerge::platform {
+
+using commerge::FormatBytes;
 
 struct RssFigures {
   std::int64_t current_bytes = -1;  ///< VmRSS, -1 when unavailable
@@ -17,8 +21,5 @@ RssFigures ParseProcStatus(const std::string& status_text);
 
 /// RSS of this process now. Note: under qemu-user the figures include the emulator (+~15 MiB).
 RssFigures ReadRss();
-
-/// "123.4 MiB" style formatting for reports (B, KiB, MiB, GiB).
-std::string FormatBytes(std::int64_t bytes);
 
 }  // namespace commerge::platform

@@ -1,0 +1,58 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Wiring shared by the subcommands: memory flags, the start-up budget check, peak-RSS reporting.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <cstdint>
+#include <string>
+
+#include "core/memory/budget.hpp"
+
+namespace commerge::app {
+
+/// Exit codes of the commerge executable.
+enum ExitCode : int {
+  kExitOk = 0,
+  kExitFailure = 1,      ///< the job ran and failed (bad input file, failed merge, ...)
+  kExitUsage = 2,        ///< bad command line or configuration value
+  kExitOverBudget = 3,   ///< the memory budget does not fit this machine
+  kExitOutOfMemory = 4,  ///< std::bad_alloc at run time
+};
+
+/// Board profile and memory-sizing flags, shared by every subcommand that allocates (budget, demo, ...).
+struct MemoryFlags {
+  std::string board = "desktop";
+  std::int32_t robots = 0;          // 0 = the board default
+  std::int32_t max_keyframes = 0;
+  std::int64_t scan_store_mb = 0;
+  std::int32_t max_submap_points = 0;
+  std::int64_t merged_map_mb = 0;
+  std::int64_t queue_mb = 0;
+  std::int64_t solver_mb = 0;
+  std::int64_t heap_cap_mb = 0;     // 0 = no hard cap
+  std::string proc_root = "/proc";  // testing hooks: fake /proc and cgroup trees
+  std::string cgroup_root = "/sys/fs/cgroup";
+};
+
+void AddMemoryFlags(CLI::App* cmd, MemoryFlags* flags);
+
+/// Result of the start-up memory check of one app.
+struct MemorySetup {
+  BoardProfile board = BoardProfile::kDesktop;
+  MemoryConfig config;
+  BudgetTable table;
+  bool fits = false;
+  std::string table_text;  ///< FormatBudgetTable output
+  std::string verdict;     ///< one line
+};
+
+/// Maps the flags onto a MemoryConfig for `app`, validates it, checks the budget against this machine and
+/// applies the heap cap. Returns an exit code: kExitOk, kExitUsage (bad flag: message on stderr) or
+/// kExitOverBudget (one line naming the module, its need and the limit on stderr).
+int SetUpMemory(AppKind app, const MemoryFlags& flags, MemorySetup* setup, bool print_table);
+
+/// "peak RSS 123.4 MiB (allocator mimalloc 2.0.9)".
+std::string PeakRssLine();
+
+}  // namespace commerge::app

@@ -1,0 +1,251 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "core/memory/budget.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "core/common/bytes.hpp"
+
+namespace commerge {
+
+namespace {
+
+constexpr BoardSpec kBoards[] = {
+    {BoardProfile::kJetsonNano, "jetson-nano", 4 * kGiB, 1280 * kMiB,
+     "NVIDIA Jetson Nano, 4 GiB shared with the GPU; 1.25 GiB kept for JetPack, CUDA and odometry"},
+    {BoardProfile::kIpc6000, "ipc-6000", 8 * kGiB, 2 * kGiB,
+     "IPC-6000 class x86-64 (i5-8265U), 8 GiB; 2 GiB kept for the OS and the odometry stack"},
+    {BoardProfile::kDesktop, "desktop", 0, 0, "workstation or server: only MemAvailable and cgroup limits apply"},
+};
+
+std::string Str(std::int64_t v) { return std::to_string(v); }
+
+}  // namespace
+
+Span<const BoardSpec> AllBoards() { return Span<const BoardSpec>(kBoards); }
+
+const BoardSpec& GetBoard(BoardProfile profile) {
+  for (const BoardSpec& b : kBoards) {
+    if (b.profile == profile) return b;
+  }
+  return kBoards[2];
+}
+
+Result<BoardProfile> ParseBoardProfile(const std::string& name) {
+  for (const BoardSpec& b : kBoards) {
+    if (name == b.name) return b.profile;
+  }
+  return InvalidArgument("unknown board profile '" + name + "' (valid: jetson-nano, ipc-6000, desktop)");
+}
+
+const char* AppKindName(AppKind app) {
+  switch (app) {
+    case AppKind::kRobot: return "robot";
+    case AppKind::kServer: return "server";
+    case AppKind::kRun: return "run";
+  }
+  return "?";
+}
+
+Result<AppKind> ParseAppKind(const std::string& name) {
+  for (AppKind a : {AppKind::kRobot, AppKind::kServer, AppKind::kRun}) {
+    if (name == AppKindName(a)) return a;
+  }
+  return InvalidArgument("unknown app '" + name + "' (valid: robot, server, run)");
+}
+
+MemoryConfig DefaultMemoryConfig(BoardProfile profile) {
+  MemoryConfig c;  // the struct defaults are the Jetson Nano ones
+  switch (profile) {
+    case BoardProfile::kJetsonNano:
+      break;
+    case BoardProfile::kIpc6000:
+      c.max_robots = 5;
+      c.max_keyframes_per_robot = 50000;
+      c.scan_store_bytes = 512 * kMiB;
+      c.max_scans_in_flight = 1024;
+      c.max_submap_points = 400000;
+      c.merged_map_bytes = 256 * kMiB;
+      c.message_queue_bytes = 16 * kMiB;
+      c.solver_workspace_bytes = 256 * kMiB;
+      break;
+    case BoardProfile::kDesktop:
+      c.max_robots = 8;
+      c.max_keyframes_per_robot = 100000;
+      c.scan_store_bytes = 1 * kGiB;
+      c.max_scans_in_flight = 2048;
+      c.max_submap_points = 1000000;
+      c.merged_map_bytes = 1 * kGiB;
+      c.message_queue_bytes = 32 * kMiB;
+      c.solver_workspace_bytes = 512 * kMiB;
+      break;
+  }
+  return c;
+}
+
+Status ValidateMemoryConfig(const MemoryConfig& c) {
+  struct Field {
+    const char* name;
+    std::int64_t value;
+    std::int64_t max;
+  };
+  const Field fields[] = {
+      {"max_robots", c.max_robots, 64},
+      {"max_keyframes_per_robot", c.max_keyframes_per_robot, 10000000},
+      {"max_points_per_raw_scan", c.max_points_per_raw_scan, 16 * 1024 * 1024},
+      {"max_points_per_stored_scan", c.max_points_per_stored_scan, 16 * 1024 * 1024},
+      {"scan_store_bytes", c.scan_store_bytes, 1024 * kGiB},
+      {"max_scans_in_flight", c.max_scans_in_flight, 10000000},
+      {"max_submap_points", c.max_submap_points, 1000000000},
+      {"merged_map_bytes", c.merged_map_bytes, 1024 * kGiB},
+      {"message_queue_bytes", c.message_queue_bytes, 1024 * kGiB},
+      {"solver_workspace_bytes", c.solver_workspace_bytes, 1024 * kGiB},
+  };
+  for (const Field& f : fields) {
+    if (f.value <= 0 || f.value > f.max) {
+      return InvalidArgument(std::string("memory config: ") + f.name + " = " + Str(f.value) + " is outside [1, " +
+                             Str(f.max) + "]");
+    }
+  }
+  return Status::Ok();
+}
+
+void BudgetTable::Add(std::string module, std::int64_t bytes, std::string basis) {
+  entries_.push_back(BudgetEntry{std::move(module), bytes, std::move(basis)});
+}
+
+std::int64_t BudgetTable::total_bytes() const {
+  std::int64_t total = 0;
+  for (const BudgetEntry& e : entries_) total += e.bytes;
+  return total;
+}
+
+const BudgetEntry* BudgetTable::Find(const std::string& module) const {
+  for (const BudgetEntry& e : entries_) {
+    if (e.module == module) return &e;
+  }
+  return nullptr;
+}
+
+namespace {
+
+using R = BudgetRecordSizes;
+
+// Modules of one robot; `prefix` is "" for a robot process, "robots." in `commerge run`; `n` robots.
+void AddRobotModules(BudgetTable* t, const MemoryConfig& c, const std::string& prefix, std::int64_t n) {
+  const std::string times = n > 1 ? " x " + Str(n) + " robots" : "";
+  const std::int64_t k = c.max_keyframes_per_robot;
+  t->Add(prefix + "descriptor_db", n * k * R::kDescriptorRecordBytes,
+         Str(k) + " keyframes (--max-keyframes) x " + Str(R::kDescriptorRecordBytes) + " B" + times);
+  t->Add(prefix + "pose_graph", n * k * R::kPoseGraphBytesPerKeyframe,
+         Str(k) + " keyframes x " + Str(R::kPoseGraphBytesPerKeyframe) + " B" + times);
+  t->Add(prefix + "scan_store", n * c.scan_store_bytes, "--scan-store-mb" + times);
+  t->Add(prefix + "scan_workspace", n * c.max_points_per_raw_scan * R::kRawPointWorkBytes,
+         Str(c.max_points_per_raw_scan) + " raw points x " + Str(R::kRawPointWorkBytes) + " B" + times);
+  t->Add(prefix + "loop_closure", n * 2 * c.max_points_per_stored_scan * R::kIcpPointBytes,
+         "2 scans x " + Str(c.max_points_per_stored_scan) + " points x " + Str(R::kIcpPointBytes) + " B" + times);
+  t->Add(prefix + "outbox", n * c.message_queue_bytes, "--queue-mb" + times);
+}
+
+void AddServerModules(BudgetTable* t, const MemoryConfig& c, const std::string& prefix) {
+  const std::int64_t r = c.max_robots;
+  const std::int64_t k = c.max_keyframes_per_robot;
+  t->Add(prefix + "descriptor_db", r * k * R::kDescriptorRecordBytes,
+         Str(r) + " robots (--robots) x " + Str(k) + " keyframes x " + Str(R::kDescriptorRecordBytes) + " B");
+  // Streaming affinity: two 256x256 float tiles plus O(N + M) labelling state per robot pair.
+  const std::int64_t pairs = r * (r - 1) / 2;
+  t->Add(prefix + "affinity", 2 * 256 * 256 * 4 + std::max<std::int64_t>(pairs, 1) * 2 * k * 64,
+         "2 tiles of 256x256 floats + " + Str(std::max<std::int64_t>(pairs, 1)) + " pairs x 2 x " + Str(k) +
+             " x 64 B of labelling state");
+  t->Add(prefix + "solvers", c.solver_workspace_bytes, "--solver-mb");
+  t->Add(prefix + "scan_reassembly", c.max_scans_in_flight * c.max_points_per_stored_scan * R::kStoredPointBytes,
+         Str(c.max_scans_in_flight) + " scans x " + Str(c.max_points_per_stored_scan) + " points x " +
+             Str(R::kStoredPointBytes) + " B");
+  t->Add(prefix + "submaps", 2 * std::int64_t{c.max_submap_points} * 16,
+         "2 submaps x " + Str(c.max_submap_points) + " points (--max-submap-points) x 16 B");
+  t->Add(prefix + "registration", 2 * std::int64_t{c.max_submap_points} * R::kRegistrationPointBytes,
+         "2 submaps x " + Str(c.max_submap_points) + " points x " + Str(R::kRegistrationPointBytes) + " B");
+  t->Add(prefix + "merged_map", c.merged_map_bytes, "--merged-map-mb");
+  t->Add(prefix + "inbox", c.message_queue_bytes, "--queue-mb");
+}
+
+}  // namespace
+
+BudgetTable MakeBudgetTable(AppKind app, const MemoryConfig& c) {
+  BudgetTable t;
+  switch (app) {
+    case AppKind::kRobot:
+      AddRobotModules(&t, c, "", 1);
+      break;
+    case AppKind::kServer:
+      AddServerModules(&t, c, "");
+      break;
+    case AppKind::kRun:
+      AddRobotModules(&t, c, "robots.", c.max_robots);
+      AddServerModules(&t, c, "server.");
+      break;
+  }
+  t.Add("runtime", R::kRuntimeBytes, "code, stacks, LCM/glib, allocator segments");
+  return t;
+}
+
+BudgetLimit EffectiveLimit(const BoardSpec& board, std::int64_t mem_available_bytes, std::int64_t cgroup_limit_bytes,
+                           double headroom) {
+  if (!(headroom > 0.0) || headroom > 1.0) headroom = 0.9;
+  std::int64_t raw = -1;
+  std::string source;
+  auto consider = [&](std::int64_t bytes, const std::string& what) {
+    if (bytes <= 0) return;
+    if (raw < 0 || bytes < raw) {
+      raw = bytes;
+      source = what;
+    }
+  };
+  if (board.ram_bytes > 0) {
+    consider(board.ram_bytes - board.reserved_bytes, std::string(board.name) + " board (" + FormatBytes(board.ram_bytes) +
+                                                         " RAM - " + FormatBytes(board.reserved_bytes) + " reserved)");
+  }
+  consider(mem_available_bytes, "MemAvailable (" + FormatBytes(mem_available_bytes) + ")");
+  consider(cgroup_limit_bytes, "cgroup memory limit (" + FormatBytes(cgroup_limit_bytes) + ")");
+  BudgetLimit limit;
+  if (raw < 0) {
+    limit.bytes = 0;
+    limit.source = "no limit known (no board RAM, MemAvailable or cgroup figure)";
+    return limit;
+  }
+  limit.bytes = static_cast<std::int64_t>(std::floor(static_cast<double>(raw) * headroom));
+  char factor[32];
+  std::snprintf(factor, sizeof factor, " x %.2f", headroom);
+  limit.source = source + factor;
+  return limit;
+}
+
+BudgetVerdict CheckBudget(AppKind app, const BudgetTable& table, const BudgetLimit& limit) {
+  BudgetVerdict v;
+  v.total_bytes = table.total_bytes();
+  v.limit_bytes = limit.bytes;
+  for (const BudgetEntry& e : table.entries()) {
+    if (e.bytes > v.largest_module_bytes) {
+      v.largest_module_bytes = e.bytes;
+      v.largest_module = e.module;
+    }
+  }
+  v.fits = limit.bytes > 0 && v.total_bytes <= limit.bytes;
+  const std::string app_name = AppKindName(app);
+  if (v.fits) {
+    v.message = "memory budget of " + app_name + " fits: " + FormatBytes(v.total_bytes) + " of " +
+                FormatBytes(limit.bytes) + " (" + limit.source + ")";
+  } else if (limit.bytes <= 0) {
+    v.message = "over memory budget: no memory limit could be determined for " + app_name + " (" + limit.source + ")";
+  } else {
+    const BudgetEntry* largest = table.Find(v.largest_module);
+    v.message = "over memory budget: module '" + v.largest_module + "' needs " + FormatBytes(v.largest_module_bytes) +
+                " (" + (largest ? largest->basis : std::string()) + "); " + app_name + " total " +
+                FormatBytes(v.total_bytes) + " exceeds the limit " + FormatBytes(limit.bytes) + " (" + limit.source +
+                ")";
+  }
+  return v;
+}
+
+}  // namespace commerge

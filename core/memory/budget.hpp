@@ -1,0 +1,111 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: memory budgets as data. Each app (robot, server, run) declares a table module -> bytes,
+// computed from a MemoryConfig whose defaults depend on the board profile. platform/ compares the total
+// against the board, MemAvailable and the cgroup limit at start-up, before any work starts; the pools of
+// each module are then sized from the same table, so the check and the allocation cannot drift apart.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/common/span.hpp"
+#include "core/common/status.hpp"
+
+namespace commerge {
+
+enum class BoardProfile { kJetsonNano, kIpc6000, kDesktop };
+
+struct BoardSpec {
+  BoardProfile profile;
+  const char* name;             ///< "jetson-nano", "ipc-6000", "desktop"
+  std::int64_t ram_bytes;       ///< physical RAM; 0 = not fixed (desktop: only the host's limits apply)
+  std::int64_t reserved_bytes;  ///< kept for the OS and co-running software (JetPack, CUDA, odometry)
+  const char* description;
+};
+
+/// The three supported board profiles, in a fixed order.
+Span<const BoardSpec> AllBoards();
+const BoardSpec& GetBoard(BoardProfile profile);
+/// Parses "jetson-nano" | "ipc-6000" | "desktop"; the error lists the valid names.
+Result<BoardProfile> ParseBoardProfile(const std::string& name);
+
+enum class AppKind { kRobot, kServer, kRun };  ///< kRun: robots and server in one process (`commerge run`)
+const char* AppKindName(AppKind app);
+Result<AppKind> ParseAppKind(const std::string& name);
+
+/// Sizing inputs of the budget tables. Apps map their command-line flags onto these fields.
+struct MemoryConfig {
+  std::int32_t max_robots = 3;                       ///< robots whose data one server keeps
+  std::int32_t max_keyframes_per_robot = 20000;      ///< keyframes (1 m apart: a 20 km mission)
+  std::int32_t max_points_per_raw_scan = 131072;     ///< raw LiDAR points per scan (HDL-64E: ~120k)
+  std::int32_t max_points_per_stored_scan = 8192;    ///< points of a 1 m voxelised scan
+  std::int64_t scan_store_bytes = 160 * 1024 * 1024;  ///< robot: encoded voxelised scans kept for the server
+  std::int32_t max_scans_in_flight = 512;            ///< server: requested scans being reassembled
+  std::int32_t max_submap_points = 200000;           ///< server: points of one submap
+  std::int64_t merged_map_bytes = 64 * 1024 * 1024;  ///< server: the merged global map
+  std::int64_t message_queue_bytes = 8 * 1024 * 1024;     ///< outgoing/incoming message queues per process
+  std::int64_t solver_workspace_bytes = 64 * 1024 * 1024;  ///< server: LP relaxations and branch-and-bound
+};
+
+/// Defaults sized for the board (the Jetson Nano defaults keep a robot under 384 MB and a server under 512 MB).
+MemoryConfig DefaultMemoryConfig(BoardProfile profile);
+/// Every field positive and below a sanity cap; the error names the field and its value.
+Status ValidateMemoryConfig(const MemoryConfig& config);
+
+struct BudgetEntry {
+  std::string module;  ///< e.g. "scan_store"
+  std::int64_t bytes = 0;
+  std::string basis;   ///< how the figure is computed, with the flag that changes it
+};
+
+class BudgetTable {
+ public:
+  void Add(std::string module, std::int64_t bytes, std::string basis);
+  Span<const BudgetEntry> entries() const { return Span<const BudgetEntry>(entries_); }
+  std::int64_t total_bytes() const;
+  /// nullptr when absent.
+  const BudgetEntry* Find(const std::string& module) const;
+
+ private:
+  std::vector<BudgetEntry> entries_;
+};
+
+/// Per-record sizes that the budget formulas use (exact sizes of the structures the modules hold).
+struct BudgetRecordSizes {
+  static constexpr std::int64_t kDescriptorRecordBytes = 512;  ///< R-SOLiD + A-SOLiD floats, pose, index
+  static constexpr std::int64_t kPoseGraphBytesPerKeyframe = 2048;  ///< node, edges, sparse-solver fill
+  static constexpr std::int64_t kRawPointWorkBytes = 48;  ///< raw point + voxel key/index + descriptor scratch
+  static constexpr std::int64_t kStoredPointBytes = 6;    ///< int16 centimetres x 3
+  static constexpr std::int64_t kIcpPointBytes = 256;     ///< points, normals, k-d tree of both scans
+  static constexpr std::int64_t kRegistrationPointBytes = 256;  ///< normals, covariances, 33-D features, k-d tree
+  static constexpr std::int64_t kRuntimeBytes = 48 * 1024 * 1024;  ///< code, stacks, LCM/glib, allocator segments
+};
+
+/// The budget table of `app` for `config`.
+BudgetTable MakeBudgetTable(AppKind app, const MemoryConfig& config);
+
+/// The byte limit a process may plan for, and where it comes from.
+struct BudgetLimit {
+  std::int64_t bytes = 0;
+  std::string source;  ///< e.g. "jetson-nano board (4.00 GiB RAM - 1.25 GiB reserved) x 0.90"
+};
+
+/// min(board RAM - reserved, MemAvailable, cgroup limit) x headroom. Pass -1 for an unknown MemAvailable or
+/// an absent cgroup limit. `headroom` in (0, 1] keeps a margin for what the table does not model.
+BudgetLimit EffectiveLimit(const BoardSpec& board, std::int64_t mem_available_bytes, std::int64_t cgroup_limit_bytes,
+                           double headroom = 0.9);
+
+struct BudgetVerdict {
+  bool fits = false;
+  std::int64_t total_bytes = 0;
+  std::int64_t limit_bytes = 0;
+  std::string largest_module;  ///< the module to shrink first when over budget
+  std::int64_t largest_module_bytes = 0;
+  /// One line: "... fits: 272 MiB of 2.47 GiB ..." or "over memory budget: module 'x' needs ..."
+  std::string message;
+};
+
+BudgetVerdict CheckBudget(AppKind app, const BudgetTable& table, const BudgetLimit& limit);
+
+}  // namespace commerge

@@ -1,0 +1,65 @@
+# SPDX-License-Identifier: BSD-3-Clause
+# End-to-end tests of the commerge executable (exit codes and messages), run through the emulator when
+# cross-compiling. Included from tests/CMakeLists.txt.
+
+cm_add_executable(cm_alloc_probe "${CMAKE_CURRENT_SOURCE_DIR}/support/alloc_probe.cpp")
+
+set(CM_RUN_EXPECT "${CMAKE_CURRENT_SOURCE_DIR}/support/run_expect.cmake")
+set(CM_EMU ${CMAKE_CROSSCOMPILING_EMULATOR})
+set(CM_CLI_OUT "${CMAKE_CURRENT_BINARY_DIR}/cli")
+
+# cm_cli_test(NAME <name> RC <code> [REGEX <re>] [FAKE_CGROUP <spec>] [LABELS ...] COMMAND <cmd...>)
+function(cm_cli_test)
+  cmake_parse_arguments(T "" "NAME;RC;REGEX;FAKE_CGROUP" "COMMAND;LABELS" ${ARGN})
+  set(defs -DEXPECT_RC=${T_RC})
+  if(DEFINED T_REGEX)
+    list(APPEND defs "-DEXPECT_REGEX=${T_REGEX}")
+  endif()
+  if(DEFINED T_FAKE_CGROUP)
+    list(APPEND defs "-DFAKE_CGROUP=${T_FAKE_CGROUP}")
+  endif()
+  add_test(NAME "cli: ${T_NAME}" COMMAND "${CMAKE_COMMAND}" ${defs} -P "${CM_RUN_EXPECT}" -- ${T_COMMAND})
+  if(T_LABELS)
+    set_tests_properties("cli: ${T_NAME}" PROPERTIES LABELS "${T_LABELS}")
+  endif()
+endfunction()
+
+set(CM_BIN ${CM_EMU} $<TARGET_FILE:commerge>)
+
+cm_cli_test(NAME "version" RC 0 REGEX "commerge ${PROJECT_VERSION}" COMMAND ${CM_BIN} --version)
+cm_cli_test(NAME "help lists the subcommands" RC 0 REGEX "demo.*budget.*voxelize" COMMAND ${CM_BIN} --help)
+cm_cli_test(NAME "unknown subcommand is a usage error" RC 2 COMMAND ${CM_BIN} fly)
+cm_cli_test(NAME "budget: jetson-nano server defaults fit" RC 0 REGEX "memory budget of server fits"
+            COMMAND ${CM_BIN} budget --app server --board jetson-nano)
+cm_cli_test(NAME "budget: over the board exits 3 naming module, need and limit" RC 3
+            REGEX "over memory budget: module 'scan_store' needs 97.66 GiB.*exceeds the limit 2.47 GiB \\(jetson-nano board"
+            COMMAND ${CM_BIN} budget --app robot --board jetson-nano --scan-store-mb 100000)
+cm_cli_test(NAME "budget: over a cgroup v2 limit exits 3" RC 3
+            REGEX "over memory budget: module 'scan_store'.*cgroup memory limit \\(256.0 MiB\\)"
+            FAKE_CGROUP "${CM_CLI_OUT}/fake-cgroup|268435456"
+            COMMAND ${CM_BIN} budget --app robot --board desktop --scan-store-mb 200
+                    --proc-root "${CM_CLI_OUT}/fake-cgroup/proc" --cgroup-root "${CM_CLI_OUT}/fake-cgroup/cgroup")
+cm_cli_test(NAME "budget: a negative size is a usage error" RC 2 REGEX "scan-store-mb"
+            COMMAND ${CM_BIN} budget --scan-store-mb -5)
+cm_cli_test(NAME "demo runs and writes the map" RC 0 REGEX "wrote .*map_ground_truth.pcd.*peak RSS"
+            COMMAND ${CM_BIN} demo --keyframes 2 --out "${CM_CLI_OUT}/demo")
+set_tests_properties("cli: demo runs and writes the map" PROPERTIES FIXTURES_SETUP demo_out)
+cm_cli_test(NAME "voxelize reads the demo map" RC 0 REGEX "map_ground_truth.pcd: [0-9]+ points \\(0 non-finite dropped\\)"
+            COMMAND ${CM_BIN} voxelize "${CM_CLI_OUT}/demo/map_ground_truth.pcd" "${CM_CLI_OUT}/demo/map_2m.ply"
+                    --voxel-size-m 2)
+set_tests_properties("cli: voxelize reads the demo map" PROPERTIES FIXTURES_REQUIRED demo_out)
+cm_cli_test(NAME "voxelize names a missing file" RC 1 REGEX "does-not-exist.bin: no such file"
+            COMMAND ${CM_BIN} voxelize "${CM_CLI_OUT}/does-not-exist.bin" "${CM_CLI_OUT}/x.pcd")
+
+if(CM_WITH_MIMALLOC)
+  add_test(NAME "oom: mimalloc heap cap raises std::bad_alloc" COMMAND ${CM_EMU} $<TARGET_FILE:cm_alloc_probe> --until-oom)
+  set_tests_properties("oom: mimalloc heap cap raises std::bad_alloc" PROPERTIES
+    ENVIRONMENT "MIMALLOC_RESERVE_OS_MEMORY=64MiB;MIMALLOC_LIMIT_OS_ALLOC=1"
+    PASS_REGULAR_EXPRESSION "bad_alloc after [0-9]+ MiB")
+endif()
+if(NOT CMAKE_CROSSCOMPILING)  # peak RSS is measured natively (qemu inflates it)
+  add_test(NAME "profiling: peak-ram.sh reports the peak RSS of a command"
+           COMMAND "${PROJECT_SOURCE_DIR}/profiling/peak-ram.sh" $<TARGET_FILE:cm_alloc_probe> --touch-mb 64)
+  set_tests_properties("profiling: peak-ram.sh reports the peak RSS of a command" PROPERTIES
+    PASS_REGULAR_EXPRESSION "peak RSS: (6[4-9]|[7-9][0-9])\\.[0-9] MiB")
+endif()
