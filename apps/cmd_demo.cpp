@@ -38,8 +38,13 @@ struct RobotPath {
 };
 
 int RunDemo(const DemoOptions& o) {
+  // The demo world is small: size the budget for it unless the user asks otherwise.
+  MemoryFlags memory = o.memory;
+  if (memory.robots == 0) memory.robots = 2;
+  if (memory.max_keyframes == 0) memory.max_keyframes = 1000;
+  if (memory.scan_store_mb == 0) memory.scan_store_mb = 64;
   MemorySetup setup;
-  if (int rc = SetUpMemory(AppKind::kRun, o.memory, &setup, /*print_table=*/false); rc != kExitOk) return rc;
+  if (int rc = SetUpMemory(AppKind::kRun, memory, &setup, /*print_table=*/false); rc != kExitOk) return rc;
   std::printf("commerge demo: %s\n", setup.verdict.c_str());
 
   std::error_code ec;

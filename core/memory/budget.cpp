@@ -73,12 +73,12 @@ MemoryConfig DefaultMemoryConfig(BoardProfile profile) {
     case BoardProfile::kDesktop:
       c.max_robots = 8;
       c.max_keyframes_per_robot = 100000;
-      c.scan_store_bytes = 1 * kGiB;
+      c.scan_store_bytes = 512 * kMiB;
       c.max_scans_in_flight = 2048;
       c.max_submap_points = 1000000;
-      c.merged_map_bytes = 1 * kGiB;
+      c.merged_map_bytes = 512 * kMiB;
       c.message_queue_bytes = 32 * kMiB;
-      c.solver_workspace_bytes = 512 * kMiB;
+      c.solver_workspace_bytes = 256 * kMiB;
       break;
   }
   return c;
