@@ -43,6 +43,11 @@ Result<std::uint64_t> FileSize(std::FILE* f, const std::string& path) {
   return static_cast<std::uint64_t>(st.st_size);
 }
 
+std::string ShortReadReason(std::FILE* f) {
+  if (std::feof(f) && !std::ferror(f)) return "unexpected end of file (did it change while being read?)";
+  return std::strerror(errno);
+}
+
 Result<std::string> ReadTextFile(const std::string& path) {
   auto file = OpenForRead(path);
   if (!file.ok()) return file.status();
@@ -50,7 +55,7 @@ Result<std::string> ReadTextFile(const std::string& path) {
   if (!size.ok()) return size.status();
   std::string text(static_cast<std::size_t>(*size), '\0');
   if (!text.empty() && std::fread(&text[0], 1, text.size(), file->get()) != text.size()) {
-    return IoError(path + ": read failed: " + std::strerror(errno));
+    return IoError(path + ": read failed: " + ShortReadReason(file->get()));
   }
   return text;
 }

@@ -26,8 +26,10 @@ Result<FilePtr> OpenForRead(const std::string& path);
 Result<FilePtr> OpenForWrite(const std::string& path);
 /// fclose with error check (a full disk shows up here).
 Status CloseChecked(FilePtr file, const std::string& path);
-/// Size of an open regular file in bytes; the position is left at the start.
+/// Size of an open regular file in bytes (fstat; the file position is not changed).
 Result<std::uint64_t> FileSize(std::FILE* f, const std::string& path);
+/// Why a short fread happened: "unexpected end of file (...)" or strerror(errno).
+std::string ShortReadReason(std::FILE* f);
 /// Whole file as text (for line-based formats).
 Result<std::string> ReadTextFile(const std::string& path);
 

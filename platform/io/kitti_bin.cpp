@@ -26,8 +26,7 @@ Result<PointCloudFile> ReadKittiBin(const std::string& path) {
   out.points.resize(out.records_in_file);
   if (out.records_in_file > 0 &&
       std::fread(out.points.data(), sizeof(PointXYZI), out.records_in_file, f) != out.records_in_file) {
-    return IoError(path + ": read failed after " + std::to_string(bytes) + " bytes were announced: " +
-                   std::strerror(errno));
+    return IoError(path + ": read of " + std::to_string(bytes) + " bytes failed: " + ShortReadReason(f));
   }
   out.dropped_nonfinite = DropNonFinite(&out.points, nullptr);
   return out;

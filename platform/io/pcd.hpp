@@ -1,0 +1,29 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// PCD point clouds (PCL's format, v0.7): a text header, then DATA ascii or binary records.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/cloud/point.hpp"
+#include "core/common/span.hpp"
+#include "core/common/status.hpp"
+#include "platform/io/kitti_bin.hpp"
+
+namespace commerge::platform {
+
+/// Reads a PCD file with DATA ascii or binary (binary_compressed is unimplemented). Header keys VERSION,
+/// FIELDS, SIZE, TYPE, COUNT, WIDTH, HEIGHT, VIEWPOINT, POINTS, DATA in any order ('#' comments allowed);
+/// fields in any order with TYPE F (SIZE 4/8), U or I (SIZE 1/2/4/8). x, y, z are required, intensity is
+/// optional (0 when absent), a "robot" field fills robot_ids; other fields are skipped. Points with a
+/// non-finite coordinate are dropped and counted. Every error message starts with `path`.
+Result<PointCloudFile> ReadPcd(const std::string& path);
+
+enum class PcdEncoding { kAscii, kBinary };
+
+/// Writes FIELDS x y z intensity (float32) [robot (uint16)], HEIGHT 1 (overwrites). `robot_ids` is empty
+/// or has one id per point. Ascii values are written in the shortest form that reads back exactly.
+Status WritePcd(const std::string& path, Span<const PointXYZI> points, PcdEncoding encoding,
+                Span<const std::uint16_t> robot_ids = {});
+
+}  // namespace commerge::platform
