@@ -24,7 +24,7 @@ TEST_CASE("Board profiles parse by name and reject unknown names with the valid 
   CHECK(GetBoard(BoardProfile::kIpc6000).ram_bytes == 8 * kGiB);
 }
 
-TEST_CASE("Every app's default table fits its own board; Jetson Nano defaults meet the field goals") {
+TEST_CASE("Every app's default table fits its own board, and the Jetson Nano defaults meet the field goals") {
   for (const BoardSpec& board : AllBoards()) {
     const MemoryConfig config = DefaultMemoryConfig(board.profile);
     REQUIRE(ValidateMemoryConfig(config).ok());

@@ -47,7 +47,7 @@ TEST_CASE("MemAvailable is read from meminfo in bytes") {
   CHECK(m.cgroup_limit_bytes == -1);
 }
 
-TEST_CASE("cgroup v2: the lowest memory.max from the process's group up to the root wins; 'max' means none") {
+TEST_CASE("cgroup v2: the lowest memory.max from the process's group up to the root wins, and 'max' means none") {
   FakeTree t;
   t.Write("proc/meminfo", kMeminfo);
   t.Write("proc/self/cgroup", "0::/user.slice/robot.service\n");
@@ -68,7 +68,7 @@ TEST_CASE("cgroup v2: the lowest memory.max from the process's group up to the r
   CHECK(ProbeMemoryLimits(unlimited.Roots()).cgroup_limit_bytes == -1);
 }
 
-TEST_CASE("cgroup v1: hierarchical_memory_limit is preferred; the huge 'no limit' value means none") {
+TEST_CASE("cgroup v1: hierarchical_memory_limit is preferred, and the huge 'no limit' value means none") {
   FakeTree t;
   t.Write("proc/meminfo", kMeminfo);
   t.Write("proc/self/cgroup", "5:cpu,cpuacct:/x\n4:memory:/docker/abc\n0::/\n");
@@ -104,7 +104,7 @@ TEST_CASE("This machine: MemAvailable is known and positive") {
   CHECK(m.mem_available_bytes > 0);
 }
 
-TEST_CASE("ParseProcStatus reads VmRSS and VmHWM; ReadRss sees a touched allocation") {
+TEST_CASE("ParseProcStatus reads VmRSS and VmHWM, and ReadRss sees a touched allocation") {
   const auto r = commerge::platform::ParseProcStatus("Name:\tx\nVmHWM:\t  2048 kB\nVmRSS:\t  1024 kB\n");
   CHECK(r.peak_bytes == 2048 * 1024);
   CHECK(r.current_bytes == 1024 * 1024);
