@@ -1,20 +1,12 @@
 # SPDX-License-Identifier: BSD-3-Clause
-# cmake -DEXPECT_RC=<n> [-DEXPECT_REGEX=<re>] [-DFAKE_CGROUP=<dir>|<limit bytes>] -P run_expect.cmake -- cmd args...
+# cmake -DCMD=<cmd|arg|arg...> -DEXPECT_RC=<n> [-DEXPECT_REGEX=<re>] [-DFAKE_CGROUP=<dir>|<limit bytes>] -P run_expect.cmake
+# (the command is one '|'-separated string: arguments after -P would be parsed by cmake itself, e.g. -L)
 # Runs the command, then fails unless its exit code is EXPECT_RC and its stdout+stderr match EXPECT_REGEX.
 # FAKE_CGROUP writes a fake /proc (meminfo: 16 GiB available) and cgroup v2 tree with that memory.max first.
-set(cmd "")
-set(take OFF)
-math(EXPR last "${CMAKE_ARGC} - 1")
-foreach(i RANGE 0 ${last})
-  if(take)
-    list(APPEND cmd "${CMAKE_ARGV${i}}")
-  elseif(CMAKE_ARGV${i} STREQUAL "--")
-    set(take ON)
-  endif()
-endforeach()
-if(NOT cmd)
-  message(FATAL_ERROR "run_expect.cmake: no command after --")
+if(NOT DEFINED CMD OR CMD STREQUAL "")
+  message(FATAL_ERROR "run_expect.cmake: -DCMD=<cmd|args...> is required")
 endif()
+string(REPLACE "|" ";" cmd "${CMD}")
 if(DEFINED FAKE_CGROUP)
   string(REPLACE "|" ";" fake "${FAKE_CGROUP}")
   list(GET fake 0 dir)
