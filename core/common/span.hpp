@@ -2,6 +2,7 @@
 // commerge: a minimal non-owning view over contiguous memory (C++17 has no std::span).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <type_traits>
 #include <vector>
@@ -19,6 +20,11 @@ class Span {
   constexpr Span(T* data, std::size_t size) noexcept : data_(data), size_(size) {}
   template <std::size_t N>
   constexpr Span(T (&array)[N]) noexcept : data_(array), size_(N) {}
+  /// From a std::array (const or mutable, matching T's constness).
+  template <class U, std::size_t N, class = std::enable_if_t<std::is_convertible<U (*)[], T (*)[]>::value>>
+  constexpr Span(std::array<U, N>& a) noexcept : data_(a.data()), size_(N) {}
+  template <class U, std::size_t N, class = std::enable_if_t<std::is_convertible<const U (*)[], T (*)[]>::value>>
+  constexpr Span(const std::array<U, N>& a) noexcept : data_(a.data()), size_(N) {}
   /// From a vector (const or mutable, matching T's constness).
   template <class U, class A,
             class = std::enable_if_t<std::is_convertible<U (*)[], T (*)[]>::value>>

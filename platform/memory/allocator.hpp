@@ -12,6 +12,11 @@ namespace commerge::platform {
 /// True when malloc() is served by mimalloc (checked on a live allocation, not assumed from the build).
 bool MallocIsMimalloc();
 
+/// Calls of the global operator new (all forms) since the process started. Defined with the operators in
+/// new_delete.cpp, which every commerge executable links: tests use it to assert that a steady-state call
+/// does not allocate.
+std::uint64_t OperatorNewCalls() noexcept;
+
 /// "mimalloc 2.0.9" or "system malloc (sanitizer build)".
 std::string AllocatorDescription();
 

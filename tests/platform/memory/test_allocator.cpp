@@ -30,3 +30,16 @@ TEST_CASE("An impossible allocation throws std::bad_alloc instead of aborting th
 TEST_CASE("CapHeap rejects a non-positive cap") {
   CHECK(commerge::platform::CapHeap(0).code() == commerge::StatusCode::kInvalidArgument);
 }
+
+TEST_CASE("OperatorNewCalls counts every operator new") {
+  const std::uint64_t before = commerge::platform::OperatorNewCalls();
+  auto* a = new int(1);
+  auto* b = new double[4];
+  auto* c = new (std::nothrow) char;
+  asm volatile("" : : "r"(a), "r"(b), "r"(c) : "memory");  // keep GCC from eliding the new/delete pairs
+  const std::uint64_t after = commerge::platform::OperatorNewCalls();
+  delete a;
+  delete[] b;
+  delete c;
+  CHECK(after - before == 3);
+}
