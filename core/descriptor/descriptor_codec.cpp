@@ -1,0 +1,306 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "core/descriptor/descriptor_codec.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <sstream>
+#include <string>
+
+namespace commerge {
+namespace {
+
+constexpr std::size_t kTranslationOffset = 4;
+constexpr std::size_t kRotationOffset = 16;
+constexpr std::size_t kRotationBytes = 6;
+constexpr std::size_t kDescriptorOffset = kRotationOffset + kRotationBytes;  // 22
+constexpr std::size_t kDescriptorBytes =
+    (kKeyframeDescriptorDim * kKeyframeDescriptorBits + 7) / 8;  // 70
+static_assert(kDescriptorOffset + kDescriptorBytes == kKeyframeRecordBytes, "record layout");
+constexpr int kQuatComponentBits = 15;
+constexpr double kSqrt2 = 1.4142135623730951;
+
+std::string Num(double value) {
+  std::ostringstream os;
+  os.precision(9);
+  os << value;
+  return os.str();
+}
+
+std::uint32_t FloatBits(float f) noexcept {
+  std::uint32_t u = 0;
+  static_assert(sizeof(u) == sizeof(f), "IEEE-754 binary32 expected");
+  std::memcpy(&u, &f, sizeof(u));
+  return u;
+}
+
+float BitsToFloat(std::uint32_t u) noexcept {
+  float f = 0.0f;
+  std::memcpy(&f, &u, sizeof(f));
+  return f;
+}
+
+void PutU32(std::uint8_t* p, std::uint32_t v) noexcept {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+
+std::uint32_t GetU32(const std::uint8_t* p) noexcept {
+  std::uint32_t v = 0;
+  for (int i = 0; i < 4; ++i) v |= static_cast<std::uint32_t>(p[i]) << (8 * i);
+  return v;
+}
+
+// LSB-first bit field writer / reader over a zero-initialised byte range.
+void PutBits(std::uint8_t* base, std::size_t bit_offset, int bits, std::uint32_t value) noexcept {
+  for (int b = 0; b < bits; ++b, ++bit_offset) {
+    if ((value >> b) & 1u) base[bit_offset / 8] |= static_cast<std::uint8_t>(1u << (bit_offset % 8));
+  }
+}
+
+std::uint32_t GetBits(const std::uint8_t* base, std::size_t bit_offset, int bits) noexcept {
+  std::uint32_t value = 0;
+  for (int b = 0; b < bits; ++b, ++bit_offset) {
+    value |= static_cast<std::uint32_t>((base[bit_offset / 8] >> (bit_offset % 8)) & 1u) << b;
+  }
+  return value;
+}
+
+std::int32_t SignExtend15(std::uint32_t v) noexcept {
+  return (v & 0x4000u) ? static_cast<std::int32_t>(v) - 0x8000 : static_cast<std::int32_t>(v);
+}
+
+std::string RecordName(std::uint32_t index) { return "keyframe record " + std::to_string(index) + ": "; }
+
+}  // namespace
+
+Status EncodeKeyframeRecord(const KeyframeRecord& record, Span<std::uint8_t> out) {
+  const auto who = [&record] { return RecordName(record.keyframe_index); };  // built only on error
+  if (out.size() != kKeyframeRecordBytes) {
+    return InvalidArgument(who() + "output buffer holds " + std::to_string(out.size()) + " bytes, expected " +
+                           std::to_string(kKeyframeRecordBytes));
+  }
+  if (!record.descriptor_valid) return InvalidArgument(who() + "descriptor is invalid; invalid descriptors are not sent");
+
+  // Descriptor: non-negative, finite, unit norm.
+  double norm2 = 0.0, max_value = 0.0;
+  for (std::size_t i = 0; i < kKeyframeDescriptorDim; ++i) {
+    const double v = static_cast<double>(record.descriptor[i]);
+    if (!std::isfinite(v) || v < 0.0) {
+      return InvalidArgument(who() + "descriptor value " + std::to_string(i) + " is " + Num(v) +
+                             " (R-SOLiD is finite and >= 0)");
+    }
+    norm2 += v * v;
+    max_value = std::max(max_value, v);
+  }
+  const double norm = std::sqrt(norm2);
+  if (!(std::fabs(norm - 1.0) <= 1e-3)) {
+    return InvalidArgument(who() + "descriptor norm is " + Num(norm) +
+                           ", expected 1 (send the unit-normalised R-SOLiD; an all-zero descriptor is invalid)");
+  }
+
+  // Pose.
+  const Eigen::Matrix4d& M = record.T_world_sensor.matrix();
+  if (!M.allFinite()) return InvalidArgument(who() + "pose has a NaN/inf entry");
+  const Eigen::Matrix3d R = record.T_world_sensor.linear();
+  const double ortho_error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (!(ortho_error <= 1e-3) || !(R.determinant() > 0.0)) {
+    return InvalidArgument(who() + "pose rotation is not a rotation matrix (max |R^T R - I| = " + Num(ortho_error) +
+                           ", det = " + Num(R.determinant()) + ")");
+  }
+  const Eigen::Vector3d t = record.T_world_sensor.translation();
+  float tf[3];
+  for (int i = 0; i < 3; ++i) {
+    tf[i] = static_cast<float>(t[i]);
+    if (!std::isfinite(tf[i])) {
+      return InvalidArgument(who() + "translation " + Num(t[i]) + " m is beyond the float32 range");
+    }
+  }
+
+  std::fill(out.begin(), out.end(), std::uint8_t{0});
+  std::uint8_t* const p = out.data();
+  PutU32(p, record.keyframe_index);
+  for (int i = 0; i < 3; ++i) PutU32(p + kTranslationOffset + 4 * i, FloatBits(tf[i]));
+
+  // Smallest three: components in the order w, x, y, z.
+  Eigen::Quaterniond q(R);
+  q.normalize();
+  double c[4] = {q.w(), q.x(), q.y(), q.z()};
+  int largest = 0;
+  for (int i = 1; i < 4; ++i) {
+    if (std::fabs(c[i]) > std::fabs(c[largest])) largest = i;
+  }
+  if (c[largest] < 0.0) {
+    for (double& v : c) v = -v;
+  }
+  std::uint8_t* const rot = p + kRotationOffset;
+  PutBits(rot, 0, 2, static_cast<std::uint32_t>(largest));
+  std::size_t bit = 2;
+  for (int i = 0; i < 4; ++i) {
+    if (i == largest) continue;
+    const double scaled = std::clamp(c[i] * kSqrt2, -1.0, 1.0) * kKeyframeQuaternionMaxCode;
+    const auto code = static_cast<std::int32_t>(std::lround(scaled));
+    PutBits(rot, bit, kQuatComponentBits, static_cast<std::uint32_t>(code) & 0x7fffu);
+    bit += kQuatComponentBits;
+  }
+  // bit 47 stays 0 (reserved)
+
+  // Descriptor, scaled by its largest element.
+  std::uint8_t* const desc = p + kDescriptorOffset;
+  for (std::size_t i = 0; i < kKeyframeDescriptorDim; ++i) {
+    const double v = static_cast<double>(record.descriptor[i]) / max_value * kKeyframeDescriptorMaxCode;
+    const auto code = static_cast<std::uint32_t>(
+        std::clamp<long>(std::lround(v), 0L, static_cast<long>(kKeyframeDescriptorMaxCode)));
+    PutBits(desc, i * kKeyframeDescriptorBits, kKeyframeDescriptorBits, code);
+  }
+  return Status::Ok();
+}
+
+Result<KeyframeRecord> DecodeKeyframeRecord(Span<const std::uint8_t> bytes) {
+  if (bytes.size() != kKeyframeRecordBytes) {
+    return DataLoss("keyframe record: " + std::to_string(bytes.size()) + " bytes, expected " +
+                    std::to_string(kKeyframeRecordBytes));
+  }
+  const std::uint8_t* const p = bytes.data();
+  KeyframeRecord rec;
+  rec.keyframe_index = GetU32(p);
+  const auto who = [&rec] { return RecordName(rec.keyframe_index); };  // built only on error
+
+  Eigen::Vector3d t;
+  for (int i = 0; i < 3; ++i) {
+    const float f = BitsToFloat(GetU32(p + kTranslationOffset + 4 * i));
+    if (!std::isfinite(f)) return DataLoss(who() + "translation component " + std::to_string(i) + " is not finite");
+    t[i] = static_cast<double>(f);
+  }
+
+  const std::uint8_t* const rot = p + kRotationOffset;
+  if (GetBits(rot, 47, 1) != 0) return DataLoss(who() + "reserved rotation bit is set");
+  const int largest = static_cast<int>(GetBits(rot, 0, 2));
+  double c[4] = {0.0, 0.0, 0.0, 0.0};
+  double sum_sq = 0.0, max_kept = 0.0;
+  std::size_t bit = 2;
+  for (int i = 0; i < 4; ++i) {
+    if (i == largest) continue;
+    const std::int32_t code = SignExtend15(GetBits(rot, bit, kQuatComponentBits));
+    bit += kQuatComponentBits;
+    if (code < -kKeyframeQuaternionMaxCode) {
+      return DataLoss(who() + "rotation component code " + std::to_string(code) + " is never written");
+    }
+    c[i] = static_cast<double>(code) / kKeyframeQuaternionMaxCode / kSqrt2;
+    sum_sq += c[i] * c[i];
+    max_kept = std::max(max_kept, std::fabs(c[i]));
+  }
+  // An encoder drops the largest component, so the kept ones satisfy sum c^2 <= 3/4 and |c| <= dropped
+  // (slack: quantisation moves each component by <= 2.2e-5).
+  constexpr double kSlack = 1e-3;
+  if (sum_sq > 0.75 + kSlack) {
+    return DataLoss(who() + "rotation is not a smallest-three quaternion (sum of squares " + Num(sum_sq) + " > 3/4)");
+  }
+  c[largest] = std::sqrt(std::max(0.0, 1.0 - sum_sq));
+  if (max_kept > c[largest] + kSlack) {
+    return DataLoss(who() + "rotation is not a smallest-three quaternion (dropped component " + Num(c[largest]) +
+                    " is not the largest)");
+  }
+  Eigen::Quaterniond q(c[0], c[1], c[2], c[3]);
+  q.normalize();
+  rec.T_world_sensor = Eigen::Isometry3d::Identity();
+  rec.T_world_sensor.linear() = q.toRotationMatrix();
+  rec.T_world_sensor.translation() = t;
+
+  const std::uint8_t* const desc = p + kDescriptorOffset;
+  std::uint32_t codes[kKeyframeDescriptorDim];
+  std::uint32_t max_code = 0;
+  double norm2 = 0.0;
+  for (std::size_t i = 0; i < kKeyframeDescriptorDim; ++i) {
+    codes[i] = GetBits(desc, i * kKeyframeDescriptorBits, kKeyframeDescriptorBits);
+    max_code = std::max(max_code, codes[i]);
+    norm2 += static_cast<double>(codes[i]) * static_cast<double>(codes[i]);
+  }
+  if (max_code != kKeyframeDescriptorMaxCode) {
+    return DataLoss(who() + "descriptor's largest code is " + std::to_string(max_code) + ", expected " +
+                    std::to_string(kKeyframeDescriptorMaxCode) + " (corrupt or all-zero descriptor)");
+  }
+  const double norm = std::sqrt(norm2);
+  for (std::size_t i = 0; i < kKeyframeDescriptorDim; ++i) {
+    rec.descriptor[i] = static_cast<float>(static_cast<double>(codes[i]) / norm);
+  }
+  rec.descriptor_valid = true;
+  return rec;
+}
+
+std::uint16_t FloatToHalf(float value) noexcept {
+  std::uint32_t u = FloatBits(value);
+  const auto sign = static_cast<std::uint16_t>((u >> 16) & 0x8000u);
+  u &= 0x7fffffffu;
+  if (u > 0x7f800000u) return static_cast<std::uint16_t>(sign | 0x7e00u);  // NaN (payload dropped)
+  if (u >= 0x47800000u) return static_cast<std::uint16_t>(sign | 0x7c00u);  // >= 65536 or inf
+  if (u >= 0x38800000u) {  // normal half (>= 2^-14): rebias, round the 13 dropped bits to nearest even
+    const std::uint32_t mant_odd = (u >> 13) & 1u;
+    u += 0xc8000000u + 0xfffu + mant_odd;  // (15 - 127) << 23 modulo 2^32; may carry into inf
+    return static_cast<std::uint16_t>(sign | (u >> 13));
+  }
+  if (u < 0x33000000u) return sign;  // below 2^-25: rounds to zero
+  // Subnormal half: value / 2^-24 = significand >> (126 - exponent), rounded to nearest even.
+  const std::uint32_t exponent = u >> 23;                     // 102 .. 112
+  const std::uint32_t significand = (u & 0x7fffffu) | 0x800000u;
+  const std::uint32_t shift = 126u - exponent;                 // 14 .. 24
+  std::uint32_t q = significand >> shift;
+  const std::uint32_t rem = significand & ((1u << shift) - 1u);
+  const std::uint32_t half = 1u << (shift - 1u);
+  if (rem > half || (rem == half && (q & 1u))) ++q;  // may become 0x400, the smallest normal: still right
+  return static_cast<std::uint16_t>(sign | q);
+}
+
+float HalfToFloat(std::uint16_t bits) noexcept {
+  const std::uint32_t sign = static_cast<std::uint32_t>(bits & 0x8000u) << 16;
+  std::uint32_t exponent = (bits >> 10) & 0x1fu;
+  std::uint32_t mant = bits & 0x3ffu;
+  if (exponent == 0x1fu) return BitsToFloat(sign | 0x7f800000u | (mant << 13));  // inf / NaN
+  if (exponent == 0) {
+    if (mant == 0) return BitsToFloat(sign);
+    // Subnormal: normalise the significand.
+    int e = 1;
+    while ((mant & 0x400u) == 0) {
+      mant <<= 1;
+      --e;
+    }
+    mant &= 0x3ffu;
+    return BitsToFloat(sign | (static_cast<std::uint32_t>(e + 112) << 23) | (mant << 13));
+  }
+  return BitsToFloat(sign | ((exponent + 112u) << 23) | (mant << 13));
+}
+
+Status EncodeFloat16(Span<const float> values, Span<std::uint8_t> out) {
+  if (out.size() != Float16EncodedBytes(values.size())) {
+    return InvalidArgument("float16: output holds " + std::to_string(out.size()) + " bytes, " +
+                           std::to_string(values.size()) + " values need " +
+                           std::to_string(Float16EncodedBytes(values.size())));
+  }
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const std::uint16_t h = FloatToHalf(values[i]);
+    if ((h & 0x7c00u) == 0x7c00u) {
+      return InvalidArgument("float16: value " + std::to_string(i) + " (" + Num(static_cast<double>(values[i])) +
+                             ") is not finite or beyond the half range (|v| < 65520)");
+    }
+    out[2 * i] = static_cast<std::uint8_t>(h & 0xffu);
+    out[2 * i + 1] = static_cast<std::uint8_t>(h >> 8);
+  }
+  return Status::Ok();
+}
+
+Status DecodeFloat16(Span<const std::uint8_t> bytes, Span<float> out) {
+  if (bytes.size() != Float16EncodedBytes(out.size())) {
+    return DataLoss("float16: " + std::to_string(bytes.size()) + " bytes for " + std::to_string(out.size()) +
+                    " values, expected " + std::to_string(Float16EncodedBytes(out.size())));
+  }
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const auto h = static_cast<std::uint16_t>(bytes[2 * i] | (bytes[2 * i + 1] << 8));
+    if ((h & 0x7c00u) == 0x7c00u) {
+      return DataLoss("float16: value " + std::to_string(i) + " is inf or NaN (corrupt data)");
+    }
+    out[i] = HalfToFloat(h);
+  }
+  return Status::Ok();
+}
+
+}  // namespace commerge
