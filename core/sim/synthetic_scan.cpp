@@ -64,6 +64,49 @@ BoxScene MakeStreetScene(std::uint32_t seed, float length_m) {
   return scene;
 }
 
+BoxScene MakeBlockLoopScene(std::uint32_t seed, float width_m, float height_m) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  BoxScene scene;
+  // Buildings along each side of the rectangle, on both sides of the road (outside: ring; inside: block).
+  struct Side {
+    float x0, y0, x1, y1;  // road segment
+    float nx, ny;          // outward normal
+  };
+  const Side sides[] = {{0, 0, width_m, 0, 0, -1},
+                        {width_m, 0, width_m, height_m, 1, 0},
+                        {width_m, height_m, 0, height_m, 0, 1},
+                        {0, height_m, 0, 0, -1, 0}};
+  for (const Side& side : sides) {
+    const float length = std::hypot(side.x1 - side.x0, side.y1 - side.y0);
+    const float dx = (side.x1 - side.x0) / length, dy = (side.y1 - side.y0) / length;
+    for (int out = 0; out < 2; ++out) {
+      const float sign = out ? 1.0f : -1.0f;  // outside the block or inside it
+      float s = -8.0f;
+      while (s < length + 8.0f) {
+        const float w = 4.0f + 8.0f * u(rng);
+        const float setback = 6.0f + 4.0f * u(rng);
+        const float depth = 4.0f + 6.0f * u(rng);
+        const float height = 3.0f + 12.0f * u(rng);
+        if (u(rng) > 0.2f && (out == 1 || (setback + depth) < 0.5f * std::min(width_m, height_m))) {
+          const float ax = side.x0 + dx * s + sign * side.nx * setback;
+          const float ay = side.y0 + dy * s + sign * side.ny * setback;
+          const float bx = side.x0 + dx * (s + w) + sign * side.nx * (setback + depth);
+          const float by = side.y0 + dy * (s + w) + sign * side.ny * (setback + depth);
+          scene.boxes.push_back({std::min(ax, bx), std::min(ay, by), 0.0f, std::max(ax, bx), std::max(ay, by), height});
+        }
+        if (u(rng) > 0.5f) {
+          const float px = side.x0 + dx * s + sign * side.nx * 4.0f;
+          const float py = side.y0 + dy * s + sign * side.ny * 4.0f;
+          scene.boxes.push_back({px - 0.15f, py - 0.15f, 0.0f, px + 0.15f, py + 0.15f, 4.0f + 2.0f * u(rng)});
+        }
+        s += w + 1.0f + 3.0f * u(rng);
+      }
+    }
+  }
+  return scene;
+}
+
 void CastScan(const BoxScene& scene, const SpinningLidar& lidar, float x_m, float y_m, float z_m, float yaw_rad,
               std::uint32_t seed, std::vector<PointXYZI>* out) {
   out->clear();

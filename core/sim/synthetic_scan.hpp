@@ -27,6 +27,11 @@ struct BoxScene {
 /// `length_m` of road, deterministic in `seed`.
 BoxScene MakeStreetScene(std::uint32_t seed, float length_m = 200.0f);
 
+/// A closed loop road around a city block: the road is the rectangle [0, width_m] x [0, height_m] (the sensor
+/// drives on it), buildings stand 6-12 m outside it and inside the block, with poles along the kerbs.
+/// Deterministic in `seed`. For loop-closure tests and benchmarks.
+BoxScene MakeBlockLoopScene(std::uint32_t seed, float width_m = 40.0f, float height_m = 30.0f);
+
 /// Spinning LiDAR model: `beams` rings evenly spaced in [min_elevation_deg, max_elevation_deg],
 /// `azimuth_steps` columns per revolution (HDL-64E: 64 beams, -24.8..+2.0 deg, ~2000 columns, 120 m).
 struct SpinningLidar {

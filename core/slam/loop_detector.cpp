@@ -1,0 +1,138 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "core/slam/loop_detector.hpp"
+
+#include <cmath>
+#include <string>
+
+namespace commerge {
+
+Status ValidateLoopDetectorParams(const LoopDetectorParams& p) {
+  if (!(p.max_descriptor_distance > 0.0)) {
+    return InvalidArgument("loop detector: max_descriptor_distance must be > 0, got " +
+                           std::to_string(p.max_descriptor_distance));
+  }
+  if (!(p.max_icp_mean_squared_residual_m2 > 0.0)) {
+    return InvalidArgument("loop detector: max_icp_mean_squared_residual_m2 must be > 0, got " +
+                           std::to_string(p.max_icp_mean_squared_residual_m2));
+  }
+  if (p.yaw_hypotheses < 1 || p.yaw_hypotheses > 360) {
+    return InvalidArgument("loop detector: yaw_hypotheses must be in [1, 360], got " + std::to_string(p.yaw_hypotheses));
+  }
+  if (!(p.effective_correspondences > 0.0) || !(p.min_inlier_ratio >= 0.0 && p.min_inlier_ratio <= 1.0)) {
+    return InvalidArgument("loop detector: effective_correspondences must be > 0 and min_inlier_ratio in [0, 1]");
+  }
+  return Status::Ok();
+}
+
+const char* LoopVerdictName(LoopVerdict v) {
+  switch (v) {
+    case LoopVerdict::kAccepted: return "accepted";
+    case LoopVerdict::kNoCandidate: return "no candidate";
+    case LoopVerdict::kDescriptorTooFar: return "descriptor distance above tau_intra";
+    case LoopVerdict::kIcpFailed: return "ICP did not converge";
+    case LoopVerdict::kIcpResidualTooLarge: return "ICP residual above tau_ICP";
+    case LoopVerdict::kTooFewInliers: return "too few ICP inliers";
+  }
+  return "?";
+}
+
+DescriptorDatabase::DescriptorDatabase(const PlaceDescriptor& descriptor, std::size_t max_keyframes)
+    : descriptor_(descriptor), dimension_(descriptor.dimension()), values_(max_keyframes * descriptor.dimension()),
+      valid_(max_keyframes) {}
+
+Status DescriptorDatabase::Add(Span<const float> values, bool valid) {
+  if (values.size() != dimension_) {
+    return InvalidArgument("descriptor database: descriptor has " + std::to_string(values.size()) +
+                           " values, expected " + std::to_string(dimension_));
+  }
+  if (valid_.full()) {
+    return ResourceExhausted("descriptor database: full at " + std::to_string(valid_.capacity()) +
+                             " keyframes (raise --max-keyframes)");
+  }
+  for (float v : values) values_.push_back(v);
+  valid_.push_back(static_cast<std::uint8_t>(valid ? 1 : 0));
+  return Status::Ok();
+}
+
+Span<const float> DescriptorDatabase::Get(std::size_t keyframe) const {
+  return Span<const float>(values_.data() + keyframe * dimension_, dimension_);
+}
+
+DescriptorDatabase::Match DescriptorDatabase::NearestBefore(Span<const float> query, std::size_t end) const {
+  Match best;
+  end = std::min(end, size());
+  for (std::size_t k = 0; k < end; ++k) {
+    if (!valid_[k]) continue;
+    const double d = descriptor_.Distance(query, Get(k));
+    if (!best.found || d < best.distance) {
+      best.found = true;
+      best.keyframe = static_cast<std::uint32_t>(k);
+      best.distance = d;
+    }
+  }
+  return best;
+}
+
+Result<LoopCheck> LoopVerifier::Verify(std::uint32_t query, std::uint32_t match, double descriptor_distance,
+                                       Span<const PointXYZI> query_scan, Span<const PointXYZI> match_scan,
+                                       const Eigen::Isometry3d& T_match_query_odom, const LoopDetectorParams& p) {
+  LoopCheck check;
+  check.loop.query = query;
+  check.loop.match = match;
+  check.loop.descriptor_distance = descriptor_distance;
+  if (descriptor_distance > p.max_descriptor_distance) {
+    check.verdict = LoopVerdict::kDescriptorTooFar;
+    return check;
+  }
+  if (query_scan.empty() || match_scan.empty()) {
+    check.verdict = LoopVerdict::kIcpFailed;
+    return check;
+  }
+  icp_.SetTarget(match_scan);
+  // Initial guesses: the trajectory's prediction, then yaw-only rotations (revisits in the opposite
+  // direction, or after drift, are far from the prediction).
+  bool have_best = false;
+  IcpResult best;
+  for (int h = -1; h < p.yaw_hypotheses; ++h) {
+    Eigen::Isometry3d guess = T_match_query_odom;
+    if (h >= 0) {
+      guess = Eigen::Isometry3d::Identity();
+      guess.linear() = Eigen::AngleAxisd(2.0 * M_PI * h / p.yaw_hypotheses, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    }
+    if (!guess.matrix().allFinite()) continue;
+    auto r = icp_.Align(query_scan, guess, p.icp);
+    if (!r.ok()) return r.status();
+    if (r->num_inliers == 0) continue;
+    // Prefer more overlap first (a tiny residual on a sliver is not a loop), then the lower residual.
+    const bool better = !have_best || r->inlier_ratio > best.inlier_ratio + 0.05 ||
+                        (r->inlier_ratio >= best.inlier_ratio - 0.05 &&
+                         r->mean_squared_residual_m2 < best.mean_squared_residual_m2);
+    if (better) {
+      best = *r;
+      have_best = true;
+    }
+  }
+  if (!have_best || !best.converged) {
+    check.verdict = LoopVerdict::kIcpFailed;
+    if (have_best) check.loop.icp = best;
+    return check;
+  }
+  check.loop.icp = best;
+  check.loop.T_match_query = best.T_target_source;
+  if (best.inlier_ratio < p.min_inlier_ratio) {
+    check.verdict = LoopVerdict::kTooFewInliers;
+    return check;
+  }
+  if (best.mean_squared_residual_m2 > p.max_icp_mean_squared_residual_m2) {
+    check.verdict = LoopVerdict::kIcpResidualTooLarge;
+    return check;
+  }
+  // Information from the residuals (paper: "based on the point-wise residuals"), scaled to an effective
+  // number of independent correspondences.
+  check.loop.information =
+      best.hessian * (p.effective_correspondences / static_cast<double>(std::max<std::size_t>(best.num_inliers, 1)));
+  check.verdict = LoopVerdict::kAccepted;
+  return check;
+}
+
+}  // namespace commerge

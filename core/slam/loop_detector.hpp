@@ -1,0 +1,101 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: intra-robot loop closure (paper, Section "Intra-Robot SLAM for Local Mapping"):
+//   1. candidate b = argmin over keyframes 0 .. a - tau_window of the descriptor distance (Eq. "past-nn"),
+//      an exact linear scan (no approximate retrieval);
+//   2. accepted as a candidate when the distance <= tau_intra (Eq. "intra-gate");
+//   3. verified by point-to-point ICP on the voxelised scans: mean squared residual <= tau_ICP
+//      (Eq. "icp-accept"); the loop edge carries an information matrix from the ICP residuals.
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/descriptor/place_descriptor.hpp"
+#include "core/memory/fixed_vector.hpp"
+#include "core/slam/icp.hpp"
+
+namespace commerge {
+
+struct LoopDetectorParams {
+  /// tau_window: the query and the last tau_window - 1 keyframes are never candidates.
+  std::uint32_t window_keyframes = 100;
+  /// tau_intra: descriptor distance gate (SOLiD unit L2: 0.05 spinning, 0.01 Livox).
+  double max_descriptor_distance = 0.05;
+  /// tau_ICP: mean squared ICP residual gate [m^2] (paper: "0.3 m / 2.0 m", spinning / non-repetitive).
+  double max_icp_mean_squared_residual_m2 = 0.3;
+  /// ICP restarts at yaw = k * 360 / yaw_hypotheses (plus the odometry guess): robust to any heading.
+  int yaw_hypotheses = 12;
+  /// Fewer inliers / source points than this fails the check (the residual alone can be small on a
+  /// sliver of overlap).
+  double min_inlier_ratio = 0.3;
+  /// ICP's information treats thousands of inliers as independent; scale it down to an effective count.
+  double effective_correspondences = 50.0;
+  IcpParams icp;
+};
+
+Status ValidateLoopDetectorParams(const LoopDetectorParams& params);
+
+/// Descriptors of one robot's keyframes, in keyframe order, with a fixed capacity (memory budget).
+class DescriptorDatabase {
+ public:
+  DescriptorDatabase(const PlaceDescriptor& descriptor, std::size_t max_keyframes);
+
+  /// Appends keyframe `size()`'s descriptor (dimension() floats). Invalid descriptors are stored (to keep
+  /// indices aligned) but never matched. ResourceExhausted when full; InvalidArgument on a size mismatch.
+  Status Add(Span<const float> values, bool valid);
+
+  std::size_t size() const noexcept { return valid_.size(); }
+  std::size_t capacity() const noexcept { return valid_.capacity(); }
+  Span<const float> Get(std::size_t keyframe) const;
+  bool valid(std::size_t keyframe) const { return valid_[keyframe] != 0; }
+
+  struct Match {
+    bool found = false;
+    std::uint32_t keyframe = 0;
+    double distance = 0.0;
+  };
+  /// Nearest valid descriptor among keyframes [0, end) to `query` (exact linear scan).
+  Match NearestBefore(Span<const float> query, std::size_t end) const;
+
+ private:
+  const PlaceDescriptor& descriptor_;
+  std::size_t dimension_;
+  FixedVector<float> values_;
+  FixedVector<std::uint8_t> valid_;
+};
+
+struct LoopClosure {
+  std::uint32_t query = 0;     ///< the new keyframe a
+  std::uint32_t match = 0;     ///< the earlier keyframe b
+  double descriptor_distance = 0.0;
+  Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();  ///< ICP: query scan into the match's frame
+  IcpResult icp;
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();  ///< [translation; rotation]
+};
+
+/// Why a candidate was or was not accepted (for logs and counters).
+enum class LoopVerdict { kAccepted, kNoCandidate, kDescriptorTooFar, kIcpFailed, kIcpResidualTooLarge, kTooFewInliers };
+const char* LoopVerdictName(LoopVerdict verdict);
+
+struct LoopCheck {
+  LoopVerdict verdict = LoopVerdict::kNoCandidate;
+  LoopClosure loop;  ///< filled from kDescriptorTooFar on (query, match, distance) and fully when accepted
+};
+
+/// Geometric verification of a descriptor candidate with multi-hypothesis point-to-point ICP.
+class LoopVerifier {
+ public:
+  /// `query_scan` and `match_scan` are voxelised scans in their sensor frames; `T_match_query_odom` is the
+  /// relative pose the current trajectory estimate predicts (used as one more initial guess).
+  Result<LoopCheck> Verify(std::uint32_t query, std::uint32_t match, double descriptor_distance,
+                           Span<const PointXYZI> query_scan, Span<const PointXYZI> match_scan,
+                           const Eigen::Isometry3d& T_match_query_odom, const LoopDetectorParams& params);
+
+ private:
+  PointToPointIcp icp_;
+};
+
+}  // namespace commerge

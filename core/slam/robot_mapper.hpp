@@ -1,0 +1,123 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: the robot side of the paper's pipeline (Section "Intra-Robot SLAM for Local Mapping"), one call
+// per LiDAR scan:
+//   1. keyframe selection every keyframe_spacing_m (Delta d = 1 m) or keyframe_rotation_deg;
+//   2. the place descriptor (SOLiD) on the RAW scan;
+//   3. the scan voxelised to voxel_size_m (Delta nu = 1 m), encoded (int16 cm) into the fixed-size scan store;
+//   4. a pose-graph node with an odometry edge;
+//   5. intra-robot loop closure: descriptor nearest neighbour outside tau_window, gate tau_intra, ICP check
+//      with tau_ICP; an accepted loop is an edge and triggers pose-graph optimisation, whose moved keyframes
+//      are reported so the server's copy of the poses can be updated.
+// Everything the robot streams to the server (descriptor, pose) and later sends (scans) comes from here.
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/cloud/voxel_grid.hpp"
+#include "core/descriptor/place_descriptor.hpp"
+#include "core/slam/keyframer.hpp"
+#include "core/slam/loop_detector.hpp"
+#include "core/slam/pose_graph.hpp"
+#include "core/slam/scan_store.hpp"
+
+namespace commerge {
+
+struct RobotMapperParams {
+  KeyframerParams keyframer;
+  VoxelGridParams voxel;  ///< Delta nu = 1.0 m
+  LoopDetectorParams loop;
+  PoseGraphParams graph;
+  /// Odometry uncertainty per keyframe step (information = diag(1/sigma^2)).
+  double odometry_sigma_translation_m = 0.05;
+  double odometry_sigma_rotation_rad = 0.005;
+  /// Optimise at most once per this many keyframes: a revisit yields a loop at almost every keyframe, and
+  /// each optimisation of a 20k-node graph costs ~0.3 s on a desktop core. Loops found in between are added
+  /// to the graph and optimised with the next one (or by OptimizePending()).
+  std::uint32_t min_keyframes_between_optimisations = 10;
+};
+
+Status ValidateRobotMapperParams(const RobotMapperParams& params);
+
+/// Capacities fixed at construction (from the robot's memory budget).
+struct RobotMapperCapacity {
+  std::size_t max_keyframes = 20000;
+  std::size_t max_points_per_raw_scan = 131072;
+  std::size_t max_points_per_stored_scan = 8192;
+};
+
+/// What one AddScan call did.
+struct KeyframeStep {
+  bool is_keyframe = false;
+  std::uint32_t keyframe = 0;      ///< index of the new keyframe (when is_keyframe)
+  DescriptorInfo descriptor;       ///< valid == false: the keyframe's descriptor is never sent or matched
+  std::size_t voxel_points = 0;    ///< points of the voxelised scan
+  std::size_t encoded_bytes = 0;   ///< bytes of the encoded scan put into the store
+  Status store_status;             ///< why the scan is not stored (the keyframe exists anyway)
+  ScanPutInfo store;               ///< evictions / spills this keyframe caused
+  LoopCheck loop;                  ///< loop closure attempt for this keyframe
+  /// Keyframes whose pose the optimisation moved (ascending): send these as a pose update. Empty when no
+  /// optimisation ran at this keyframe (see min_keyframes_between_optimisations).
+  std::vector<std::uint32_t> changed_keyframes;
+};
+
+struct RobotMapperStats {
+  std::uint64_t scans = 0;
+  std::uint64_t keyframes = 0;
+  std::uint64_t invalid_descriptors = 0;
+  std::uint64_t scans_not_stored = 0;
+  std::uint64_t loops_accepted = 0;
+  std::uint64_t loop_candidates_rejected = 0;  ///< descriptor candidates that failed the ICP check
+  std::uint64_t optimisations = 0;
+  std::uint64_t pending_loops = 0;  ///< loops in the graph not yet optimised
+};
+
+class RobotMapper {
+ public:
+  /// `descriptor` and `store` are not owned and must outlive the mapper. Allocates its workspaces here.
+  RobotMapper(const RobotMapperParams& params, const RobotMapperCapacity& capacity, PlaceDescriptor* descriptor,
+              ScanStore* store);
+
+  /// Feeds one raw scan (sensor frame) with its odometry pose. Errors: invalid parameters, a scan larger than
+  /// max_points_per_raw_scan, the keyframe capacity exhausted; a non-finite pose or an empty scan is not an
+  /// error (no keyframe; an empty keyframe scan gets an invalid descriptor).
+  Result<KeyframeStep> AddScan(Span<const PointXYZI> raw_scan, const Eigen::Isometry3d& T_odom_sensor);
+
+  /// Optimises loops added since the last optimisation (e.g. at the end of a mission); returns the moved
+  /// keyframes (empty when nothing was pending).
+  Result<std::vector<std::uint32_t>> OptimizePending();
+
+  std::size_t num_keyframes() const noexcept { return graph_.num_nodes(); }
+  /// Optimised pose of keyframe k, T_world_sensor (world = the first keyframe's frame).
+  const Eigen::Isometry3d& pose(std::size_t k) const { return graph_.pose(k); }
+  Span<const float> descriptor(std::size_t k) const { return db_.Get(k); }
+  bool descriptor_valid(std::size_t k) const { return db_.valid(k); }
+  const RobotMapperStats& stats() const noexcept { return stats_; }
+  const PoseGraph& graph() const noexcept { return graph_; }
+
+ private:
+  Status FindLoop(std::uint32_t query, Span<const float> query_descriptor, KeyframeStep* step);
+
+  RobotMapperParams params_;
+  RobotMapperCapacity capacity_;
+  PlaceDescriptor* descriptor_;
+  ScanStore* store_;
+  Status params_status_;
+  Keyframer keyframer_;
+  DescriptorDatabase db_;
+  PoseGraph graph_;
+  VoxelGrid voxel_grid_;
+  LoopVerifier verifier_;
+  Eigen::Isometry3d T_odom_last_keyframe_ = Eigen::Isometry3d::Identity();
+  bool optimised_once_ = false;
+  std::uint32_t last_optimisation_keyframe_ = 0;
+  std::vector<float> descriptor_scratch_;
+  std::vector<PointXYZI> voxels_, match_points_;
+  std::vector<std::uint8_t> encoded_, spill_buffer_;
+  RobotMapperStats stats_;
+};
+
+}  // namespace commerge

@@ -1,0 +1,131 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The robot side end to end on a generated block loop: ray-cast scans from ground-truth poses, odometry with
+// an injected drift, SOLiD on raw scans, 1 m voxels into the scan store, loops found and verified, and the
+// optimised trajectory closer to the truth than the odometry.
+#include <doctest/doctest.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "core/descriptor/sensor_presets.hpp"
+#include "core/descriptor/solid.hpp"
+#include "core/geometry/umeyama.hpp"
+#include "core/sim/synthetic_scan.hpp"
+#include "core/slam/robot_mapper.hpp"
+
+using namespace commerge;
+
+namespace {
+
+constexpr double kWidth = 40.0, kHeight = 30.0, kSensorZ = 1.73;
+
+/// Ground-truth pose at arc length s along the rectangular road (counter-clockwise, heading along the road).
+Eigen::Isometry3d PoseOnLoop(double s) {
+  const double perimeter = 2.0 * (kWidth + kHeight);
+  s = std::fmod(s, perimeter);
+  double x, y, yaw;
+  if (s < kWidth) {
+    x = s, y = 0, yaw = 0;
+  } else if (s < kWidth + kHeight) {
+    x = kWidth, y = s - kWidth, yaw = M_PI / 2;
+  } else if (s < 2 * kWidth + kHeight) {
+    x = kWidth - (s - kWidth - kHeight), y = kHeight, yaw = M_PI;
+  } else {
+    x = 0, y = kHeight - (s - 2 * kWidth - kHeight), yaw = -M_PI / 2;
+  }
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(x, y, kSensorZ);
+  return T;
+}
+
+/// RMSE of positions after rigid alignment of `estimate` to `truth`.
+double Ate(const std::vector<Eigen::Vector3d>& estimate, const std::vector<Eigen::Vector3d>& truth) {
+  auto T = AlignRigid(Span<const Eigen::Vector3d>(estimate), Span<const Eigen::Vector3d>(truth));
+  REQUIRE(T.ok());
+  double sum = 0.0;
+  for (std::size_t i = 0; i < estimate.size(); ++i) sum += (*T * estimate[i] - truth[i]).squaredNorm();
+  return std::sqrt(sum / static_cast<double>(estimate.size()));
+}
+
+}  // namespace
+
+TEST_CASE("Robot mapper closes the loop of a generated block drive and removes most of the odometry drift") {
+  const BoxScene scene = MakeBlockLoopScene(11, static_cast<float>(kWidth), static_cast<float>(kHeight));
+  SpinningLidar lidar;  // VLP-16-like, coarse azimuth to keep the test fast under qemu
+  lidar.beams = 16;
+  lidar.min_elevation_deg = -15.0f;
+  lidar.max_elevation_deg = 15.0f;
+  lidar.azimuth_steps = 600;
+  lidar.max_range_m = 80.0f;
+
+  auto solid = SolidDescriptor::Create(SolidPreset(LidarSensor::kVelodyneVlp16));
+  REQUIRE(solid.ok());
+  ScanStoreParams store_params;
+  store_params.capacity_bytes = 4 << 20;
+  store_params.max_scans = 1000;
+  auto store = ScanStore::Create(store_params);
+  REQUIRE(store.ok());
+
+  RobotMapperParams params;
+  RobotMapperCapacity capacity;
+  capacity.max_keyframes = 400;
+  capacity.max_points_per_raw_scan = 20000;
+  RobotMapper mapper(params, capacity, &*solid, store->get());
+
+  // 1.25 laps in 0.5 m steps; odometry = truth with a yaw drift of 0.1 deg per metre and 1% scale error.
+  const double perimeter = 2.0 * (kWidth + kHeight);
+  Eigen::Isometry3d T_odom = PoseOnLoop(0.0);
+  Eigen::Isometry3d T_prev_truth = T_odom;
+  std::vector<Eigen::Vector3d> truth, odometry;
+  std::vector<PointXYZI> scan;
+  int accepted = 0, false_loops = 0;
+  for (double s = 0.0; s <= 1.25 * perimeter; s += 0.5) {
+    const Eigen::Isometry3d T_truth = PoseOnLoop(s);
+    Eigen::Isometry3d step = T_prev_truth.inverse() * T_truth;
+    step.translation() *= 1.01;
+    step.linear() = Eigen::AngleAxisd(0.5 * 0.1 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() * step.linear();
+    T_odom = T_odom * step;
+    T_prev_truth = T_truth;
+    const double yaw = std::atan2(T_truth.linear()(1, 0), T_truth.linear()(0, 0));
+    CastScan(scene, lidar, static_cast<float>(T_truth.translation().x()), static_cast<float>(T_truth.translation().y()),
+             static_cast<float>(kSensorZ), static_cast<float>(yaw), static_cast<std::uint32_t>(s * 2), &scan);
+    auto r = mapper.AddScan(Span<const PointXYZI>(scan), T_odom);
+    REQUIRE_MESSAGE(r.ok(), r.status().ToString());
+    if (!r->is_keyframe) continue;
+    CHECK(r->descriptor.valid);
+    CHECK(r->store_status.ok());
+    const std::size_t n_before_loop = truth.size();
+    truth.push_back(T_truth.translation());
+    odometry.push_back(T_odom.translation());
+    if (r->loop.verdict == LoopVerdict::kAccepted) {
+      ++accepted;
+      const double gap = (truth[r->loop.loop.match] - truth[r->loop.loop.query]).norm();
+      if (gap > 3.0) ++false_loops;
+      // The first loop corrects the drifted keyframes: they must be reported for the server.
+      if (accepted == 1) CHECK(r->changed_keyframes.size() > n_before_loop / 2);
+    }
+  }
+  auto tail = mapper.OptimizePending();
+  REQUIRE(tail.ok());
+  CHECK(mapper.stats().pending_loops == 0);
+  CHECK(mapper.stats().optimisations < static_cast<std::uint64_t>(accepted));  // throttled
+  const std::size_t n = mapper.num_keyframes();
+  REQUIRE(n == truth.size());
+  std::vector<Eigen::Vector3d> optimised;
+  for (std::size_t k = 0; k < n; ++k) optimised.push_back(mapper.pose(k).translation());
+  // The mapper's world is its first keyframe: compare shapes after rigid alignment.
+  const double ate_odometry = Ate(odometry, truth);
+  const double ate_optimised = Ate(optimised, truth);
+  MESSAGE("keyframes " << n << ", loops accepted " << accepted << ", ATE odometry " << ate_odometry
+                       << " m, optimised " << ate_optimised << " m");
+  CHECK(accepted >= 5);
+  CHECK(false_loops == 0);
+  CHECK(ate_odometry > 1.5);
+  CHECK(ate_optimised < ate_odometry / 3.0);
+  CHECK(mapper.stats().keyframes == n);
+  CHECK((*store)->stats().num_scans == n);
+}
