@@ -39,7 +39,8 @@ run_config() {
   local ctest_args=(--test-dir "$dir" -j "$jobs" --timeout 900)
   local start=$SECONDS
   echo "=== [$name] configure + build ($dir) ==="
-  cmake -S . -B "$dir" "$@" >"$dir.configure.log" 2>&1 || { cat "$dir.configure.log"; return 1; }
+  mkdir -p "$dir"
+  cmake -S . -B "$dir" "$@" >"$dir/configure.log" 2>&1 || { cat "$dir/configure.log"; return 1; }
   cmake --build "$dir" -j "$jobs"
   case "$name" in
     host) ;;
