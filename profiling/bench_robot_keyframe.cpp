@@ -24,6 +24,7 @@
 #include "core/slam/scan_store.hpp"
 #include "platform/io/kitti_bin.hpp"
 #include "platform/memory/peak_rss.hpp"
+#include "profiling/bench_common.hpp"
 
 using namespace commerge;
 using Clock = std::chrono::steady_clock;
@@ -32,10 +33,6 @@ namespace {
 
 double Ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
 
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
 
 }  // namespace
 
@@ -57,8 +54,7 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  const char* env = std::getenv("COMMERGE_SHARED_DATA");
-  const std::string data = env && *env ? env : CM_SHARED_DATA_DIR;
+  const std::string data = commerge::bench::SharedDataDir();
   std::vector<std::vector<PointXYZI>> scans;
   std::string source = "KITTI 00 frames 0-15 (HDL-64E)";
   for (int f = 0; f < 16; ++f) {
@@ -142,7 +138,7 @@ int main(int argc, char** argv) {
               static_cast<double>(voxel_points) / n);
   std::printf("ms per keyframe (median): SOLiD %.2f | voxel %.2f | encode+store %.3f | loop search over %ld "
               "descriptors %.2f | total %.2f\n",
-              Median(t_desc), Median(t_vox), Median(t_enc), db_keyframes, Median(t_loop), Median(t_total));
+              commerge::bench::Median(t_desc), commerge::bench::Median(t_vox), commerge::bench::Median(t_enc), db_keyframes, commerge::bench::Median(t_loop), commerge::bench::Median(t_total));
   std::printf("memory per stored keyframe: scan %.0f B (encoded %.0f B + record header %zu B + index %zu B), "
               "descriptor + pose graph budget %.0f B, total %.1f KiB\n",
               per_keyframe_scan, static_cast<double>(encoded_bytes) / n, ScanStore::kRecordHeaderBytes,

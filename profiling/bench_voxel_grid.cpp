@@ -2,59 +2,21 @@
 // Voxel-grid downsampling throughput on one ~120k-point scan at 1.0 m.
 // Usage: bench_voxel_grid [--reps N]   (default 50 timed calls after one warm-up call)
 // Uses KITTI 00 frame 0 from the shared data when present, else a seeded synthetic LiDAR-like scan.
-#include <algorithm>
-#include <chrono>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <string>
 #include <vector>
 
 #include "core/cloud/voxel_grid.hpp"
-#include "core/sim/synthetic_scan.hpp"
-#include "platform/io/kitti_bin.hpp"
+#include "profiling/bench_common.hpp"
 #include "platform/memory/peak_rss.hpp"
 
 using commerge::PointXYZI;
 
-namespace {
-
-// Stand-in when the KITTI scan is absent: an HDL-64E-like ray-cast scan of the generated street world.
-std::vector<PointXYZI> SyntheticScan() {
-  std::vector<PointXYZI> pts;
-  commerge::CastScan(commerge::MakeStreetScene(42), commerge::SpinningLidar{}, 0.0f, 0.0f, 1.73f, 0.0f, 42, &pts);
-  return pts;
-}
-
-}  // namespace
-
 int main(int argc, char** argv) {
   int reps = 50;
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--reps") == 0 && i + 1 < argc) {
-      reps = std::atoi(argv[++i]);
-    } else {
-      std::fprintf(stderr, "usage: %s [--reps N]\n", argv[0]);
-      return 2;
-    }
-  }
-  if (reps < 1) {
-    std::fprintf(stderr, "--reps must be >= 1\n");
-    return 2;
-  }
-
-  const char* data_env = std::getenv("COMMERGE_SHARED_DATA");
-  const std::string data_dir = data_env && *data_env ? data_env : CM_SHARED_DATA_DIR;
-  const std::string kitti_path = data_dir + "/kitti/kitti00_frames0-15/velodyne/000000.bin";
-  std::vector<PointXYZI> cloud;
+  if (!commerge::bench::ParseReps(argc, argv, &reps)) return 2;
   std::string source;
-  if (auto scan = commerge::platform::ReadKittiBin(kitti_path); scan.ok()) {
-    cloud = std::move(scan->points);
-    source = "KITTI " + kitti_path;
-  } else {
-    cloud = SyntheticScan();
-    source = "synthetic ray-cast street scan, seed 42 (KITTI scan unavailable: " + scan.status().ToString() + ")";
-  }
+  const std::vector<PointXYZI> cloud = commerge::bench::LoadBenchScan(&source);
 
   const commerge::VoxelGridParams params{1.0};
   commerge::VoxelGrid grid(cloud.size());
@@ -65,18 +27,13 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  std::vector<double> ms(static_cast<std::size_t>(reps));
-  for (double& t : ms) {
-    const auto start = std::chrono::steady_clock::now();
-    const auto result = grid.Downsample(cloud, params, &out);
-    t = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (!result.ok()) return 1;
-  }
+  bool all_ok = true;
+  const std::vector<double> ms = commerge::bench::TimeMs(reps, [&] { all_ok &= grid.Downsample(cloud, params, &out).ok(); });
+  if (!all_ok) return 1;
   double mean_ms = 0.0;
   for (const double t : ms) mean_ms += t;
   mean_ms /= reps;
-  std::sort(ms.begin(), ms.end());
-  const double median_ms = reps % 2 ? ms[reps / 2] : 0.5 * (ms[reps / 2 - 1] + ms[reps / 2]);
+  const double median_ms = commerge::bench::Median(ms);
 
   std::printf("source:          %s\n", source.c_str());
   std::printf("voxel size:      %.2f m, %d reps after 1 warm-up\n", params.voxel_size_m, reps);

@@ -13,33 +13,11 @@
 #include <vector>
 
 #include "platform/io/pcd.hpp"
+#include "tests/platform/io/io_test_util.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace commerge::platform {
 namespace {
-
-std::string ScratchFile(const std::string& name) { return test::ScratchDir() + "/" + name; }
-
-/// Header text followed by raw bytes, written with fwrite.
-std::string WriteFile(const std::string& name, const std::string& header, const std::string& bytes = {}) {
-  const std::string path = ScratchFile(name);
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  REQUIRE(f != nullptr);
-  const std::string all = header + bytes;
-  REQUIRE(std::fwrite(all.data(), 1, all.size(), f) == all.size());
-  REQUIRE(std::fclose(f) == 0);
-  return path;
-}
-
-/// Little-endian record bytes, built field by field.
-struct Bytes {
-  std::string data;
-  template <class T>
-  Bytes& Put(T value) {
-    data.append(reinterpret_cast<const char*>(&value), sizeof(T));
-    return *this;
-  }
-};
 
 struct Cloud {
   std::vector<PointXYZI> points;
@@ -66,8 +44,6 @@ Cloud RandomCloud(std::size_t n, unsigned seed) {
   return cloud;
 }
 
-bool SameBits(const PointXYZI& a, const PointXYZI& b) { return std::memcmp(&a, &b, sizeof(PointXYZI)) == 0; }
-
 void CheckSameCloud(const PointCloudFile& read, const Cloud& written, bool with_robot) {
   REQUIRE(read.points.size() == written.points.size());
   CHECK(read.records_in_file == written.points.size());
@@ -80,15 +56,6 @@ void CheckSameCloud(const PointCloudFile& read, const Cloud& written, bool with_
     CHECK(read.robot_ids == written.robot_ids);
   } else {
     CHECK(read.robot_ids.empty());
-  }
-}
-
-void CheckError(const Status& status, StatusCode code, const std::string& path, std::vector<std::string> parts) {
-  CHECK(status.code() == code);
-  CHECK(status.message().rfind(path, 0) == 0);
-  for (const std::string& part : parts) {
-    INFO("message: ", status.message(), " expected to contain: ", part);
-    CHECK(status.message().find(part) != std::string::npos);
   }
 }
 

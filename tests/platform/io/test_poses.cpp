@@ -12,21 +12,11 @@
 #include <Eigen/Geometry>
 
 #include "platform/io/poses.hpp"
+#include "tests/platform/io/io_test_util.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace commerge::platform {
 namespace {
-
-std::string ScratchFile(const std::string& name) { return test::ScratchDir() + "/" + name; }
-
-std::string WriteText(const std::string& name, const std::string& text) {
-  const std::string path = ScratchFile(name);
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  REQUIRE(f != nullptr);
-  REQUIRE(std::fwrite(text.data(), 1, text.size(), f) == text.size());
-  REQUIRE(std::fclose(f) == 0);
-  return path;
-}
 
 Eigen::Isometry3d RandomPose(std::mt19937* rng) {
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -40,16 +30,6 @@ Eigen::Isometry3d RandomPose(std::mt19937* rng) {
 
 double OrthonormalityError(const Eigen::Matrix3d& R) {
   return (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-}
-
-/// The error message starts with the path and contains every part of `parts`.
-void CheckError(const Status& status, StatusCode code, const std::string& path, std::vector<std::string> parts) {
-  CHECK(status.code() == code);
-  CHECK(status.message().rfind(path, 0) == 0);
-  for (const std::string& part : parts) {
-    INFO("message: ", status.message(), " expected to contain: ", part);
-    CHECK(status.message().find(part) != std::string::npos);
-  }
 }
 
 // The 90-degree yaw: x -> y, y -> -x.
@@ -89,7 +69,7 @@ TEST_CASE("poses: TUM poses round-trip through WriteTumPoses and ReadTumPoses") 
 }
 
 TEST_CASE("poses: a hand-written KITTI line with a 90-degree yaw gives the expected matrix") {
-  const std::string path = WriteText("yaw90_kitti.txt",
+  const std::string path = WriteFile("yaw90_kitti.txt",
                                      "1 0 0 0 0 1 0 0 0 0 1 0\n"
                                      "0 -1 0 1.5 1 0 0 -2 0 0 1 3.25\n\n\n");
   auto poses = ReadKittiPoses(path);
@@ -106,7 +86,7 @@ TEST_CASE("poses: a hand-written TUM file with comments, blank lines and a 90-de
   const double s = std::sqrt(0.5);
   char line[256];
   std::snprintf(line, sizeof(line), "1700000000.25 1 2 3 0 0 %.17g %.17g\n", s, s);
-  const std::string path = WriteText("yaw90_tum.txt", "# timestamp tx ty tz qx qy qz qw\n\n" + std::string(line) +
+  const std::string path = WriteFile("yaw90_tum.txt", "# timestamp tx ty tz qx qy qz qw\n\n" + std::string(line) +
                                                           "  # another comment\n0.5 0 0 0 0 0 0 1\n\n");
   auto poses = ReadTumPoses(path);
   REQUIRE(poses.ok());
@@ -119,7 +99,7 @@ TEST_CASE("poses: a hand-written TUM file with comments, blank lines and a 90-de
 }
 
 TEST_CASE("poses: a KITTI line with 11 values is an error naming the file and the line") {
-  const std::string path = WriteText("eleven.txt",
+  const std::string path = WriteFile("eleven.txt",
                                      "1 0 0 0 0 1 0 0 0 0 1 0\n"
                                      "1 0 0 0 0 1 0 0 0 0 1 0\n"
                                      "1 0 0 0 0 1 0 0 0 0 1\n");
@@ -145,7 +125,7 @@ TEST_CASE("poses: unparsable tokens, NaN, inf and inner blank lines are errors n
   int index = 0;
   for (const Case& c : cases) {
     CAPTURE(c.text);
-    const std::string path = WriteText("bad_kitti_" + std::to_string(index++) + ".txt", c.text);
+    const std::string path = WriteFile("bad_kitti_" + std::to_string(index++) + ".txt", c.text);
     auto poses = ReadKittiPoses(path);
     REQUIRE_FALSE(poses.ok());
     CheckError(poses.status(), StatusCode::kDataLoss, path, c.parts);
@@ -153,12 +133,12 @@ TEST_CASE("poses: unparsable tokens, NaN, inf and inner blank lines are errors n
 }
 
 TEST_CASE("poses: a rotation that is not orthonormal is rejected") {
-  const std::string scaled = WriteText("scaled.txt", "1.1 0 0 0 0 1 0 0 0 0 1 0\n");
+  const std::string scaled = WriteFile("scaled.txt", "1.1 0 0 0 0 1 0 0 0 0 1 0\n");
   auto poses = ReadKittiPoses(scaled);
   REQUIRE_FALSE(poses.ok());
   CheckError(poses.status(), StatusCode::kDataLoss, scaled, {"line 1", "not orthonormal"});
 
-  const std::string mirrored = WriteText("mirrored.txt", "1 0 0 0 0 1 0 0 0 0 -1 0\n");  // det = -1
+  const std::string mirrored = WriteFile("mirrored.txt", "1 0 0 0 0 1 0 0 0 0 -1 0\n");  // det = -1
   poses = ReadKittiPoses(mirrored);
   REQUIRE_FALSE(poses.ok());
   CheckError(poses.status(), StatusCode::kDataLoss, mirrored, {"line 1", "det R = -1"});
@@ -180,7 +160,7 @@ TEST_CASE("poses: a slightly perturbed rotation is accepted and re-orthonormalis
       text += value;
     }
   }
-  const std::string path = WriteText("perturbed.txt", text + "\n");
+  const std::string path = WriteFile("perturbed.txt", text + "\n");
   auto poses = ReadKittiPoses(path);
   REQUIRE(poses.ok());
   REQUIRE(poses->size() == 1);
@@ -192,31 +172,31 @@ TEST_CASE("poses: a slightly perturbed rotation is accepted and re-orthonormalis
 }
 
 TEST_CASE("poses: TUM quaternions far from unit norm are rejected, near ones normalised") {
-  auto norm_zero = ReadTumPoses(WriteText("q0.txt", "0 1 2 3 0 0 0 0\n"));
+  auto norm_zero = ReadTumPoses(WriteFile("q0.txt", "0 1 2 3 0 0 0 0\n"));
   REQUIRE_FALSE(norm_zero.ok());
   CheckError(norm_zero.status(), StatusCode::kDataLoss, ScratchFile("q0.txt"), {"line 1", "quaternion norm 0"});
 
-  auto norm_big = ReadTumPoses(WriteText("q15.txt", "# header\n0 1 2 3 0 0 0 1.5\n"));
+  auto norm_big = ReadTumPoses(WriteFile("q15.txt", "# header\n0 1 2 3 0 0 0 1.5\n"));
   REQUIRE_FALSE(norm_big.ok());
   CheckError(norm_big.status(), StatusCode::kDataLoss, ScratchFile("q15.txt"), {"line 2", "quaternion norm 1.5"});
 
-  auto wrong_count = ReadTumPoses(WriteText("q7.txt", "0 1 2 3 0 0 1\n"));
+  auto wrong_count = ReadTumPoses(WriteFile("q7.txt", "0 1 2 3 0 0 1\n"));
   REQUIRE_FALSE(wrong_count.ok());
   CheckError(wrong_count.status(), StatusCode::kDataLoss, ScratchFile("q7.txt"),
              {"line 1", "expected 8 values, found 7"});
 
-  auto near = ReadTumPoses(WriteText("q1005.txt", "0 1 2 3 0 0 0 1.005\n"));
+  auto near = ReadTumPoses(WriteFile("q1005.txt", "0 1 2 3 0 0 0 1.005\n"));
   REQUIRE(near.ok());
   REQUIRE(near->size() == 1);
   CHECK(((*near)[0].T_world_sensor.linear() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-15);
 }
 
 TEST_CASE("poses: ReadTimes reads one number per line and rejects garbage") {
-  auto times = ReadTimes(WriteText("times.txt", "0.000000e+00\n1.037359e-01\r\n2.5\n\n"));
+  auto times = ReadTimes(WriteFile("times.txt", "0.000000e+00\n1.037359e-01\r\n2.5\n\n"));
   REQUIRE(times.ok());
   CHECK(*times == std::vector<double>{0.0, 0.1037359, 2.5});
 
-  const std::string two = WriteText("times_two.txt", "0.0\n0.1 0.2\n");
+  const std::string two = WriteFile("times_two.txt", "0.0\n0.1 0.2\n");
   auto bad = ReadTimes(two);
   REQUIRE_FALSE(bad.ok());
   CheckError(bad.status(), StatusCode::kDataLoss, two, {"line 2", "expected 1 values, found 2"});
