@@ -291,11 +291,13 @@ Status PoseGraph::BuildPattern() {
     const int c = ws.blocks[first].first;
     std::size_t last = first;
     while (last < ws.blocks.size() && ws.blocks[last].first == c) ++last;
-    const int diagonal_offset = static_cast<int>(6 * (last - 1 - first));
+    const std::size_t num_off_diagonal = last - 1 - first;  // the column's last block is the diagonal one
+    const int diagonal_offset = static_cast<int>(6 * num_off_diagonal);
     for (int j = 0; j < 6; ++j) {
       outer[6 * c + j] = nnz;
-      for (std::size_t k = first; k + 1 < last; ++k) {
-        for (int i = 0; i < 6; ++i) inner[nnz++] = 6 * ws.blocks[k].second + i;
+      for (std::size_t t = 0; t < num_off_diagonal; ++t) {
+        const int row = 6 * ws.blocks[first + t].second;
+        for (int i = 0; i < 6; ++i) inner[nnz++] = row + i;
       }
       for (int i = 0; i <= j; ++i) inner[nnz++] = 6 * c + i;
       ws.diagonal_index[static_cast<std::size_t>(6 * c + j)] = nnz - 1;
