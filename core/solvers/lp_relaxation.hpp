@@ -1,0 +1,69 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: a tiny linear-programming interface (minimisation, sparse rows, box bounds) and a GLPK simplex
+// implementation. Used for LP-relaxation bounds inside our own branch-and-bound solvers.
+#pragma once
+
+#include <limits>
+#include <vector>
+
+#include "core/common/status.hpp"
+
+namespace commerge {
+
+/// +infinity for bounds ("no bound").
+constexpr double kLpInfinity = std::numeric_limits<double>::infinity();
+
+/// One coefficient of a constraint row.
+struct LpTerm {
+  int variable = 0;
+  double coefficient = 0.0;
+};
+
+/// lower <= sum(coefficient * x[variable]) <= upper; use ±kLpInfinity for a one-sided row.
+struct LpRow {
+  std::vector<LpTerm> terms;
+  double lower = -kLpInfinity;
+  double upper = kLpInfinity;
+};
+
+/// minimise objective·x  s.t. rows, variable_lower <= x <= variable_upper. All vectors of variables have the
+/// same length (the number of variables).
+struct LinearProgram {
+  std::vector<double> objective;
+  std::vector<double> variable_lower;
+  std::vector<double> variable_upper;
+  std::vector<LpRow> rows;
+};
+
+enum class LpStatus {
+  kOptimal,     ///< `values` is an optimal basic solution
+  kInfeasible,  ///< no x satisfies the rows and bounds
+  kUnbounded,   ///< the objective decreases without limit
+};
+
+struct LpSolution {
+  LpStatus status = LpStatus::kInfeasible;
+  double objective = 0.0;      ///< valid when kOptimal
+  std::vector<double> values;  ///< one per variable, valid when kOptimal
+};
+
+/// Checks sizes, indices, finiteness of coefficients and lower <= upper; InvalidArgument otherwise.
+Status ValidateLinearProgram(const LinearProgram& lp);
+
+/// Interface so branch-and-bound code can be tested with any LP engine.
+class LpSolver {
+ public:
+  virtual ~LpSolver() = default;
+  /// Solves `lp`. Returns an error Status only for malformed input or an engine failure; infeasible and
+  /// unbounded programs are results (LpSolution::status), not errors.
+  virtual Result<LpSolution> Minimize(const LinearProgram& lp) = 0;
+};
+
+/// GLPK primal simplex (glp_simplex with presolve off). Silent: terminal output is switched off and
+/// msg_lev = GLP_MSG_OFF. Not thread-safe across one instance; separate instances may run on separate threads.
+class GlpkSimplexSolver final : public LpSolver {
+ public:
+  Result<LpSolution> Minimize(const LinearProgram& lp) override;
+};
+
+}  // namespace commerge
