@@ -1,0 +1,116 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: inter-robot affinity A_ij = ||D^alpha_i - D^beta_j||_2 (paper "Inter-Robot Place Recognition",
+// SOLID.md §2) computed tile by tile, so the dense N x M matrix never exists in memory. A tile kernel forms
+// the distances of a block of rows x columns GEMM style, d = sqrt(max(0, ||a||^2 + ||b||^2 - 2 a.b)), and hands
+// the block to a consumer. Memory: the two descriptor sets (borrowed), O(N + M) norms/flags, one tile.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/common/span.hpp"
+#include "core/common/status.hpp"
+
+namespace commerge {
+
+/// Borrowed descriptors of one robot: `count()` rows of `dim` floats, row-major, each row a unit-normalised
+/// R-SOLiD (SOLID.md §2.1). A keyframe is invalid (never matches, distance +inf) when its flag is 0, when a
+/// value is not finite, or when its squared norm is 0.
+struct DescriptorSetView {
+  Span<const float> values;         ///< count x dim floats, row-major
+  std::size_t dim = 0;              ///< descriptor length D (40 for the SOLiD presets), >= 1
+  Span<const std::uint8_t> valid;   ///< empty = every keyframe flagged valid; else count flags (0 = invalid)
+
+  std::size_t count() const noexcept { return dim == 0 ? 0 : values.size() / dim; }
+};
+
+/// Checks dim >= 1, values.size() a multiple of dim and valid.size() in {0, count}. `name` prefixes messages.
+Status ValidateDescriptorSet(const DescriptorSetView& set, const char* name);
+
+/// One block of the affinity matrix: distances of alpha rows [row_begin, row_begin + rows) to beta columns
+/// [col_begin, col_begin + cols). Element (r, c) is at distances[r * stride + c]; +inf for an invalid pair.
+struct AffinityTile {
+  std::size_t row_begin = 0;
+  std::size_t col_begin = 0;
+  std::size_t rows = 0;
+  std::size_t cols = 0;
+  std::size_t stride = 0;            ///< floats between consecutive rows, >= cols
+  const float* distances = nullptr;  ///< unit-L2 distances in [0, sqrt(2)] or +inf; valid until the next call
+
+  float at(std::size_t r, std::size_t c) const noexcept { return distances[r * stride + c]; }
+};
+
+/// Anything that can produce affinity tiles on demand (the descriptor kernel; tests use a stored matrix).
+/// A source must be deterministic: the same tile request yields bit-identical values.
+class AffinityTileSource {
+ public:
+  virtual ~AffinityTileSource() = default;
+  virtual std::size_t num_rows() const noexcept = 0;  ///< N (alpha keyframes)
+  virtual std::size_t num_cols() const noexcept = 0;  ///< M (beta keyframes)
+  /// Fills *tile with rows [row_begin, row_begin + rows) x cols [col_begin, col_begin + cols). Error when the
+  /// block is outside the matrix, empty, or larger than the source's tile capacity.
+  virtual Status ComputeTile(std::size_t row_begin, std::size_t col_begin, std::size_t rows, std::size_t cols,
+                             AffinityTile* tile) = 0;
+};
+
+/// GEMM-style tile kernel over two descriptor sets (Eigen product per tile, float). The distance form
+/// ||a||^2 + ||b||^2 - 2 a.b cancels near d = 0 (absolute error in d up to ~1e-3 there, ~1e-6 at d = 0.1);
+/// irrelevant for the thresholds 0.01 ... 0.10. Holds one tile buffer of max_tile_rows x max_tile_cols floats.
+class AffinityTileKernel final : public AffinityTileSource {
+ public:
+  AffinityTileKernel() = default;
+  /// Errors: an invalid set (ValidateDescriptorSet), different dims, a zero tile capacity.
+  static Result<AffinityTileKernel> Create(const DescriptorSetView& alpha, const DescriptorSetView& beta,
+                                           std::size_t max_tile_rows, std::size_t max_tile_cols);
+
+  std::size_t num_rows() const noexcept override { return alpha_count_; }
+  std::size_t num_cols() const noexcept override { return beta_count_; }
+  Status ComputeTile(std::size_t row_begin, std::size_t col_begin, std::size_t rows, std::size_t cols,
+                     AffinityTile* tile) override;
+
+  /// Effective validity (flag, finite, non-zero) of alpha row i / beta column j.
+  bool alpha_valid(std::size_t i) const noexcept { return alpha_norm2_[i] >= 0.0f; }
+  bool beta_valid(std::size_t j) const noexcept { return beta_norm2_[j] >= 0.0f; }
+
+ private:
+  const float* alpha_ = nullptr;
+  const float* beta_ = nullptr;
+  std::size_t dim_ = 0;
+  std::size_t alpha_count_ = 0;
+  std::size_t beta_count_ = 0;
+  std::size_t max_tile_rows_ = 0;
+  std::size_t max_tile_cols_ = 0;
+  std::vector<float> alpha_norm2_;  ///< ||a_i||^2, or -1 for an invalid keyframe
+  std::vector<float> beta_norm2_;   ///< ||b_j||^2, or -1 for an invalid keyframe
+  std::vector<float> tile_;         ///< max_tile_rows x max_tile_cols
+};
+
+/// Calls consumer(const AffinityTile&) -> Status for every tile of a tile_rows x tile_cols grid over the whole
+/// matrix, in row-major tile order (left to right, then top to bottom); stops at the first error.
+template <class Consumer>
+Status ForEachAffinityTile(AffinityTileSource& source, std::size_t tile_rows, std::size_t tile_cols,
+                           Consumer&& consumer) {
+  if (tile_rows == 0 || tile_cols == 0) return InvalidArgument("affinity: tile size must be >= 1 x 1");
+  const std::size_t n = source.num_rows(), m = source.num_cols();
+  AffinityTile tile;
+  for (std::size_t r0 = 0; r0 < n;) {
+    const std::size_t rows = n - r0 < tile_rows ? n - r0 : tile_rows;
+    for (std::size_t c0 = 0; c0 < m;) {
+      const std::size_t cols = m - c0 < tile_cols ? m - c0 : tile_cols;
+      Status s = source.ComputeTile(r0, c0, rows, cols, &tile);
+      if (!s.ok()) return s;
+      s = consumer(static_cast<const AffinityTile&>(tile));
+      if (!s.ok()) return s;
+      c0 += cols;  // never overflows: c0 + cols <= m
+    }
+    r0 += rows;
+  }
+  return Status::Ok();
+}
+
+/// Naive reference for tests: out (N x M, row-major, resized) = SolidDistance(alpha_i, beta_j) in double, or
+/// +inf when either keyframe is invalid (same validity rule as the kernel).
+Status ComputeAffinityNaive(const DescriptorSetView& alpha, const DescriptorSetView& beta, std::vector<double>* out);
+
+}  // namespace commerge

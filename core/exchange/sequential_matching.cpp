@@ -1,0 +1,378 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "core/exchange/sequential_matching.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <utility>
+
+namespace commerge {
+namespace {
+
+constexpr std::int32_t kNoLabel = -1;
+
+// A contiguous block of the affinity matrix, in global indices, handed to the labeller.
+struct Block {
+  std::size_t row_begin = 0, col_begin = 0, rows = 0, cols = 0, stride = 0;
+  const float* distances = nullptr;
+};
+
+// Union-find node; the statistics are meaningful on roots only.
+struct Node {
+  std::int32_t parent = 0;
+  SequentialCluster cluster;
+  std::size_t seed_row = 0, seed_col = 0;  // one cell of the cluster (identifies it in the second pass)
+};
+
+struct RecordedCell {
+  std::size_t row = 0, col = 0;
+  std::int32_t label = kNoLabel;
+  float distance = 0.0f;
+};
+
+// Lower mean wins; ties by span corners so the choice does not depend on the labelling order.
+bool Better(const SequentialCluster& a, const SequentialCluster& b) {
+  const double ma = a.mean_distance(), mb = b.mean_distance();
+  if (ma != mb) return ma < mb;
+  if (a.row_min != b.row_min) return a.row_min < b.row_min;
+  if (a.col_min != b.col_min) return a.col_min < b.col_min;
+  if (a.row_max != b.row_max) return a.row_max < b.row_max;
+  return a.col_max < b.col_max;
+}
+
+// Streaming 8-connected labelling of B = [A <= tau] over a region [r0, r1) x [c0, c1) fed as blocks in
+// row-major block order (bands of equal height, each band left to right). Keeps the label row above the
+// current band (width), the band's last row, the previous block's last column and one block of labels.
+// With `compact`, clusters that do not reach a band's last row are finalised (scored and dropped) at the
+// end of each band, so the union-find holds only the open clusters.
+class StreamingLabeler {
+ public:
+  void Begin(std::size_t r0, std::size_t r1, std::size_t c0, std::size_t c1, float tau, std::uint64_t tau_area,
+             bool compact, bool record_cells) {
+    r0_ = r0;
+    r1_ = r1;
+    c0_ = c0;
+    c1_ = c1;
+    tau_ = tau;
+    tau_area_ = tau_area;
+    compact_ = compact;
+    record_ = record_cells;
+    prev_row_.assign(c1 - c0, kNoLabel);
+    next_row_.assign(c1 - c0, kNoLabel);
+    nodes_.clear();
+    cells_.clear();
+    band_begin_ = r0;
+    band_rows_ = 0;
+    next_col_ = c1;  // "previous band complete"
+    num_clusters_ = 0;
+    num_below_ = 0;
+    largest_area_ = 0;
+    has_best_ = false;
+    min_distance_ = std::numeric_limits<double>::infinity();
+  }
+
+  Status Consume(const Block& b) {
+    // Order check: a new band starts at the region's first column right below the previous band.
+    if (b.col_begin == c0_) {
+      if (next_col_ != c1_ || b.row_begin != band_begin_ + band_rows_) return OrderError(b);
+      band_begin_ = b.row_begin;
+      band_rows_ = b.rows;
+      left_col_.assign(b.rows, kNoLabel);
+    } else if (b.row_begin != band_begin_ || b.rows != band_rows_ || b.col_begin != next_col_) {
+      return OrderError(b);
+    }
+    if (b.rows == 0 || b.cols == 0 || b.row_begin + b.rows > r1_ || b.col_begin + b.cols > c1_) return OrderError(b);
+
+    const std::size_t width = c1_ - c0_, x0 = b.col_begin - c0_;
+    const bool has_left = b.col_begin > c0_;
+    labels_.assign(b.rows * b.cols, kNoLabel);
+    for (std::size_t r = 0; r < b.rows; ++r) {
+      const float* row = b.distances + r * b.stride;
+      for (std::size_t c = 0; c < b.cols; ++c) {
+        const float d = row[c];
+        if (std::isfinite(d) && static_cast<double>(d) < min_distance_) min_distance_ = static_cast<double>(d);
+        if (!(d <= tau_)) continue;
+        ++num_below_;
+        std::int32_t label = kNoLabel;
+        auto join = [&](std::int32_t other) {
+          if (other == kNoLabel) return;
+          if (label == kNoLabel) {
+            label = other;
+          } else {
+            Union(label, other);
+          }
+        };
+        const std::size_t x = x0 + c;
+        if (r > 0) {
+          const std::int32_t* up = labels_.data() + (r - 1) * b.cols;
+          if (c > 0) join(up[c - 1]);
+          join(up[c]);
+          if (c + 1 < b.cols) join(up[c + 1]);
+        } else {
+          if (x > 0) join(prev_row_[x - 1]);
+          join(prev_row_[x]);
+          if (x + 1 < width) join(prev_row_[x + 1]);
+        }
+        if (c > 0) {
+          join(labels_[r * b.cols + c - 1]);
+        } else if (has_left) {  // previous block's last column: up-left (r > 0), left, down-left
+          if (r > 0) join(left_col_[r - 1]);
+          join(left_col_[r]);
+          if (r + 1 < b.rows) join(left_col_[r + 1]);
+        }
+        const std::size_t i = b.row_begin + r, j = b.col_begin + c;
+        if (label == kNoLabel) label = NewNode(i, j);
+        labels_[r * b.cols + c] = label;
+        SequentialCluster& s = nodes_[static_cast<std::size_t>(Find(label))].cluster;
+        s.row_min = std::min(s.row_min, i);
+        s.row_max = std::max(s.row_max, i);
+        s.col_min = std::min(s.col_min, j);
+        s.col_max = std::max(s.col_max, j);
+        ++s.cell_count;
+        s.distance_sum += static_cast<double>(d);
+        if (record_) cells_.push_back({i, j, label, d});
+      }
+    }
+    for (std::size_t r = 0; r < b.rows; ++r) left_col_[r] = labels_[r * b.cols + b.cols - 1];
+    std::copy(labels_.end() - static_cast<std::ptrdiff_t>(b.cols), labels_.end(),
+              next_row_.begin() + static_cast<std::ptrdiff_t>(x0));
+    next_col_ = b.col_begin + b.cols;
+    if (next_col_ == c1_) EndBand();
+    return Status::Ok();
+  }
+
+  // Call after the last block. Finalises the remaining clusters (compact mode).
+  Status Finish() {
+    if (next_col_ != c1_ || band_begin_ + band_rows_ != r1_) {
+      return Status(StatusCode::kInternal, "sequential matching: the tile stream ended before covering the matrix");
+    }
+    if (compact_) {
+      for (std::size_t l = 0; l < nodes_.size(); ++l) {
+        if (nodes_[l].parent == static_cast<std::int32_t>(l)) Finalize(nodes_[l]);
+      }
+      nodes_.clear();
+    }
+    return Status::Ok();
+  }
+
+  // Second pass: the cells whose cluster contains the seed cell, sorted row-major.
+  std::vector<SequentialLoopCell> CellsOfClusterAt(std::size_t seed_row, std::size_t seed_col) {
+    std::int32_t seed_label = kNoLabel;
+    for (const RecordedCell& c : cells_) {
+      if (c.row == seed_row && c.col == seed_col) seed_label = c.label;
+    }
+    std::vector<SequentialLoopCell> out;
+    if (seed_label == kNoLabel) return out;
+    const std::int32_t root = Find(seed_label);
+    for (const RecordedCell& c : cells_) {
+      if (Find(c.label) == root) out.push_back({c.row, c.col, c.distance});
+    }
+    std::sort(out.begin(), out.end(), [](const SequentialLoopCell& a, const SequentialLoopCell& b) {
+      return a.alpha_index != b.alpha_index ? a.alpha_index < b.alpha_index : a.beta_index < b.beta_index;
+    });
+    return out;
+  }
+
+  std::size_t num_clusters() const noexcept { return num_clusters_; }
+  std::uint64_t num_below() const noexcept { return num_below_; }
+  std::uint64_t largest_area() const noexcept { return largest_area_; }
+  double min_distance() const noexcept { return min_distance_; }
+  bool has_best() const noexcept { return has_best_; }
+  const Node& best() const noexcept { return best_; }
+
+ private:
+  Status OrderError(const Block& b) const {
+    return Status(StatusCode::kInternal, "sequential matching: tile " + std::to_string(b.rows) + " x " +
+                                             std::to_string(b.cols) + " at (" + std::to_string(b.row_begin) + ", " +
+                                             std::to_string(b.col_begin) + ") out of row-major tile order");
+  }
+
+  std::int32_t NewNode(std::size_t i, std::size_t j) {
+    Node n;
+    n.parent = static_cast<std::int32_t>(nodes_.size());
+    n.cluster.row_min = n.cluster.row_max = i;
+    n.cluster.col_min = n.cluster.col_max = j;
+    n.seed_row = i;
+    n.seed_col = j;
+    nodes_.push_back(n);
+    return n.parent;
+  }
+
+  std::int32_t Find(std::int32_t x) {
+    while (nodes_[static_cast<std::size_t>(x)].parent != x) {
+      Node& n = nodes_[static_cast<std::size_t>(x)];
+      n.parent = nodes_[static_cast<std::size_t>(n.parent)].parent;  // path halving
+      x = n.parent;
+    }
+    return x;
+  }
+
+  void Union(std::int32_t a, std::int32_t b) {
+    a = Find(a);
+    b = Find(b);
+    if (a == b) return;
+    if (b < a) std::swap(a, b);  // the older node stays the root
+    Node& ra = nodes_[static_cast<std::size_t>(a)];
+    const Node& rb = nodes_[static_cast<std::size_t>(b)];
+    ra.cluster.row_min = std::min(ra.cluster.row_min, rb.cluster.row_min);
+    ra.cluster.row_max = std::max(ra.cluster.row_max, rb.cluster.row_max);
+    ra.cluster.col_min = std::min(ra.cluster.col_min, rb.cluster.col_min);
+    ra.cluster.col_max = std::max(ra.cluster.col_max, rb.cluster.col_max);
+    ra.cluster.cell_count += rb.cluster.cell_count;
+    ra.cluster.distance_sum += rb.cluster.distance_sum;
+    nodes_[static_cast<std::size_t>(b)].parent = a;
+  }
+
+  // Scores a finished cluster (a root node): counts it and keeps it when it is the best qualifying one.
+  void Finalize(const Node& node) {
+    ++num_clusters_;
+    const std::uint64_t area = node.cluster.span_area();
+    largest_area_ = std::max(largest_area_, area);
+    if (area >= tau_area_ && (!has_best_ || Better(node.cluster, best_.cluster))) {
+      has_best_ = true;
+      best_ = node;
+    }
+  }
+
+  void EndBand() {
+    std::swap(prev_row_, next_row_);
+    std::fill(next_row_.begin(), next_row_.end(), kNoLabel);
+    if (!compact_) return;
+    // Keep the clusters that reach the band's last row; score and drop the others.
+    remap_.assign(nodes_.size(), kNoLabel);
+    compacted_.clear();
+    for (std::int32_t& label : prev_row_) {
+      if (label == kNoLabel) continue;
+      const auto root = static_cast<std::size_t>(Find(label));
+      if (remap_[root] == kNoLabel) {
+        remap_[root] = static_cast<std::int32_t>(compacted_.size());
+        compacted_.push_back(nodes_[root]);
+        compacted_.back().parent = remap_[root];
+      }
+      label = remap_[root];
+    }
+    for (std::size_t l = 0; l < nodes_.size(); ++l) {
+      if (nodes_[l].parent == static_cast<std::int32_t>(l) && remap_[l] == kNoLabel) {
+        Finalize(nodes_[l]);
+      }
+    }
+    nodes_.swap(compacted_);
+  }
+
+  std::size_t r0_ = 0, r1_ = 0, c0_ = 0, c1_ = 0;
+  float tau_ = 0.0f;
+  std::uint64_t tau_area_ = 0;
+  bool compact_ = true, record_ = false;
+  std::vector<std::int32_t> prev_row_, next_row_, left_col_, labels_, remap_;
+  std::vector<Node> nodes_, compacted_;
+  std::vector<RecordedCell> cells_;
+  std::size_t band_begin_ = 0, band_rows_ = 0, next_col_ = 0;
+  std::size_t num_clusters_ = 0;
+  std::uint64_t num_below_ = 0, largest_area_ = 0;
+  bool has_best_ = false;
+  Node best_;
+  double min_distance_ = 0.0;
+};
+
+std::string FormatNumber(double v) {
+  std::ostringstream os;
+  os.precision(4);
+  os << v;
+  return os.str();
+}
+
+}  // namespace
+
+Status ValidateSequentialMatchParams(const SequentialMatchParams& p) {
+  if (!std::isfinite(p.tau_inter) || p.tau_inter < 0.0) {
+    return InvalidArgument("sequential matching: tau_inter must be finite and >= 0, got " + FormatNumber(p.tau_inter));
+  }
+  if (p.tile_rows == 0 || p.tile_cols == 0) return InvalidArgument("sequential matching: tile size must be >= 1 x 1");
+  return Status::Ok();
+}
+
+Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, const SequentialMatchParams& p) {
+  Status s = ValidateSequentialMatchParams(p);
+  if (!s.ok()) return s;
+  SequentialMatchResult result;
+  result.min_distance = std::numeric_limits<double>::infinity();
+  const std::size_t n = source.num_rows(), m = source.num_cols();
+  if (n == 0 || m == 0) {
+    result.no_candidate_reason = std::string("no keyframes: robot ") + (n == 0 ? "alpha" : "beta") +
+                                 " has an empty descriptor set (N = " + std::to_string(n) +
+                                 ", M = " + std::to_string(m) + ")";
+    return result;
+  }
+  const auto tau = static_cast<float>(p.tau_inter);
+  StreamingLabeler labeler;
+  labeler.Begin(0, n, 0, m, tau, p.tau_area, /*compact=*/true, /*record_cells=*/false);
+  s = ForEachAffinityTile(source, p.tile_rows, p.tile_cols, [&](const AffinityTile& t) {
+    return labeler.Consume(Block{t.row_begin, t.col_begin, t.rows, t.cols, t.stride, t.distances});
+  });
+  if (!s.ok()) return s;
+  s = labeler.Finish();
+  if (!s.ok()) return s;
+  result.num_clusters = labeler.num_clusters();
+  result.num_cells_below_threshold = labeler.num_below();
+  result.largest_span_area = labeler.largest_area();
+  result.min_distance = labeler.min_distance();
+  if (result.num_cells_below_threshold == 0) {
+    result.no_candidate_reason =
+        "no cell below tau_inter = " + FormatNumber(p.tau_inter) +
+        (std::isfinite(result.min_distance) ? " (smallest distance " + FormatNumber(result.min_distance) + ")"
+                                            : std::string(" (no valid descriptor pair)"));
+    return result;
+  }
+  if (!labeler.has_best()) {
+    result.no_candidate_reason = "no cluster with span area >= tau_area = " + std::to_string(p.tau_area) +
+                                 ": largest was " + std::to_string(result.largest_span_area) + " (" +
+                                 std::to_string(result.num_clusters) + " clusters)";
+    return result;
+  }
+  const Node best = labeler.best();
+  result.best = best.cluster;
+
+  // Second pass: the same tile grid (bit-identical distances), only the tiles meeting the span, clipped to it.
+  const SequentialCluster& b = result.best;
+  StreamingLabeler span_labeler;
+  span_labeler.Begin(b.row_min, b.row_max + 1, b.col_min, b.col_max + 1, tau, p.tau_area, /*compact=*/false,
+                     /*record_cells=*/true);
+  AffinityTile tile;
+  for (std::size_t r0 = b.row_min / p.tile_rows * p.tile_rows; r0 <= b.row_max;) {
+    const std::size_t rows = std::min(p.tile_rows, n - r0);
+    for (std::size_t c0 = b.col_min / p.tile_cols * p.tile_cols; c0 <= b.col_max;) {
+      const std::size_t cols = std::min(p.tile_cols, m - c0);
+      s = source.ComputeTile(r0, c0, rows, cols, &tile);
+      if (!s.ok()) return s;
+      const std::size_t br0 = std::max(r0, b.row_min), br1 = std::min(r0 + rows, b.row_max + 1);
+      const std::size_t bc0 = std::max(c0, b.col_min), bc1 = std::min(c0 + cols, b.col_max + 1);
+      s = span_labeler.Consume(Block{br0, bc0, br1 - br0, bc1 - bc0, tile.stride,
+                                     tile.distances + (br0 - r0) * tile.stride + (bc0 - c0)});
+      if (!s.ok()) return s;
+      c0 += cols;
+    }
+    r0 += rows;
+  }
+  s = span_labeler.Finish();
+  if (!s.ok()) return s;
+  result.cells = span_labeler.CellsOfClusterAt(best.seed_row, best.seed_col);
+  if (result.cells.size() != b.cell_count) {
+    return Status(StatusCode::kInternal, "sequential matching: second pass found " +
+                                             std::to_string(result.cells.size()) + " cells, first pass " +
+                                             std::to_string(b.cell_count) + " (non-deterministic tile source?)");
+  }
+  result.found = true;
+  return result;
+}
+
+Result<SequentialMatchResult> RunSequentialMatching(const DescriptorSetView& alpha, const DescriptorSetView& beta,
+                                                    const SequentialMatchParams& params) {
+  Status s = ValidateSequentialMatchParams(params);
+  if (!s.ok()) return s;
+  Result<AffinityTileKernel> kernel = AffinityTileKernel::Create(alpha, beta, params.tile_rows, params.tile_cols);
+  if (!kernel.ok()) return kernel.status();
+  return RunSequentialMatching(*kernel, params);
+}
+
+}  // namespace commerge

@@ -1,0 +1,81 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: stage A, inter-robot sequential matching (paper "Inter-Robot Sequential Matching"). Streams the
+// affinity tiles in row-major tile order, thresholds B = [A <= tau_inter], labels the 8-connected components
+// with a streaming union-find that keeps only the previous label row (O(M)) plus one tile of labels, and
+// picks the cluster of lowest mean distance among those whose span area >= tau_area. The cells of the chosen
+// cluster (L_seq) are collected in a second pass over the tiles that intersect its span only. The N x M
+// matrix is never stored.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/common/status.hpp"
+#include "core/exchange/affinity.hpp"
+
+namespace commerge {
+
+struct SequentialMatchParams {
+  double tau_inter = 0.10;        ///< unit-L2 distance threshold: B_ij = [A_ij <= tau_inter] (compared in float)
+  std::uint64_t tau_area = 10000; ///< minimal span area in cells (rows x cols of the inclusive bounding box)
+  std::size_t tile_rows = 256;    ///< tile height of the streaming pass, >= 1
+  std::size_t tile_cols = 256;    ///< tile width, >= 1
+};
+
+/// Errors (invalid argument): tau_inter negative or not finite, a zero tile size.
+Status ValidateSequentialMatchParams(const SequentialMatchParams& params);
+
+/// One 8-connected cluster S_l of B. Span bounds are INCLUSIVE indices: the cluster's cells lie in rows
+/// [row_min, row_max] (alpha keyframes) and columns [col_min, col_max] (beta keyframes); the paper's
+/// half-open [i_min, i_max) is [row_min, row_max + 1).
+struct SequentialCluster {
+  std::size_t row_min = 0, row_max = 0;  ///< alpha keyframe index range, inclusive
+  std::size_t col_min = 0, col_max = 0;  ///< beta keyframe index range, inclusive
+  std::uint64_t cell_count = 0;          ///< |S_l|
+  double distance_sum = 0.0;             ///< sum of A_ij over the cells (double accumulation)
+
+  std::size_t span_rows() const noexcept { return row_max - row_min + 1; }
+  std::size_t span_cols() const noexcept { return col_max - col_min + 1; }
+  /// |Span(S_l)| = span_rows x span_cols (the number of cells of the inclusive bounding box).
+  std::uint64_t span_area() const noexcept {
+    return static_cast<std::uint64_t>(span_rows()) * static_cast<std::uint64_t>(span_cols());
+  }
+  /// f_avg(S_l) = distance_sum / cell_count.
+  double mean_distance() const noexcept {
+    return cell_count == 0 ? 0.0 : distance_sum / static_cast<double>(cell_count);
+  }
+};
+
+/// One loop candidate (i, j) of L_seq: alpha keyframe i, beta keyframe j, and A_ij.
+struct SequentialLoopCell {
+  std::size_t alpha_index = 0;
+  std::size_t beta_index = 0;
+  float distance = 0.0f;
+};
+
+struct SequentialMatchResult {
+  bool found = false;                    ///< a cluster qualified (span area >= tau_area)
+  SequentialCluster best;                ///< S*, meaningful when found
+  std::vector<SequentialLoopCell> cells; ///< L_seq = cells of S*, row-major order (by alpha, then beta)
+  std::size_t num_clusters = 0;          ///< N_label, all clusters whatever their area
+  std::uint64_t num_cells_below_threshold = 0;  ///< cells with B_ij = 1
+  std::uint64_t largest_span_area = 0;   ///< over all clusters (0 when none)
+  double min_distance = 0.0;             ///< smallest finite A_ij seen (+inf when none)
+  std::string no_candidate_reason;       ///< empty when found; else why nothing qualified, in words
+};
+
+/// Stage A over any tile source (two passes; the source must be deterministic). Tie-break between equal
+/// means: smaller row_min, then col_min, then row_max, then col_max. Errors only for bad parameters or a
+/// failing source; degenerate inputs (empty sets, nothing below tau_inter, clusters too small) give an OK
+/// result with found == false and no_candidate_reason set.
+Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, const SequentialMatchParams& params);
+
+/// Stage A on two descriptor sets (AffinityTileKernel with the parameter tile size). Invalid keyframes (flag 0,
+/// NaN/inf values, zero vector) never match. Errors: malformed sets (ValidateDescriptorSet), different dims,
+/// bad parameters.
+Result<SequentialMatchResult> RunSequentialMatching(const DescriptorSetView& alpha, const DescriptorSetView& beta,
+                                                    const SequentialMatchParams& params);
+
+}  // namespace commerge

@@ -1,0 +1,419 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Stage A (streaming sequential matching) against a naive reference: full matrix, BFS 8-connected
+// labelling, span / mean / tau_area selection. Random matrices with planted bands under many tile sizes,
+// structured descriptor cases (diagonal, anti-diagonal, two bands, band across tile borders) and the
+// no-candidate reasons.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/exchange/affinity.hpp"
+#include "core/exchange/sequential_matching.hpp"
+
+namespace commerge {
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// A stored matrix served as tiles (deterministic by construction).
+class MatrixTileSource final : public AffinityTileSource {
+ public:
+  MatrixTileSource(std::vector<float> a, std::size_t n, std::size_t m) : a_(std::move(a)), n_(n), m_(m) {}
+  std::size_t num_rows() const noexcept override { return n_; }
+  std::size_t num_cols() const noexcept override { return m_; }
+  Status ComputeTile(std::size_t r0, std::size_t c0, std::size_t rows, std::size_t cols, AffinityTile* t) override {
+    if (rows == 0 || cols == 0 || r0 + rows > n_ || c0 + cols > m_) return InvalidArgument("tile outside");
+    *t = AffinityTile{r0, c0, rows, cols, m_, a_.data() + r0 * m_ + c0};
+    return Status::Ok();
+  }
+  const std::vector<float>& matrix() const { return a_; }
+
+ private:
+  std::vector<float> a_;
+  std::size_t n_, m_;
+};
+
+struct RefResult {
+  bool found = false;
+  SequentialCluster best;
+  std::vector<std::pair<std::size_t, std::size_t>> cells;
+  std::size_t num_clusters = 0;
+  std::uint64_t num_below = 0, largest_area = 0;
+};
+
+// Naive stage A: threshold, BFS labelling over the whole matrix, scoring (same tie-break as documented).
+template <class T>
+RefResult NaiveStageA(const std::vector<T>& a, std::size_t n, std::size_t m, double tau, std::uint64_t tau_area) {
+  RefResult out;
+  const auto tau_f = static_cast<float>(tau);
+  std::vector<char> b(n * m);
+  for (std::size_t k = 0; k < n * m; ++k) b[k] = static_cast<float>(a[k]) <= tau_f;
+  std::vector<int> label(n * m, -1);
+  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> clusters;
+  for (std::size_t s = 0; s < n * m; ++s) {
+    if (!b[s] || label[s] >= 0) continue;
+    ++out.num_below;
+    std::vector<std::pair<std::size_t, std::size_t>> cl;
+    std::vector<std::size_t> stack = {s};
+    label[s] = static_cast<int>(clusters.size());
+    while (!stack.empty()) {
+      const std::size_t q = stack.back();
+      stack.pop_back();
+      const std::size_t i = q / m, j = q % m;
+      cl.push_back({i, j});
+      for (int di = -1; di <= 1; ++di) {
+        for (int dj = -1; dj <= 1; ++dj) {
+          const long ii = static_cast<long>(i) + di, jj = static_cast<long>(j) + dj;
+          if (ii < 0 || jj < 0 || ii >= static_cast<long>(n) || jj >= static_cast<long>(m)) continue;
+          const std::size_t r = static_cast<std::size_t>(ii) * m + static_cast<std::size_t>(jj);
+          if (b[r] && label[r] < 0) {
+            label[r] = label[s];
+            stack.push_back(r);
+          }
+        }
+      }
+    }
+    out.num_below += cl.size() - 1;
+    clusters.push_back(std::move(cl));
+  }
+  out.num_clusters = clusters.size();
+  for (auto& cl : clusters) {
+    SequentialCluster c;
+    c.row_min = c.col_min = std::numeric_limits<std::size_t>::max();
+    for (const auto& ij : cl) {
+      c.row_min = std::min(c.row_min, ij.first);
+      c.row_max = std::max(c.row_max, ij.first);
+      c.col_min = std::min(c.col_min, ij.second);
+      c.col_max = std::max(c.col_max, ij.second);
+      c.distance_sum += static_cast<double>(static_cast<float>(a[ij.first * m + ij.second]));
+    }
+    c.cell_count = cl.size();
+    out.largest_area = std::max(out.largest_area, c.span_area());
+    if (c.span_area() < tau_area) continue;
+    const double mc = c.mean_distance(), mb = out.best.mean_distance();
+    const bool better = !out.found || mc < mb - 1e-12 ||
+                        (std::fabs(mc - mb) <= 1e-12 &&
+                         std::make_pair(c.row_min, c.col_min) < std::make_pair(out.best.row_min, out.best.col_min));
+    if (better) {
+      out.found = true;
+      out.best = c;
+      std::sort(cl.begin(), cl.end());
+      out.cells = cl;
+    }
+  }
+  return out;
+}
+
+template <class T>
+void CheckEqual(const SequentialMatchResult& got, const RefResult& ref, const std::vector<T>& a, std::size_t m) {
+  CHECK(got.num_clusters == ref.num_clusters);
+  CHECK(got.num_cells_below_threshold == ref.num_below);
+  CHECK(got.largest_span_area == ref.largest_area);
+  REQUIRE(got.found == ref.found);
+  if (!ref.found) {
+    CHECK_FALSE(got.no_candidate_reason.empty());
+    return;
+  }
+  CHECK(got.no_candidate_reason.empty());
+  CHECK(got.best.row_min == ref.best.row_min);
+  CHECK(got.best.row_max == ref.best.row_max);
+  CHECK(got.best.col_min == ref.best.col_min);
+  CHECK(got.best.col_max == ref.best.col_max);
+  CHECK(got.best.cell_count == ref.best.cell_count);
+  CHECK(got.best.mean_distance() == doctest::Approx(ref.best.mean_distance()).epsilon(1e-9));
+  REQUIRE(got.cells.size() == ref.cells.size());
+  for (std::size_t k = 0; k < ref.cells.size(); ++k) {
+    REQUIRE(got.cells[k].alpha_index == ref.cells[k].first);
+    REQUIRE(got.cells[k].beta_index == ref.cells[k].second);
+    CHECK(got.cells[k].distance == static_cast<float>(a[ref.cells[k].first * m + ref.cells[k].second]));
+  }
+}
+
+// Random matrix: background above tau except for sparse noise of density `noise`, plus diagonal bands.
+std::vector<float> RandomMatrixWithBands(std::size_t n, std::size_t m, double noise, int bands, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> high(0.11f, 1.4f), low(0.0f, 0.1f);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<float> a(n * m);
+  for (float& v : a) v = u(rng) < noise ? low(rng) : high(rng);
+  for (int k = 0; k < bands; ++k) {
+    const auto i0 = static_cast<std::size_t>(u(rng) * static_cast<double>(n));
+    const auto j0 = static_cast<std::size_t>(u(rng) * static_cast<double>(m));
+    const bool anti = u(rng) < 0.3;
+    const std::size_t len = 1 + static_cast<std::size_t>(u(rng) * static_cast<double>(std::max(n, m)));
+    for (std::size_t t = 0; t < len; ++t) {
+      const std::size_t i = i0 + t;
+      const long j = anti ? static_cast<long>(j0) - static_cast<long>(t) : static_cast<long>(j0 + t);
+      if (i >= n || j < 0 || static_cast<std::size_t>(j) >= m) break;
+      for (long w = 0; w < 2; ++w) {  // band two cells wide
+        if (static_cast<std::size_t>(j + w) < m) a[i * m + static_cast<std::size_t>(j + w)] = low(rng);
+      }
+    }
+  }
+  if (!a.empty() && u(rng) < 0.5) a[a.size() / 2] = kInf;  // an invalid pair somewhere
+  return a;
+}
+
+TEST_CASE("sequential matching streaming equals the naive BFS reference on random matrices") {
+  const std::vector<std::pair<std::size_t, std::size_t>> sizes = {{1, 1}, {1, 1000}, {1000, 1}, {257, 3},
+                                                                   {3, 257}, {60, 75},  {130, 140}};
+  const std::vector<std::pair<std::size_t, std::size_t>> tiles = {{1, 1}, {2, 3}, {7, 7}, {16, 5}, {64, 64}, {256, 256}};
+  std::uint32_t seed = 10;
+  for (const auto& nm : sizes) {
+    for (const double noise : {0.0, 0.05, 0.35}) {
+      const std::size_t n = nm.first, m = nm.second;
+      if (n * m > 5000 && noise > 0.3) continue;  // keep the case fast
+      MatrixTileSource src(RandomMatrixWithBands(n, m, noise, 3, ++seed), n, m);
+      for (const std::uint64_t tau_area : {std::uint64_t{1}, std::uint64_t{30}, std::uint64_t{400}}) {
+        const RefResult ref = NaiveStageA(src.matrix(), n, m, 0.10, tau_area);
+        for (const auto& tile : tiles) {
+          if (n * m > 10000 && tile.first * tile.second < 10) continue;
+          CAPTURE(n);
+          CAPTURE(m);
+          CAPTURE(noise);
+          CAPTURE(tau_area);
+          CAPTURE(tile.first);
+          CAPTURE(tile.second);
+          SequentialMatchParams p;
+          p.tau_area = tau_area;
+          p.tile_rows = tile.first;
+          p.tile_cols = tile.second;
+          auto got = RunSequentialMatching(src, p);
+          REQUIRE(got.ok());
+          CheckEqual(*got, ref, src.matrix(), m);
+        }
+      }
+    }
+  }
+}
+
+// Smooth trajectory of unit descriptors: each keyframe a small random step from the previous one.
+std::vector<float> RandomWalkDescriptors(std::size_t count, std::size_t dim, float step, std::mt19937* rng) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  std::vector<float> v(count * dim);
+  std::vector<float> cur(dim);
+  for (float& x : cur) x = u(*rng);
+  for (std::size_t i = 0; i < count; ++i) {
+    double n2 = 0.0;
+    for (float x : cur) n2 += static_cast<double>(x) * static_cast<double>(x);
+    const auto inv = static_cast<float>(1.0 / std::sqrt(n2));
+    for (std::size_t k = 0; k < dim; ++k) {
+      v[i * dim + k] = cur[k] * inv;
+      cur[k] = std::fabs(cur[k] * inv + step * g(*rng));
+    }
+  }
+  return v;
+}
+
+// beta[j0 + s * t] = alpha[i0 + t] + noise for t < len (s = +1 diagonal revisit, -1 opposite direction).
+void PlantRevisit(const std::vector<float>& alpha, std::vector<float>* beta, std::size_t dim, std::size_t i0,
+                  std::size_t j0, int s, std::size_t len, std::mt19937* rng) {
+  std::normal_distribution<float> g(0.0f, 0.004f);
+  for (std::size_t t = 0; t < len; ++t) {
+    const std::size_t i = i0 + t;
+    const std::size_t j = s > 0 ? j0 + t : j0 - t;
+    double n2 = 0.0;
+    for (std::size_t k = 0; k < dim; ++k) {
+      float& x = (*beta)[j * dim + k];
+      x = std::fabs(alpha[i * dim + k] + g(*rng));
+      n2 += static_cast<double>(x) * static_cast<double>(x);
+    }
+    const auto inv = static_cast<float>(1.0 / std::sqrt(n2));
+    for (std::size_t k = 0; k < dim; ++k) (*beta)[j * dim + k] *= inv;
+  }
+}
+
+// Runs stage A on descriptors and compares with the naive reference on the double SolidDistance matrix.
+SequentialMatchResult RunAndCompare(const std::vector<float>& va, const std::vector<float>& vb, std::size_t dim,
+                                    const SequentialMatchParams& p) {
+  const DescriptorSetView a{va, dim, {}}, b{vb, dim, {}};
+  std::vector<double> ref_matrix;
+  REQUIRE(ComputeAffinityNaive(a, b, &ref_matrix).ok());
+  std::size_t near_tau = 0;  // float vs double could flip these; the fixed seeds keep them away
+  for (double d : ref_matrix) near_tau += std::fabs(d - p.tau_inter) < 1e-4 ? 1 : 0;
+  REQUIRE(near_tau == 0);
+  const RefResult ref = NaiveStageA(ref_matrix, a.count(), b.count(), p.tau_inter, p.tau_area);
+  auto got = RunSequentialMatching(a, b, p);
+  REQUIRE(got.ok());
+  CHECK(got->num_clusters == ref.num_clusters);
+  CHECK(got->num_cells_below_threshold == ref.num_below);
+  REQUIRE(got->found == ref.found);
+  if (ref.found) {
+    CHECK(got->best.row_min == ref.best.row_min);
+    CHECK(got->best.row_max == ref.best.row_max);
+    CHECK(got->best.col_min == ref.best.col_min);
+    CHECK(got->best.col_max == ref.best.col_max);
+    CHECK(got->best.cell_count == ref.best.cell_count);
+    CHECK(got->best.mean_distance() == doctest::Approx(ref.best.mean_distance()).epsilon(1e-4));
+    REQUIRE(got->cells.size() == ref.cells.size());
+    for (std::size_t k = 0; k < ref.cells.size(); ++k) {
+      CHECK(got->cells[k].alpha_index == ref.cells[k].first);
+      CHECK(got->cells[k].beta_index == ref.cells[k].second);
+    }
+  }
+  return std::move(got.value());
+}
+
+TEST_CASE("sequential matching finds a diagonal revisit band across tile borders") {
+  std::mt19937 rng(7);
+  const std::size_t dim = 40;
+  const std::vector<float> va = RandomWalkDescriptors(300, dim, 0.05f, &rng);
+  std::vector<float> vb = RandomWalkDescriptors(280, dim, 0.05f, &rng);
+  PlantRevisit(va, &vb, dim, 40, 100, +1, 150, &rng);  // alpha 40..189 revisited by beta 100..249
+  for (const auto& tile : {std::pair<std::size_t, std::size_t>{256, 256}, {64, 64}, {5, 3}, {1, 1}}) {
+    SequentialMatchParams p;
+    p.tau_area = 5000;
+    p.tile_rows = tile.first;
+    p.tile_cols = tile.second;
+    const SequentialMatchResult r = RunAndCompare(va, vb, dim, p);
+    REQUIRE(r.found);
+    CHECK(r.best.row_min <= 42);
+    CHECK(r.best.row_max >= 187);
+    CHECK(r.best.col_min <= 102);
+    CHECK(r.best.col_max >= 247);
+    for (const SequentialLoopCell& c : r.cells) {
+      CHECK(c.distance <= 0.10f);
+      CHECK(std::labs(static_cast<long>(c.beta_index) - static_cast<long>(c.alpha_index) - 60) <= 8);
+    }
+  }
+}
+
+TEST_CASE("sequential matching anti-diagonal band and two disjoint bands pick the best qualifying") {
+  std::mt19937 rng(11);
+  const std::size_t dim = 40;
+  const std::vector<float> va = RandomWalkDescriptors(260, dim, 0.05f, &rng);
+  std::vector<float> vb = RandomWalkDescriptors(260, dim, 0.05f, &rng);
+  PlantRevisit(va, &vb, dim, 10, 239, -1, 110, &rng);  // opposite direction: beta 239 down to 130
+  PlantRevisit(va, &vb, dim, 150, 10, +1, 40, &rng);   // short diagonal revisit
+  SequentialMatchParams p;
+  p.tile_rows = 32;
+  p.tile_cols = 48;
+  p.tau_area = 5000;  // only the long anti-diagonal qualifies
+  SequentialMatchResult r = RunAndCompare(va, vb, dim, p);
+  REQUIRE(r.found);
+  CHECK(r.best.row_min <= 12);
+  CHECK(r.best.col_max >= 237);
+  CHECK(r.num_clusters >= 2);
+  for (const SequentialLoopCell& c : r.cells) {
+    CHECK(std::labs(static_cast<long>(c.alpha_index + c.beta_index) - 249) <= 8);
+  }
+  p.tau_area = 100;  // both qualify: the choice is the lower mean, whatever it is, as in the reference
+  r = RunAndCompare(va, vb, dim, p);
+  CHECK(r.found);
+  p.tau_area = 1000000;  // none qualifies
+  r = RunAndCompare(va, vb, dim, p);
+  CHECK_FALSE(r.found);
+  CHECK(r.no_candidate_reason.find("no cluster with span area >= tau_area") != std::string::npos);
+  CHECK(r.no_candidate_reason.find("largest was " + std::to_string(r.largest_span_area)) != std::string::npos);
+  CHECK(r.largest_span_area > 5000);
+}
+
+TEST_CASE("sequential matching no-candidate reasons for degenerate inputs") {
+  const std::size_t dim = 40;
+  std::mt19937 rng(5);
+  const std::vector<float> va = RandomWalkDescriptors(50, dim, 0.3f, &rng);
+  SequentialMatchParams p;
+
+  SUBCASE("empty sets") {
+    auto r = RunSequentialMatching(DescriptorSetView{{}, dim, {}}, DescriptorSetView{va, dim, {}}, p);
+    REQUIRE(r.ok());
+    CHECK_FALSE(r->found);
+    CHECK(r->no_candidate_reason.find("robot alpha") != std::string::npos);
+    r = RunSequentialMatching(DescriptorSetView{va, dim, {}}, DescriptorSetView{{}, dim, {}}, p);
+    REQUIRE(r.ok());
+    CHECK(r->no_candidate_reason.find("robot beta") != std::string::npos);
+  }
+  SUBCASE("one keyframe each, identical: one cell, span area 1 below tau_area") {
+    const std::vector<float> one(va.begin(), va.begin() + static_cast<std::ptrdiff_t>(dim));
+    auto r = RunSequentialMatching(DescriptorSetView{one, dim, {}}, DescriptorSetView{one, dim, {}}, p);
+    REQUIRE(r.ok());
+    CHECK_FALSE(r->found);
+    CHECK(r->num_clusters == 1);
+    CHECK(r->no_candidate_reason == "no cluster with span area >= tau_area = 10000: largest was 1 (1 clusters)");
+    p.tau_area = 1;
+    r = RunSequentialMatching(DescriptorSetView{one, dim, {}}, DescriptorSetView{one, dim, {}}, p);
+    REQUIRE(r.ok());
+    CHECK(r->found);
+    REQUIRE(r->cells.size() == 1);
+    CHECK(r->cells[0].alpha_index == 0);
+    CHECK(r->best.span_area() == 1);
+  }
+  SUBCASE("all above threshold") {
+    p.tau_inter = 0.0;  // nothing at distance exactly 0 between different random descriptors
+    const std::vector<float> vb = RandomWalkDescriptors(30, dim, 0.3f, &rng);
+    auto r = RunSequentialMatching(DescriptorSetView{va, dim, {}}, DescriptorSetView{vb, dim, {}}, p);
+    REQUIRE(r.ok());
+    CHECK_FALSE(r->found);
+    CHECK(r->num_clusters == 0);
+    CHECK(r->no_candidate_reason.rfind("no cell below tau_inter = 0 (smallest distance ", 0) == 0);
+  }
+  SUBCASE("NaN descriptors and flags: never match, no crash") {
+    std::vector<float> vb = va;
+    for (float& x : vb) x = std::numeric_limits<float>::quiet_NaN();
+    auto r = RunSequentialMatching(DescriptorSetView{va, dim, {}}, DescriptorSetView{vb, dim, {}}, p);
+    REQUIRE(r.ok());
+    CHECK_FALSE(r->found);
+    CHECK(r->no_candidate_reason.find("no valid descriptor pair") != std::string::npos);
+    const std::vector<std::uint8_t> none(50, 0);
+    r = RunSequentialMatching(DescriptorSetView{va, dim, none}, DescriptorSetView{va, dim, {}}, p);
+    REQUIRE(r.ok());
+    CHECK(r->num_cells_below_threshold == 0);
+  }
+  SUBCASE("bad parameters and malformed sets are errors") {
+    p.tau_inter = -1.0;
+    CHECK_FALSE(RunSequentialMatching(DescriptorSetView{va, dim, {}}, DescriptorSetView{va, dim, {}}, p).ok());
+    p.tau_inter = std::numeric_limits<double>::quiet_NaN();
+    CHECK_FALSE(RunSequentialMatching(DescriptorSetView{va, dim, {}}, DescriptorSetView{va, dim, {}}, p).ok());
+    p = SequentialMatchParams{};
+    p.tile_cols = 0;
+    CHECK_FALSE(RunSequentialMatching(DescriptorSetView{va, dim, {}}, DescriptorSetView{va, dim, {}}, p).ok());
+    p = SequentialMatchParams{};
+    CHECK_FALSE(RunSequentialMatching(DescriptorSetView{va, dim, {}}, DescriptorSetView{va, dim - 1, {}}, p).ok());
+  }
+}
+
+TEST_CASE("sequential matching span area is inclusive rows x cols and selection respects tau_area") {
+  // 6 x 8 matrix: cluster X = 3 cells on a diagonal (span 3 x 3 = 9), mean 0.05; cluster Y = 1 x 4 row, mean 0.02.
+  std::vector<float> a(6 * 8, 1.0f);
+  a[0 * 8 + 0] = 0.04f;
+  a[1 * 8 + 1] = 0.05f;
+  a[2 * 8 + 2] = 0.06f;
+  for (std::size_t j = 4; j < 8; ++j) a[5 * 8 + j] = 0.02f;
+  MatrixTileSource src(a, 6, 8);
+  SequentialMatchParams p;
+  p.tile_rows = 2;
+  p.tile_cols = 3;
+  p.tau_area = 4;  // both qualify (9 and 4): lower mean wins
+  auto r = RunSequentialMatching(src, p);
+  REQUIRE(r.ok());
+  REQUIRE(r->found);
+  CHECK(r->num_clusters == 2);
+  CHECK(r->best.row_min == 5);
+  CHECK(r->best.span_area() == 4);
+  CHECK(r->best.mean_distance() == doctest::Approx(0.02));
+  p.tau_area = 5;  // only the diagonal (area 9)
+  r = RunSequentialMatching(src, p);
+  REQUIRE(r->found);
+  CHECK(r->best.row_min == 0);
+  CHECK(r->best.row_max == 2);
+  CHECK(r->best.span_rows() == 3);
+  CHECK(r->best.span_area() == 9);
+  CHECK(r->best.cell_count == 3);
+  CHECK(r->cells.size() == 3);
+  CHECK(r->best.mean_distance() == doctest::Approx(0.05));
+  p.tau_area = 10;
+  r = RunSequentialMatching(src, p);
+  CHECK_FALSE(r->found);
+  CHECK(r->no_candidate_reason == "no cluster with span area >= tau_area = 10: largest was 9 (2 clusters)");
+}
+
+}  // namespace
+}  // namespace commerge
