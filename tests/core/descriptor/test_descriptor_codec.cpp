@@ -13,19 +13,12 @@
 #include <vector>
 
 #include "core/descriptor/descriptor_codec.hpp"
+#include "tests/core/descriptor/descriptor_test_util.hpp"
 #include "core/descriptor/solid.hpp"
 
 namespace commerge {
 namespace {
 
-template <class T, std::size_t N>
-Span<T> AsSpan(std::array<T, N>& a) {
-  return {a.data(), N};
-}
-template <class T, std::size_t N>
-Span<const T> AsSpan(const std::array<T, N>& a) {
-  return {a.data(), N};
-}
 
 constexpr double kPi = 3.14159265358979323846;
 using Descriptor = std::array<float, kKeyframeDescriptorDim>;

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/descriptor/descriptor_codec.hpp"
+#include "tests/core/descriptor/descriptor_test_util.hpp"
 #include "core/descriptor/scan_context.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/sim/synthetic_scan.hpp"
@@ -21,16 +22,6 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kRadToDeg = 180.0 / kPi;
 
-std::vector<PointXYZI> YawedCopy(const std::vector<PointXYZI>& in, double psi_rad) {  // p_q = R_z(-psi) p
-  const double c = std::cos(psi_rad), s = std::sin(psi_rad);
-  std::vector<PointXYZI> out(in);
-  for (PointXYZI& p : out) {
-    const double x = p.x, y = p.y;
-    p.x = static_cast<float>(c * x + s * y);
-    p.y = static_cast<float>(-s * x + c * y);
-  }
-  return out;
-}
 
 std::vector<PointXYZI> Street(float x_m) {
   static const BoxScene scene = MakeStreetScene(11);

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/descriptor/sensor_presets.hpp"
+#include "tests/core/descriptor/descriptor_test_util.hpp"
 #include "core/descriptor/solid.hpp"
 #include "core/sim/synthetic_scan.hpp"
 
@@ -86,17 +87,6 @@ RefSolid ReferenceSolid(const std::vector<PointXYZI>& pts, const SolidParams& p)
   return out;
 }
 
-// p_q = R_z(-psi) p: the query seen from a sensor yawed by +psi (SOLID.md §3), rotated in double.
-std::vector<PointXYZI> YawedCopy(const std::vector<PointXYZI>& in, double psi_rad) {
-  const double c = std::cos(psi_rad), s = std::sin(psi_rad);
-  std::vector<PointXYZI> out(in);
-  for (PointXYZI& p : out) {
-    const double x = p.x, y = p.y;
-    p.x = static_cast<float>(c * x + s * y);
-    p.y = static_cast<float>(-s * x + c * y);
-  }
-  return out;
-}
 
 // A 32-beam ray-cast street scan (~40 k points): HDL-64E vertical FOV, 1024 columns.
 const std::vector<PointXYZI>& StreetScan(float x_m) {

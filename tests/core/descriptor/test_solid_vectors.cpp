@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/descriptor/descriptor_codec.hpp"
+#include "tests/core/descriptor/descriptor_test_util.hpp"
 #include "core/descriptor/solid.hpp"
 #include "platform/io/kitti_bin.hpp"
 #include "tests/support/test_data.hpp"
@@ -25,14 +26,6 @@
 namespace commerge {
 namespace {
 
-template <class T, std::size_t N>
-Span<T> AsSpan(std::array<T, N>& a) {
-  return {a.data(), N};
-}
-template <class T, std::size_t N>
-Span<const T> AsSpan(const std::array<T, N>& a) {
-  return {a.data(), N};
-}
 
 constexpr char kData[] = "solid_vectors";
 constexpr double kPi = 3.14159265358979323846;
