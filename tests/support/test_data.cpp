@@ -3,6 +3,8 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <filesystem>
 #include <random>
 #include <string>
@@ -26,6 +28,17 @@ std::string SharedDataPathOrSkip(const std::string& relative) {
               p.string().c_str());
   std::fflush(stdout);
   return {};
+}
+
+std::string ReadTextFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    std::fprintf(stderr, "test_data: cannot open %s\n", path.c_str());
+    std::abort();
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
 }
 
 namespace {

@@ -14,6 +14,9 @@ std::string SharedDataDir();
 /// reports as a skipped test, and returns an empty string.
 std::string SharedDataPathOrSkip(const std::string& relative);
 
+/// Whole contents of a file; aborts the test process with a message naming the file when it cannot be read.
+std::string ReadTextFile(const std::string& path);
+
 /// A fresh, empty directory for this test process (under $TMPDIR or /tmp), removed at exit.
 std::string ScratchDir();
 
