@@ -2,11 +2,13 @@
 // commerge: inter-robot affinity A_ij = ||D^alpha_i - D^beta_j||_2 (paper "Inter-Robot Place Recognition",
 // SOLID.md §2) computed tile by tile, so the dense N x M matrix never exists in memory. A tile kernel forms
 // the distances of a block of rows x columns GEMM style, d = sqrt(max(0, ||a||^2 + ||b||^2 - 2 a.b)), and hands
-// the block to a consumer. Memory: the two descriptor sets (borrowed), O(N + M) norms/flags, one tile.
+// the block to a consumer. Memory: the two descriptor sets (borrowed), O(N + M) norms, one beta copy packed
+// for the register-blocked product (~M x D floats), one tile.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "core/common/span.hpp"
@@ -16,7 +18,11 @@ namespace commerge {
 
 /// Borrowed descriptors of one robot: `count()` rows of `dim` floats, row-major, each row a unit-normalised
 /// R-SOLiD (SOLID.md §2.1). A keyframe is invalid (never matches, distance +inf) when its flag is 0, when a
-/// value is not finite, or when its squared norm is 0.
+/// value is not finite, or when its squared norm (rounded to float) is 0 or above kMaxDescriptorNorm2.
+/// Largest squared norm of a valid keyframe. Far above any real descriptor (unit R-SOLiD: 1); keeps every
+/// float product and sum of the kernel finite, so a huge (untrusted) vector can never produce NaN or 0.
+constexpr float kMaxDescriptorNorm2 = 1e30f;
+
 struct DescriptorSetView {
   Span<const float> values;         ///< count x dim floats, row-major
   std::size_t dim = 0;              ///< descriptor length D (40 for the SOLiD presets), >= 1
@@ -37,6 +43,9 @@ struct AffinityTile {
   std::size_t cols = 0;
   std::size_t stride = 0;            ///< floats between consecutive rows, >= cols
   const float* distances = nullptr;  ///< unit-L2 distances in [0, sqrt(2)] or +inf; valid until the next call
+  /// Smallest element of the tile (+inf when every pair is invalid); NaN = not provided by the source.
+  /// Consumers use it to skip tiles without a cell below their threshold.
+  float min_distance = std::numeric_limits<float>::quiet_NaN();
 
   float at(std::size_t r, std::size_t c) const noexcept { return distances[r * stride + c]; }
 };
@@ -54,9 +63,14 @@ class AffinityTileSource {
                              AffinityTile* tile) = 0;
 };
 
-/// GEMM-style tile kernel over two descriptor sets (Eigen product per tile, float). The distance form
-/// ||a||^2 + ||b||^2 - 2 a.b cancels near d = 0 (absolute error in d up to ~1e-3 there, ~1e-6 at d = 0.1);
-/// irrelevant for the thresholds 0.01 ... 0.10. Holds one tile buffer of max_tile_rows x max_tile_cols floats.
+/// GEMM-style tile kernel over two descriptor sets (float, register-blocked: 6 alpha rows x 8 beta columns
+/// per micro block, beta packed once in 8-column panels, swept in L1-sized column chunks). The distance form ||a||^2 + ||b||^2 - 2 a.b cancels
+/// near d = 0 (absolute error in d up to ~1e-3 there, ~1e-6 at d = 0.1); irrelevant for the thresholds
+/// 0.01 ... 0.10. Every tile reports its minimum (AffinityTile::min_distance).
+///
+/// Position independence: the value of cell (i, j) is the same float whatever tile it is computed in (same
+/// instruction sequence for every cell; partial blocks are padded, never computed by a different code path).
+/// So a cell computed by an incremental update equals, bit for bit, the one of a full pass.
 class AffinityTileKernel final : public AffinityTileSource {
  public:
   AffinityTileKernel() = default;
@@ -64,16 +78,30 @@ class AffinityTileKernel final : public AffinityTileSource {
   static Result<AffinityTileKernel> Create(const DescriptorSetView& alpha, const DescriptorSetView& beta,
                                            std::size_t max_tile_rows, std::size_t max_tile_cols);
 
+  /// The sets grew: `alpha` and `beta` are the same sets with keyframes appended (the first num_rows() /
+  /// num_cols() keyframes unchanged - the caller's contract; the storage may have moved). Computes the norms
+  /// and packs of the new keyframes only. Errors: an invalid set, another dim, a set that shrank.
+  Status Extend(const DescriptorSetView& alpha, const DescriptorSetView& beta);
+
+  /// Reserves the per-keyframe arrays (norms, beta pack) for this many keyframes, so Extend() up to them
+  /// never reallocates. A start-up allocation (may throw std::bad_alloc).
+  void Reserve(std::size_t alpha_count, std::size_t beta_count);
+
   std::size_t num_rows() const noexcept override { return alpha_count_; }
   std::size_t num_cols() const noexcept override { return beta_count_; }
   Status ComputeTile(std::size_t row_begin, std::size_t col_begin, std::size_t rows, std::size_t cols,
                      AffinityTile* tile) override;
 
-  /// Effective validity (flag, finite, non-zero) of alpha row i / beta column j.
-  bool alpha_valid(std::size_t i) const noexcept { return alpha_norm2_[i] >= 0.0f; }
-  bool beta_valid(std::size_t j) const noexcept { return beta_norm2_[j] >= 0.0f; }
+  /// Effective validity (flag, finite, 0 < ||v||^2 <= kMaxDescriptorNorm2) of alpha row i / beta column j.
+  bool alpha_valid(std::size_t i) const noexcept { return alpha_norm2_[i] <= kMaxDescriptorNorm2; }
+  bool beta_valid(std::size_t j) const noexcept { return beta_norm2_[j] <= kMaxDescriptorNorm2; }
+
+  /// Cells computed by ComputeTile since creation (sum of rows x cols of every successful call).
+  std::uint64_t cells_computed() const noexcept { return cells_computed_; }
 
  private:
+  void PackBetaFrom(std::size_t first_col);
+
   const float* alpha_ = nullptr;
   const float* beta_ = nullptr;
   std::size_t dim_ = 0;
@@ -81,9 +109,13 @@ class AffinityTileKernel final : public AffinityTileSource {
   std::size_t beta_count_ = 0;
   std::size_t max_tile_rows_ = 0;
   std::size_t max_tile_cols_ = 0;
-  std::vector<float> alpha_norm2_;  ///< ||a_i||^2, or -1 for an invalid keyframe
-  std::vector<float> beta_norm2_;   ///< ||b_j||^2, or -1 for an invalid keyframe
-  std::vector<float> tile_;         ///< max_tile_rows x max_tile_cols
+  std::uint64_t cells_computed_ = 0;
+  std::vector<float> alpha_norm2_;     ///< ||a_i||^2, or +inf for an invalid keyframe
+  std::vector<float> beta_norm2_;      ///< ||b_j||^2, or +inf for an invalid keyframe
+  std::vector<float> beta_pack_;       ///< panels of 8 columns, [panel][k][8]; invalid/padding columns 0
+  std::vector<float> beta_norm_pack_;  ///< [panel][8] copy of beta_norm2_, padding +inf
+  std::vector<float> alpha_pack_;      ///< one micro block of 6 rows, a_ik broadcast x4: [k][row][4]
+  std::vector<float> tile_;            ///< tile buffer, up to max_tile_rows x max_tile_cols
 };
 
 /// Calls consumer(const AffinityTile&) -> Status for every tile of a tile_rows x tile_cols grid over the whole

@@ -16,6 +16,8 @@ constexpr std::int32_t kNoLabel = -1;
 struct Block {
   std::size_t row_begin = 0, col_begin = 0, rows = 0, cols = 0, stride = 0;
   const float* distances = nullptr;
+  float min_distance = std::numeric_limits<float>::quiet_NaN();  // a lower bound of the block; NaN = unknown
+  bool min_is_exact = false;  // min_distance is the block's minimum (else only a bound: the enclosing tile's)
 };
 
 // Union-find node; the statistics are meaningful on roots only.
@@ -85,6 +87,19 @@ class StreamingLabeler {
     if (b.rows == 0 || b.cols == 0 || b.row_begin + b.rows > r1_ || b.col_begin + b.cols > c1_) return OrderError(b);
 
     const std::size_t width = c1_ - c0_, x0 = b.col_begin - c0_;
+    if (!std::isnan(b.min_distance) && !(b.min_distance <= tau_)) {
+      // No cell of the block below tau (the common case far from a revisit): only the minimum and the
+      // border labels (all empty) change.
+      if (b.min_is_exact && std::isfinite(b.min_distance) && static_cast<double>(b.min_distance) < min_distance_) {
+        min_distance_ = static_cast<double>(b.min_distance);
+      }
+      std::fill(left_col_.begin(), left_col_.begin() + static_cast<std::ptrdiff_t>(b.rows), kNoLabel);
+      std::fill(next_row_.begin() + static_cast<std::ptrdiff_t>(x0),
+                next_row_.begin() + static_cast<std::ptrdiff_t>(x0 + b.cols), kNoLabel);
+      next_col_ = b.col_begin + b.cols;
+      if (next_col_ == c1_) EndBand();
+      return Status::Ok();
+    }
     const bool has_left = b.col_begin > c0_;
     labels_.assign(b.rows * b.cols, kNoLabel);
     for (std::size_t r = 0; r < b.rows; ++r) {
@@ -282,6 +297,170 @@ std::string FormatNumber(double v) {
   return os.str();
 }
 
+std::string EmptySetReason(std::size_t n, std::size_t m) {
+  return std::string("no keyframes: robot ") + (n == 0 ? "alpha" : "beta") +
+         " has an empty descriptor set (N = " + std::to_string(n) + ", M = " + std::to_string(m) + ")";
+}
+
+// Fills the no-candidate reason of a result whose statistics are set; true when a cluster qualified.
+bool ExplainCandidate(const SequentialMatchParams& p, bool has_best, SequentialMatchResult* result) {
+  if (result->num_cells_below_threshold == 0) {
+    result->no_candidate_reason =
+        "no cell below tau_inter = " + FormatNumber(p.tau_inter) +
+        (std::isfinite(result->min_distance) ? " (smallest distance " + FormatNumber(result->min_distance) + ")"
+                                             : std::string(" (no valid descriptor pair)"));
+    return false;
+  }
+  if (!has_best) {
+    result->no_candidate_reason = "no cluster with span area >= tau_area = " + std::to_string(p.tau_area) +
+                                  ": largest was " + std::to_string(result->largest_span_area) + " (" +
+                                  std::to_string(result->num_clusters) + " clusters)";
+    return false;
+  }
+  return true;
+}
+
+// Replays the streaming labelling on a sparse, row-major list of below-threshold cells. Cells are visited in
+// the streaming pass's order (tile bands of tile_rows, tiles of tile_cols left to right, rows, columns) and
+// each cell joins its already-labelled neighbours in the streaming pass's order (see
+// StreamingLabeler::Consume), so every union and every distance addition happens in the same sequence:
+// the double distance sums are bit-identical, whatever the tile grid. Memory O(hits).
+class SparseLabeler {
+ public:
+  Status Run(Span<const CompactHit> hits, std::size_t tile_rows, std::size_t tile_cols) {
+    hits_ = hits;
+    const std::size_t h = hits.size();
+    labels_.assign(h, kNoLabel);
+    nodes_.clear();
+    row_ids_.clear();
+    row_starts_.clear();
+    for (std::size_t k = 0; k < h; ++k) {
+      if (k == 0 || hits[k].alpha_index != hits[k - 1].alpha_index) {
+        row_ids_.push_back(hits[k].alpha_index);
+        row_starts_.push_back(static_cast<std::uint32_t>(k));
+      }
+    }
+    row_starts_.push_back(static_cast<std::uint32_t>(h));
+    broken_ = false;
+    const std::size_t tr = tile_rows, tc = tile_cols;
+    for (std::size_t k = 0; k < h;) {
+      const std::size_t band_begin = hits[k].alpha_index / tr * tr;
+      std::size_t k_end = k;
+      while (k_end < h && hits[k_end].alpha_index < band_begin + tr) ++k_end;
+      order_.resize(k_end - k);
+      for (std::size_t q = k; q < k_end; ++q) order_[q - k] = static_cast<std::uint32_t>(q);
+      std::stable_sort(order_.begin(), order_.end(), [&](std::uint32_t x, std::uint32_t y) {
+        return hits[x].beta_index / tc < hits[y].beta_index / tc;
+      });
+      for (const std::uint32_t q : order_) LabelCell(q, band_begin, tr, tc);
+      k = k_end;
+    }
+    if (broken_) return Status(StatusCode::kInternal, "sequential matching: sparse labelling visited a cell twice");
+    return Status::Ok();
+  }
+
+  std::int32_t Find(std::int32_t x) {
+    while (nodes_[static_cast<std::size_t>(x)].parent != x) {
+      Node& n = nodes_[static_cast<std::size_t>(x)];
+      n.parent = nodes_[static_cast<std::size_t>(n.parent)].parent;
+      x = n.parent;
+    }
+    return x;
+  }
+  const std::vector<Node>& nodes() const noexcept { return nodes_; }
+  std::int32_t label(std::size_t hit) const noexcept { return labels_[hit]; }
+
+ private:
+  // Index of the hit at (i, j), or -1.
+  std::ptrdiff_t HitAt(std::size_t i, std::size_t j) const {
+    const auto row = std::lower_bound(row_ids_.begin(), row_ids_.end(), i);
+    if (row == row_ids_.end() || *row != i) return -1;
+    const auto t = static_cast<std::size_t>(row - row_ids_.begin());
+    const CompactHit* first = hits_.data() + row_starts_[t];
+    const CompactHit* last = hits_.data() + row_starts_[t + 1];
+    const CompactHit* it =
+        std::lower_bound(first, last, j, [](const CompactHit& c, std::size_t col) { return c.beta_index < col; });
+    if (it == last || it->beta_index != j) return -1;
+    return it - hits_.data();
+  }
+
+  void LabelCell(std::uint32_t q, std::size_t band_begin, std::size_t tr, std::size_t tc) {
+    const CompactHit& hit = hits_[q];
+    const std::size_t i = hit.alpha_index, j = hit.beta_index;
+    const std::size_t r = i - band_begin, c = j % tc;
+    std::int32_t label = kNoLabel;
+    auto join = [&](std::size_t ii, std::size_t jj) {
+      const std::ptrdiff_t other_hit = HitAt(ii, jj);
+      if (other_hit < 0) return;
+      const std::int32_t other = labels_[static_cast<std::size_t>(other_hit)];
+      if (other == kNoLabel) {  // every joined neighbour precedes the cell in the streaming order
+        broken_ = true;
+        return;
+      }
+      if (label == kNoLabel) {
+        label = other;
+      } else {
+        Union(label, other);
+      }
+    };
+    if (r > 0) {  // the row above inside the same tile
+      if (c > 0) join(i - 1, j - 1);
+      join(i - 1, j);
+      if (c + 1 < tc) join(i - 1, j + 1);
+    } else if (i > 0) {  // the last row of the band above
+      if (j > 0) join(i - 1, j - 1);
+      join(i - 1, j);
+      join(i - 1, j + 1);
+    }
+    if (c > 0) {
+      join(i, j - 1);
+    } else if (j > 0) {  // the last column of the tile on the left: up-left, left, down-left
+      if (r > 0) join(i - 1, j - 1);
+      join(i, j - 1);
+      if (r + 1 < tr) join(i + 1, j - 1);
+    }
+    if (labels_[q] != kNoLabel) broken_ = true;
+    if (label == kNoLabel) {
+      Node n;
+      n.parent = static_cast<std::int32_t>(nodes_.size());
+      n.cluster.row_min = n.cluster.row_max = i;
+      n.cluster.col_min = n.cluster.col_max = j;
+      nodes_.push_back(n);
+      label = n.parent;
+    }
+    labels_[q] = label;
+    SequentialCluster& s = nodes_[static_cast<std::size_t>(Find(label))].cluster;
+    s.row_min = std::min(s.row_min, i);
+    s.row_max = std::max(s.row_max, i);
+    s.col_min = std::min(s.col_min, j);
+    s.col_max = std::max(s.col_max, j);
+    ++s.cell_count;
+    s.distance_sum += static_cast<double>(hit.distance);
+  }
+
+  void Union(std::int32_t a, std::int32_t b) {  // as StreamingLabeler::Union
+    a = Find(a);
+    b = Find(b);
+    if (a == b) return;
+    if (b < a) std::swap(a, b);
+    Node& ra = nodes_[static_cast<std::size_t>(a)];
+    const Node& rb = nodes_[static_cast<std::size_t>(b)];
+    ra.cluster.row_min = std::min(ra.cluster.row_min, rb.cluster.row_min);
+    ra.cluster.row_max = std::max(ra.cluster.row_max, rb.cluster.row_max);
+    ra.cluster.col_min = std::min(ra.cluster.col_min, rb.cluster.col_min);
+    ra.cluster.col_max = std::max(ra.cluster.col_max, rb.cluster.col_max);
+    ra.cluster.cell_count += rb.cluster.cell_count;
+    ra.cluster.distance_sum += rb.cluster.distance_sum;
+    nodes_[static_cast<std::size_t>(b)].parent = a;
+  }
+
+  Span<const CompactHit> hits_;
+  std::vector<std::int32_t> labels_;
+  std::vector<Node> nodes_;
+  std::vector<std::uint32_t> row_ids_, row_starts_, order_;
+  bool broken_ = false;
+};
+
 }  // namespace
 
 Status ValidateSequentialMatchParams(const SequentialMatchParams& p) {
@@ -299,16 +478,15 @@ Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, 
   result.min_distance = std::numeric_limits<double>::infinity();
   const std::size_t n = source.num_rows(), m = source.num_cols();
   if (n == 0 || m == 0) {
-    result.no_candidate_reason = std::string("no keyframes: robot ") + (n == 0 ? "alpha" : "beta") +
-                                 " has an empty descriptor set (N = " + std::to_string(n) +
-                                 ", M = " + std::to_string(m) + ")";
+    result.no_candidate_reason = EmptySetReason(n, m);
     return result;
   }
   const auto tau = static_cast<float>(p.tau_inter);
   StreamingLabeler labeler;
   labeler.Begin(0, n, 0, m, tau, p.tau_area, /*compact=*/true, /*record_cells=*/false);
   s = ForEachAffinityTile(source, p.tile_rows, p.tile_cols, [&](const AffinityTile& t) {
-    return labeler.Consume(Block{t.row_begin, t.col_begin, t.rows, t.cols, t.stride, t.distances});
+    return labeler.Consume(
+        Block{t.row_begin, t.col_begin, t.rows, t.cols, t.stride, t.distances, t.min_distance, /*min_is_exact=*/true});
   });
   if (!s.ok()) return s;
   s = labeler.Finish();
@@ -317,19 +495,7 @@ Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, 
   result.num_cells_below_threshold = labeler.num_below();
   result.largest_span_area = labeler.largest_area();
   result.min_distance = labeler.min_distance();
-  if (result.num_cells_below_threshold == 0) {
-    result.no_candidate_reason =
-        "no cell below tau_inter = " + FormatNumber(p.tau_inter) +
-        (std::isfinite(result.min_distance) ? " (smallest distance " + FormatNumber(result.min_distance) + ")"
-                                            : std::string(" (no valid descriptor pair)"));
-    return result;
-  }
-  if (!labeler.has_best()) {
-    result.no_candidate_reason = "no cluster with span area >= tau_area = " + std::to_string(p.tau_area) +
-                                 ": largest was " + std::to_string(result.largest_span_area) + " (" +
-                                 std::to_string(result.num_clusters) + " clusters)";
-    return result;
-  }
+  if (!ExplainCandidate(p, labeler.has_best(), &result)) return result;
   const Node best = labeler.best();
   result.best = best.cluster;
 
@@ -348,7 +514,8 @@ Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, 
       const std::size_t br0 = std::max(r0, b.row_min), br1 = std::min(r0 + rows, b.row_max + 1);
       const std::size_t bc0 = std::max(c0, b.col_min), bc1 = std::min(c0 + cols, b.col_max + 1);
       s = span_labeler.Consume(Block{br0, bc0, br1 - br0, bc1 - bc0, tile.stride,
-                                     tile.distances + (br0 - r0) * tile.stride + (bc0 - c0)});
+                                     tile.distances + (br0 - r0) * tile.stride + (bc0 - c0), tile.min_distance,
+                                     /*min_is_exact=*/false});
       if (!s.ok()) return s;
       c0 += cols;
     }
@@ -373,6 +540,66 @@ Result<SequentialMatchResult> RunSequentialMatching(const DescriptorSetView& alp
   Result<AffinityTileKernel> kernel = AffinityTileKernel::Create(alpha, beta, params.tile_rows, params.tile_cols);
   if (!kernel.ok()) return kernel.status();
   return RunSequentialMatching(*kernel, params);
+}
+
+}  // namespace commerge
+
+namespace commerge {
+
+Result<SequentialMatchResult> RunSequentialMatchingOnHits(Span<const CompactHit> hits, std::size_t n, std::size_t m,
+                                                          double min_distance, const SequentialMatchParams& p) {
+  Status s = ValidateSequentialMatchParams(p);
+  if (!s.ok()) return s;
+  if (std::isnan(min_distance)) return InvalidArgument("sequential matching: min_distance is NaN");
+  if (hits.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) {
+    return InvalidArgument("sequential matching: " + std::to_string(hits.size()) + " hits exceed the label range");
+  }
+  const auto tau = static_cast<float>(p.tau_inter);
+  for (std::size_t k = 0; k < hits.size(); ++k) {
+    const CompactHit& h = hits[k];
+    const bool ordered = k == 0 || hits[k - 1].alpha_index < h.alpha_index ||
+                         (hits[k - 1].alpha_index == h.alpha_index && hits[k - 1].beta_index < h.beta_index);
+    if (h.alpha_index >= n || h.beta_index >= m || !(h.distance <= tau) || !ordered) {
+      return InvalidArgument("sequential matching: hit " + std::to_string(k) + " (" + std::to_string(h.alpha_index) +
+                             ", " + std::to_string(h.beta_index) + ", " + FormatNumber(static_cast<double>(h.distance)) +
+                             ") is outside the " + std::to_string(n) + " x " + std::to_string(m) +
+                             " matrix, above tau_inter or out of row-major order");
+    }
+  }
+  SequentialMatchResult result;
+  result.min_distance = std::numeric_limits<double>::infinity();
+  if (n == 0 || m == 0) {
+    result.no_candidate_reason = EmptySetReason(n, m);
+    return result;
+  }
+  result.min_distance = min_distance;
+  result.num_cells_below_threshold = hits.size();
+  SparseLabeler labeler;
+  s = labeler.Run(hits, p.tile_rows, p.tile_cols);
+  if (!s.ok()) return s;
+  bool has_best = false;
+  std::int32_t best_root = kNoLabel;
+  const std::vector<Node>& nodes = labeler.nodes();
+  for (std::size_t l = 0; l < nodes.size(); ++l) {
+    if (nodes[l].parent != static_cast<std::int32_t>(l)) continue;
+    const SequentialCluster& c = nodes[l].cluster;
+    ++result.num_clusters;
+    result.largest_span_area = std::max(result.largest_span_area, c.span_area());
+    if (c.span_area() >= p.tau_area && (!has_best || Better(c, result.best))) {
+      has_best = true;
+      result.best = c;
+      best_root = static_cast<std::int32_t>(l);
+    }
+  }
+  if (!ExplainCandidate(p, has_best, &result)) return result;
+  result.cells.reserve(static_cast<std::size_t>(result.best.cell_count));
+  for (std::size_t k = 0; k < hits.size(); ++k) {
+    if (labeler.Find(labeler.label(k)) == best_root) {
+      result.cells.push_back({hits[k].alpha_index, hits[k].beta_index, hits[k].distance});
+    }
+  }
+  result.found = true;
+  return result;
 }
 
 }  // namespace commerge

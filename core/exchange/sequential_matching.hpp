@@ -4,7 +4,9 @@
 // with a streaming union-find that keeps only the previous label row (O(M)) plus one tile of labels, and
 // picks the cluster of lowest mean distance among those whose span area >= tau_area. The cells of the chosen
 // cluster (L_seq) are collected in a second pass over the tiles that intersect its span only. The N x M
-// matrix is never stored.
+// matrix is never stored. Tiles whose reported minimum (AffinityTile::min_distance) is above tau_inter are
+// skipped by the labeller. RunSequentialMatchingOnHits gives the same result from the sparse list of
+// below-threshold cells (the incremental matcher's path, incremental_matching.hpp).
 #pragma once
 
 #include <cstddef>
@@ -12,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/span.hpp"
 #include "core/common/status.hpp"
 #include "core/exchange/affinity.hpp"
 
@@ -71,6 +74,24 @@ struct SequentialMatchResult {
 /// failing source; degenerate inputs (empty sets, nothing below tau_inter, clusters too small) give an OK
 /// result with found == false and no_candidate_reason set.
 Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, const SequentialMatchParams& params);
+
+/// One below-threshold cell in compact form (12 bytes): the sparse input of RunSequentialMatchingOnHits and
+/// the hit store of the incremental matcher (incremental_matching.hpp).
+struct CompactHit {
+  std::uint32_t alpha_index = 0;
+  std::uint32_t beta_index = 0;
+  float distance = 0.0f;  ///< A_ij, <= tau_inter
+};
+
+/// Stage A from the sparse list of the below-threshold cells of an n x m affinity matrix. `hits` must be
+/// exactly the cells with A_ij <= tau_inter (compared in float), sorted row-major without duplicates, and
+/// `min_distance` the smallest finite A_ij of the whole matrix (+inf when none). The labelling replays the
+/// streaming pass (same params.tile_rows x tile_cols grid, same cell order, same neighbour joins), so the
+/// result equals RunSequentialMatching on that matrix field for field, the double distance sums bit for bit.
+/// Memory and time O(hits log hits), independent of n x m. Errors: bad parameters, a NaN min_distance, a
+/// hit outside the matrix, above tau_inter or out of order, more than 2^31 - 1 hits.
+Result<SequentialMatchResult> RunSequentialMatchingOnHits(Span<const CompactHit> hits, std::size_t n, std::size_t m,
+                                                          double min_distance, const SequentialMatchParams& params);
 
 /// Stage A on two descriptor sets (AffinityTileKernel with the parameter tile size). Invalid keyframes (flag 0,
 /// NaN/inf values, zero vector) never match. Errors: malformed sets (ValidateDescriptorSet), different dims,

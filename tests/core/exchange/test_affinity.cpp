@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Tiled affinity kernel: distances against the naive SolidDistance reference, invalid keyframes (flag, NaN,
-// zero vector) at +inf, tile enumeration order and coverage, bad inputs.
+// zero vector, overflowing norm) at +inf, tile enumeration order and coverage, bad inputs; position
+// independence (a cell is the same float in every tile), tile minima, Extend on grown sets, cell counter.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -160,6 +162,118 @@ TEST_CASE("affinity rejects malformed sets and out of range tiles") {
           return Status::Ok();
         }).ok());
   CHECK(tiles == 0);
+}
+
+// Every cell of the whole matrix in one tile (the reference for bit-identity below).
+std::vector<float> WholeMatrix(const DescriptorSetView& a, const DescriptorSetView& b) {
+  auto k = AffinityTileKernel::Create(a, b, std::max<std::size_t>(a.count(), 1), std::max<std::size_t>(b.count(), 1));
+  REQUIRE(k.ok());
+  AffinityTile t;
+  REQUIRE(k->ComputeTile(0, 0, a.count(), b.count(), &t).ok());
+  return std::vector<float>(t.distances, t.distances + a.count() * b.count());
+}
+
+TEST_CASE("affinity kernel values are position independent and tiles report their minimum") {
+  const std::size_t dim = 40, n = 61, m = 75;
+  std::vector<float> va = RandomUnitDescriptors(n, dim, 8), vb = RandomUnitDescriptors(m, dim, 9);
+  for (std::size_t k = 0; k < dim; ++k) vb[3 * dim + k] = va[5 * dim + k];  // one exact pair: d ~ 0
+  vb[10 * dim + 4] = std::numeric_limits<float>::quiet_NaN();              // one invalid column
+  const DescriptorSetView a{va, dim, {}}, b{vb, dim, {}};
+  const std::vector<float> whole = WholeMatrix(a, b);
+  auto kernel = AffinityTileKernel::Create(a, b, 40, 40);
+  REQUIRE(kernel.ok());
+  std::mt19937 rng(4);
+  AffinityTile t;
+  std::uint64_t cells = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    // Arbitrary blocks: offsets not aligned to the 6 x 8 micro blocks, 1-wide, full-capacity.
+    const std::size_t r0 = std::uniform_int_distribution<std::size_t>(0, n - 1)(rng);
+    const std::size_t c0 = std::uniform_int_distribution<std::size_t>(0, m - 1)(rng);
+    const std::size_t rows = std::uniform_int_distribution<std::size_t>(1, std::min<std::size_t>(40, n - r0))(rng);
+    const std::size_t cols = std::uniform_int_distribution<std::size_t>(1, std::min<std::size_t>(40, m - c0))(rng);
+    REQUIRE(kernel->ComputeTile(r0, c0, rows, cols, &t).ok());
+    cells += rows * cols;
+    float tile_min = std::numeric_limits<float>::infinity();
+    for (std::size_t r = 0; r < rows; ++r) {
+      for (std::size_t c = 0; c < cols; ++c) {
+        const float w = whole[(r0 + r) * m + c0 + c];
+        REQUIRE(t.at(r, c) == w);  // bit for bit (inf == inf)
+        tile_min = std::min(tile_min, w);
+      }
+    }
+    CHECK(t.min_distance == tile_min);
+  }
+  CHECK(kernel->cells_computed() == cells);
+  CHECK(whole[5 * m + 3] < 2e-3f);
+  CHECK(std::isinf(whole[7 * m + 10]));
+  // A tile made only of the invalid column: minimum +inf.
+  REQUIRE(kernel->ComputeTile(0, 10, 7, 1, &t).ok());
+  CHECK(std::isinf(t.min_distance));
+}
+
+TEST_CASE("affinity kernel Extend on grown sets equals a kernel on the whole sets") {
+  const std::size_t dim = 40, n = 50, m = 45;
+  const std::vector<float> va = RandomUnitDescriptors(n, dim, 11), vb = RandomUnitDescriptors(m, dim, 12);
+  std::vector<std::uint8_t> fa(n, 1), fb(m, 1);
+  fa[20] = 0;
+  fb[44] = 0;
+  auto prefix = [&](const std::vector<float>& v, const std::vector<std::uint8_t>& f, std::size_t count) {
+    return DescriptorSetView{Span<const float>(v.data(), count * dim), dim, Span<const std::uint8_t>(f.data(), count)};
+  };
+  const std::vector<float> whole = WholeMatrix(prefix(va, fa, n), prefix(vb, fb, m));
+  auto kernel = AffinityTileKernel::Create(prefix(va, fa, 0), prefix(vb, fb, 3), 16, 16);
+  REQUIRE(kernel.ok());
+  kernel->Reserve(n, m);
+  const std::size_t steps[][2] = {{1, 0}, {0, 5}, {13, 1}, {0, 0}, {20, 30}, {16, 6}};
+  std::size_t na = 0, nb = 3;
+  for (const auto& st : steps) {
+    na += st[0];
+    nb += st[1];
+    REQUIRE(kernel->Extend(prefix(va, fa, na), prefix(vb, fb, nb)).ok());
+    CHECK(kernel->num_rows() == na);
+    CHECK(kernel->num_cols() == nb);
+    const Status s = ForEachAffinityTile(*kernel, 16, 16, [&](const AffinityTile& t) {
+      for (std::size_t r = 0; r < t.rows; ++r) {
+        for (std::size_t c = 0; c < t.cols; ++c) REQUIRE(t.at(r, c) == whole[(t.row_begin + r) * m + t.col_begin + c]);
+      }
+      return Status::Ok();
+    });
+    CHECK(s.ok());
+  }
+  CHECK(na == n);
+  CHECK(nb == m);
+  CHECK_FALSE(kernel->alpha_valid(20));
+  CHECK_FALSE(kernel->beta_valid(44));
+  CHECK(kernel->Extend(prefix(va, fa, n - 1), prefix(vb, fb, m)).code() == StatusCode::kInvalidArgument);  // shrank
+  const DescriptorSetView other_dim{Span<const float>(va.data(), 39 * 10), 39, {}};
+  CHECK_FALSE(kernel->Extend(other_dim, prefix(vb, fb, m)).ok());
+  CHECK(kernel->num_rows() == n);  // unchanged by the failed calls
+}
+
+TEST_CASE("affinity huge or tiny norms are invalid instead of overflowing") {
+  const std::size_t dim = 4;
+  std::vector<float> va = {1e20f, 1e20f, 1e20f, 1e20f,       // ||v||^2 = 4e40: above kMaxDescriptorNorm2
+                           1e-30f, 0.0f, 0.0f, 0.0f,         // ||v||^2 = 1e-60: rounds to 0 in float
+                           1e14f, 1e14f, 1e14f, 1e14f,       // ||v||^2 = 4e28: valid, still finite math
+                           0.5f, 0.5f, 0.5f, 0.5f};
+  const DescriptorSetView a{va, dim, {}};
+  auto kernel = AffinityTileKernel::Create(a, a, 4, 4);
+  REQUIRE(kernel.ok());
+  CHECK_FALSE(kernel->alpha_valid(0));
+  CHECK_FALSE(kernel->alpha_valid(1));
+  CHECK(kernel->alpha_valid(2));
+  CHECK(kernel->alpha_valid(3));
+  AffinityTile t;
+  REQUIRE(kernel->ComputeTile(0, 0, 4, 4, &t).ok());
+  for (std::size_t r = 0; r < 4; ++r) {
+    for (std::size_t c = 0; c < 4; ++c) {
+      const bool valid = r >= 2 && c >= 2;
+      CHECK(std::isinf(t.at(r, c)) == !valid);
+      CHECK_FALSE(std::isnan(t.at(r, c)));
+    }
+  }
+  CHECK(t.at(3, 3) < 1e-3f);
+  CHECK(t.at(2, 2) >= 0.0f);  // cancellation at 4e28 leaves garbage >= 0, never NaN or negative
 }
 
 }  // namespace

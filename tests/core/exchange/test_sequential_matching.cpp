@@ -2,7 +2,7 @@
 // Stage A (streaming sequential matching) against a naive reference: full matrix, BFS 8-connected
 // labelling, span / mean / tau_area selection. Random matrices with planted bands under many tile sizes,
 // structured descriptor cases (diagonal, anti-diagonal, two bands, band across tile borders) and the
-// no-candidate reasons.
+// no-candidate reasons. The sparse replay (RunSequentialMatchingOnHits) against the streaming pass, exactly.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -192,6 +192,88 @@ TEST_CASE("sequential matching streaming equals the naive BFS reference on rando
       }
     }
   }
+}
+
+// The below-threshold cells of a stored matrix, row-major, and its smallest finite element.
+std::vector<CompactHit> HitsOf(const std::vector<float>& a, std::size_t n, std::size_t m, double tau, double* min_d) {
+  std::vector<CompactHit> hits;
+  *min_d = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < m; ++j) {
+      const float d = a[i * m + j];
+      if (std::isfinite(d)) *min_d = std::min(*min_d, static_cast<double>(d));
+      if (d <= static_cast<float>(tau)) {
+        hits.push_back({static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j), d});
+      }
+    }
+  }
+  return hits;
+}
+
+TEST_CASE("sequential matching on hits replays the streaming pass exactly on random matrices") {
+  const std::vector<std::pair<std::size_t, std::size_t>> sizes = {{1, 1}, {1, 200}, {200, 1}, {57, 3},
+                                                                   {60, 75}, {130, 140}};
+  const std::vector<std::pair<std::size_t, std::size_t>> tiles = {{1, 1}, {2, 3}, {7, 7}, {16, 5}, {64, 64}, {256, 256}};
+  std::uint32_t seed = 300;
+  std::size_t found = 0, total = 0;
+  for (const auto& nm : sizes) {
+    for (const double noise : {0.0, 0.05, 0.35, 0.9, -0.35}) {
+      const std::size_t n = nm.first, m = nm.second;
+      std::vector<float> matrix = RandomMatrixWithBands(n, m, std::fabs(noise), 4, ++seed);
+      if (noise < 0.0) {
+        // Below-tau values spread over 60 binary orders of magnitude: double sums of these floats are no
+        // longer exact, so only the same additions in the same order give the same sums.
+        std::mt19937 rng(seed);
+        std::uniform_real_distribution<float> e(0.0f, 60.0f);
+        for (float& v : matrix) {
+          if (v <= 0.10f) v = 0.1f * std::exp2(-e(rng));
+        }
+      }
+      MatrixTileSource src(std::move(matrix), n, m);
+      double min_d = 0.0;
+      const std::vector<CompactHit> hits = HitsOf(src.matrix(), n, m, 0.10, &min_d);
+      for (const std::uint64_t tau_area : {std::uint64_t{1}, std::uint64_t{30}, std::uint64_t{400}}) {
+        for (const auto& tile : tiles) {
+          CAPTURE(n);
+          CAPTURE(m);
+          CAPTURE(noise);
+          CAPTURE(tau_area);
+          CAPTURE(tile.first);
+          CAPTURE(tile.second);
+          SequentialMatchParams p;
+          p.tau_area = tau_area;
+          p.tile_rows = tile.first;
+          p.tile_cols = tile.second;
+          auto want = RunSequentialMatching(src, p);
+          auto got = RunSequentialMatchingOnHits(hits, n, m, min_d, p);
+          REQUIRE(want.ok());
+          REQUIRE(got.ok());
+          CHECK(got->found == want->found);
+          CHECK(got->num_clusters == want->num_clusters);
+          CHECK(got->num_cells_below_threshold == want->num_cells_below_threshold);
+          CHECK(got->largest_span_area == want->largest_span_area);
+          CHECK(got->min_distance == want->min_distance);
+          CHECK(got->no_candidate_reason == want->no_candidate_reason);
+          CHECK(got->best.row_min == want->best.row_min);
+          CHECK(got->best.row_max == want->best.row_max);
+          CHECK(got->best.col_min == want->best.col_min);
+          CHECK(got->best.col_max == want->best.col_max);
+          CHECK(got->best.cell_count == want->best.cell_count);
+          CHECK(got->best.distance_sum == want->best.distance_sum);  // same additions, same order
+          REQUIRE(got->cells.size() == want->cells.size());
+          for (std::size_t k = 0; k < got->cells.size(); ++k) {
+            CHECK(got->cells[k].alpha_index == want->cells[k].alpha_index);
+            CHECK(got->cells[k].beta_index == want->cells[k].beta_index);
+            CHECK(got->cells[k].distance == want->cells[k].distance);
+          }
+          found += got->found ? 1 : 0;
+          ++total;
+        }
+      }
+    }
+  }
+  CHECK(found > 0);
+  CHECK(found < total);
 }
 
 // Smooth trajectory of unit descriptors: each keyframe a small random step from the previous one.
@@ -413,6 +495,50 @@ TEST_CASE("sequential matching span area is inclusive rows x cols and selection 
   r = RunSequentialMatching(src, p);
   CHECK_FALSE(r->found);
   CHECK(r->no_candidate_reason == "no cluster with span area >= tau_area = 10: largest was 9 (2 clusters)");
+}
+
+TEST_CASE("sequential matching tile minimum skips do not change the result") {
+  // The descriptor kernel reports a tile minimum; the labeller then skips tiles above tau. Same source with
+  // and without the minimum: identical results.
+  class NoMinimum final : public AffinityTileSource {
+   public:
+    explicit NoMinimum(AffinityTileSource& s) : s_(s) {}
+    std::size_t num_rows() const noexcept override { return s_.num_rows(); }
+    std::size_t num_cols() const noexcept override { return s_.num_cols(); }
+    Status ComputeTile(std::size_t r0, std::size_t c0, std::size_t rows, std::size_t cols, AffinityTile* t) override {
+      Status st = s_.ComputeTile(r0, c0, rows, cols, t);
+      t->min_distance = std::numeric_limits<float>::quiet_NaN();
+      return st;
+    }
+
+   private:
+    AffinityTileSource& s_;
+  };
+  std::mt19937 rng(17);
+  const std::size_t dim = 40;
+  const std::vector<float> va = RandomWalkDescriptors(300, dim, 0.05f, &rng);
+  std::vector<float> vb = RandomWalkDescriptors(280, dim, 0.05f, &rng);
+  PlantRevisit(va, &vb, dim, 40, 100, +1, 150, &rng);
+  SequentialMatchParams p;
+  p.tau_area = 400;
+  for (const auto& tile : {std::pair<std::size_t, std::size_t>{256, 256}, {32, 16}, {5, 9}}) {
+    p.tile_rows = tile.first;
+    p.tile_cols = tile.second;
+    auto kernel = AffinityTileKernel::Create({va, dim, {}}, {vb, dim, {}}, p.tile_rows, p.tile_cols);
+    REQUIRE(kernel.ok());
+    NoMinimum plain(*kernel);
+    auto a = RunSequentialMatching(*kernel, p);
+    auto b = RunSequentialMatching(plain, p);
+    REQUIRE(a.ok());
+    REQUIRE(b.ok());
+    REQUIRE(a->found);
+    CHECK(a->found == b->found);
+    CHECK(a->num_clusters == b->num_clusters);
+    CHECK(a->num_cells_below_threshold == b->num_cells_below_threshold);
+    CHECK(a->min_distance == b->min_distance);
+    CHECK(a->best.distance_sum == b->best.distance_sum);
+    CHECK(a->cells.size() == b->cells.size());
+  }
 }
 
 }  // namespace
