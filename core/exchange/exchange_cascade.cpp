@@ -1,0 +1,122 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "core/exchange/exchange_cascade.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <utility>
+
+namespace commerge {
+namespace {
+
+// Distinct values of `indices`, ascending.
+std::vector<std::size_t> Distinct(std::vector<std::size_t> indices) {
+  std::sort(indices.begin(), indices.end());
+  indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
+  return indices;
+}
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+int CompactIndex(const std::vector<std::size_t>& sorted, std::size_t value) {
+  return static_cast<int>(std::lower_bound(sorted.begin(), sorted.end(), value) - sorted.begin());
+}
+
+}  // namespace
+
+const char* CascadeOutcomeName(CascadeOutcome outcome) noexcept {
+  switch (outcome) {
+    case CascadeOutcome::kPolicy: return "policy";
+    case CascadeOutcome::kNoCandidate: return "no-candidate";
+    case CascadeOutcome::kSolverFailure: return "solver-failure";
+  }
+  return "unknown";
+}
+
+Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                                                 const ExchangeCascadeParams& params) {
+  if (Status s = ValidateStageCParams(params.stage_c); !s.ok()) return s;
+  if (Status s = ValidateDescriptorSet(alpha.descriptors, "alpha"); !s.ok()) return s;
+  if (Status s = ValidateDescriptorSet(beta.descriptors, "beta"); !s.ok()) return s;
+  if (alpha.positions_m.size() != alpha.descriptors.count() || beta.positions_m.size() != beta.descriptors.count()) {
+    return InvalidArgument("cascade: positions per robot must match its descriptors (alpha " +
+                           std::to_string(alpha.positions_m.size()) + " vs " +
+                           std::to_string(alpha.descriptors.count()) + ", beta " +
+                           std::to_string(beta.positions_m.size()) + " vs " + std::to_string(beta.descriptors.count()) +
+                           ")");
+  }
+  ExchangeCascadeResult result;
+
+  // Stage A: L_seq.
+  auto t0 = std::chrono::steady_clock::now();
+  auto stage_a = RunSequentialMatching(alpha.descriptors, beta.descriptors, params.stage_a);
+  if (!stage_a.ok()) return stage_a.status();
+  result.stage_a = std::move(*stage_a);
+  result.stage_a_s = SecondsSince(t0);
+  if (!result.stage_a.found) {
+    result.no_candidate_reason = "stage A: " + result.stage_a.no_candidate_reason;
+    return result;
+  }
+
+  // Stage B on the exchange graph of L_seq: vertices = distinct keyframes, compacted to 0..n-1 per robot.
+  t0 = std::chrono::steady_clock::now();
+  const std::vector<SequentialLoopCell>& l_seq = result.stage_a.cells;
+  std::vector<std::size_t> alpha_ids, beta_ids;
+  alpha_ids.reserve(l_seq.size());
+  beta_ids.reserve(l_seq.size());
+  for (const SequentialLoopCell& l : l_seq) {
+    alpha_ids.push_back(l.alpha_index);
+    beta_ids.push_back(l.beta_index);
+  }
+  alpha_ids = Distinct(std::move(alpha_ids));
+  beta_ids = Distinct(std::move(beta_ids));
+  result.stage_b_vertices_alpha = alpha_ids.size();
+  result.stage_b_vertices_beta = beta_ids.size();
+  std::vector<BipartiteEdge> edges;
+  edges.reserve(l_seq.size());
+  for (const SequentialLoopCell& l : l_seq) {
+    edges.push_back({CompactIndex(alpha_ids, l.alpha_index), CompactIndex(beta_ids, l.beta_index)});
+  }
+  auto graph = BipartiteGraph::Create(static_cast<int>(alpha_ids.size()), static_cast<int>(beta_ids.size()),
+                                      std::move(edges));
+  if (!graph.ok()) return graph.status();
+  auto stage_b = SolveBalancedVertexCover(*graph, params.stage_b);
+  if (!stage_b.ok()) return stage_b.status();
+  result.stage_b = std::move(*stage_b);
+  result.stage_b_s = SecondsSince(t0);
+  if (result.stage_b.status == BalancedCoverStatus::kInfeasible ||
+      result.stage_b.status == BalancedCoverStatus::kLimitWithoutSolution) {
+    result.outcome = CascadeOutcome::kSolverFailure;
+    result.no_candidate_reason = std::string("stage B: ") + BalancedCoverStatusName(result.stage_b.status);
+    return result;
+  }
+  // Back to keyframe indices (the compaction is monotone, so the lists stay sorted).
+  for (int& v : result.stage_b.selected_left) v = static_cast<int>(alpha_ids[static_cast<std::size_t>(v)]);
+  for (int& v : result.stage_b.selected_right) v = static_cast<int>(beta_ids[static_cast<std::size_t>(v)]);
+
+  // Stage C: L_K.
+  t0 = std::chrono::steady_clock::now();
+  auto stage_c = RunStageC(l_seq, result.stage_b.selected_left, result.stage_b.selected_right, alpha.positions_m,
+                           beta.positions_m, params.stage_c);
+  if (!stage_c.ok()) return stage_c.status();
+  result.stage_c = std::move(*stage_c);
+  result.stage_c_s = SecondsSince(t0);
+  if (result.stage_c.selected_loops.empty()) {
+    result.no_candidate_reason = "stage C: " + result.stage_c.no_candidate_reason;
+    return result;
+  }
+
+  // Exchange policy.
+  t0 = std::chrono::steady_clock::now();
+  auto policy = MakeExchangePolicy(result.stage_c.selected_loops, alpha.stored_points, beta.stored_points,
+                                   params.policy);
+  if (!policy.ok()) return policy.status();
+  result.policy = std::move(*policy);
+  result.policy_s = SecondsSince(t0);
+  result.outcome = CascadeOutcome::kPolicy;
+  return result;
+}
+
+}  // namespace commerge

@@ -1,0 +1,66 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: the server's three-stage cascade for one robot pair, read like the paper: affinity + stage A
+// (sequential matching) -> stage B (balanced vertex cover) -> stage C (maximum edge-weighted clique) -> exchange
+// policy. Nested by construction: L_K subset of L_V subset of L_seq subset of L. Every stage's outcome, size and
+// optimality is kept in the result so a report (and a field engineer) can see where the candidates went.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/common/span.hpp"
+#include "core/common/status.hpp"
+#include "core/exchange/affinity.hpp"
+#include "core/exchange/balanced_vertex_cover.hpp"
+#include "core/exchange/compatibility_graph.hpp"
+#include "core/exchange/exchange_policy.hpp"
+#include "core/exchange/sequential_matching.hpp"
+
+namespace commerge {
+
+struct ExchangeCascadeParams {
+  SequentialMatchParams stage_a;
+  BalancedCoverParams stage_b;
+  StageCParams stage_c;
+  ExchangePolicyParams policy;
+};
+
+/// One robot's side of the cascade input: descriptors (rows = keyframe index), keyframe positions in the robot's
+/// own map frame (same count), and optionally the stored point count per keyframe (empty = unknown).
+struct CascadeRobotInput {
+  DescriptorSetView descriptors;
+  Span<const Eigen::Vector3d> positions_m;
+  Span<const std::uint32_t> stored_points;
+};
+
+enum class CascadeOutcome {
+  kPolicy,         ///< a non-empty exchange policy was produced
+  kNoCandidate,    ///< a stage found nothing to pass on (reason in no_candidate_reason)
+  kSolverFailure,  ///< stage B hit a limit without any feasible cover, or proved infeasibility (reason given)
+};
+
+const char* CascadeOutcomeName(CascadeOutcome outcome) noexcept;
+
+struct ExchangeCascadeResult {
+  CascadeOutcome outcome = CascadeOutcome::kNoCandidate;
+  std::string no_candidate_reason;   ///< empty for kPolicy
+  SequentialMatchResult stage_a;     ///< L_seq = stage_a.cells
+  BalancedCoverResult stage_b;       ///< selected keyframes (indices of the robots, not of the compacted graph)
+  StageCResult stage_c;              ///< candidate loops (L_V as used) and L_K = stage_c.selected_loops
+  ExchangePolicy policy;
+  std::size_t stage_b_vertices_alpha = 0;  ///< distinct alpha keyframes in L_seq
+  std::size_t stage_b_vertices_beta = 0;   ///< distinct beta keyframes in L_seq
+  /// Wall-clock seconds (steady clock) of stage A (affinity + labelling), B, C and the policy.
+  double stage_a_s = 0.0, stage_b_s = 0.0, stage_c_s = 0.0, policy_s = 0.0;
+};
+
+/// Runs the cascade. Errors: malformed inputs (descriptor sets, positions count != descriptor count, bad params).
+/// Degenerate inputs (no cluster, nothing selected) give an OK result with outcome kNoCandidate and the reason.
+Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                                                 const ExchangeCascadeParams& params);
+
+}  // namespace commerge
