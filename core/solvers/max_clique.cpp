@@ -175,7 +175,7 @@ class CliqueSearch {
 };
 
 // Smallest-last ordering (Batagelj-Zaversnik bucket queue): the vertex removed last (deepest core) gets search
-// index 0, so greedy colouring in index order puts the dense core in the low colours and the branching, which
+// index 0, so greedy colouring in index order gives the dense core the low colours and the branching, which
 // starts from the highest colours, begins with vertices of small neighbourhoods.
 void CliqueSearch::BuildOrder() {
   const int n = n_;
