@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "core/common/bytes.hpp"
+#include "core/common/tsv_table.hpp"
 #include "core/solvers/dimacs_graph.hpp"
 #include "core/solvers/max_clique.hpp"
 #include "platform/io/file_util.hpp"
@@ -90,35 +91,16 @@ bool ParseOptions(int argc, char** argv, Options* o) {
   return true;
 }
 
-using Row = std::map<std::string, std::string>;
+using Row = commerge::TsvRow;
 
 // TSV rows in file order, each as column name -> value.
 std::vector<Row> ReadTsv(const std::string& path) {
-  std::vector<Row> rows;
   auto text = commerge::platform::ReadTextFile(path);
   if (!text.ok()) {
     std::fprintf(stderr, "%s\n", text.status().ToString().c_str());
-    return rows;
+    return {};
   }
-  std::istringstream in(*text);
-  std::string line;
-  std::vector<std::string> header;
-  while (std::getline(in, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    std::vector<std::string> cells;
-    std::istringstream ls(line);
-    std::string cell;
-    while (std::getline(ls, cell, '\t')) cells.push_back(cell);
-    if (header.empty()) {
-      header = cells;
-      continue;
-    }
-    Row row;
-    for (std::size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
-    rows.push_back(row);
-  }
-  return rows;
+  return commerge::ParseTsvTable(*text);
 }
 
 struct Instance {

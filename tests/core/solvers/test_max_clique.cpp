@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/tsv_table.hpp"
 #include "core/solvers/dimacs_graph.hpp"
 #include "core/solvers/max_clique.hpp"
 #include "tests/support/test_data.hpp"
@@ -429,29 +430,11 @@ TEST_CASE("Max clique time limit returns the best clique so far with a valid bou
 // ---- small DIMACS instances vs the optima of ../shared/data/graphs ----
 
 // Rows of a TSV file keyed by the "name" column; each row maps column name -> value.
-std::map<std::string, std::map<std::string, std::string>> ReadTsv(const std::string& path) {
-  std::istringstream in(test::ReadTextFile(path));
-  std::string line;
-  std::vector<std::string> header;
-  std::map<std::string, std::map<std::string, std::string>> rows;
-  auto split = [](const std::string& s) {
-    std::vector<std::string> out;
-    std::string cell;
-    std::istringstream ls(s);
-    while (std::getline(ls, cell, '\t')) out.push_back(cell);
-    return out;
-  };
-  while (std::getline(in, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    const std::vector<std::string> cells = split(line);
-    if (header.empty()) {
-      header = cells;
-      continue;
-    }
-    std::map<std::string, std::string> row;
-    for (std::size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
-    rows[row["name"]] = row;
+std::map<std::string, TsvRow> ReadTsv(const std::string& path) {
+  std::map<std::string, TsvRow> rows;
+  for (TsvRow& row : ParseTsvTable(test::ReadTextFile(path))) {
+    const std::string name = row["name"];
+    rows[name] = std::move(row);
   }
   return rows;
 }

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/tsv_table.hpp"
 #include "core/solvers/dimacs_graph.hpp"
 #include "core/solvers/max_clique.hpp"
 #include "tests/support/test_data.hpp"
@@ -30,30 +31,9 @@ namespace {
 constexpr double kTimeLimitS = 60.0;
 constexpr double kSlowTimeLimitS = 150.0;  // brock400_4, DSJC1000_5
 
-using Row = std::map<std::string, std::string>;
+using Row = TsvRow;
 
-std::vector<Row> ReadTsv(const std::string& path) {
-  std::istringstream in(test::ReadTextFile(path));
-  std::string line;
-  std::vector<std::string> header;
-  std::vector<Row> rows;
-  while (std::getline(in, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    std::vector<std::string> cells;
-    std::istringstream ls(line);
-    std::string cell;
-    while (std::getline(ls, cell, '\t')) cells.push_back(cell);
-    if (header.empty()) {
-      header = cells;
-      continue;
-    }
-    Row row;
-    for (std::size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
-    rows.push_back(row);
-  }
-  return rows;
-}
+std::vector<Row> ReadTsv(const std::string& path) { return ParseTsvTable(test::ReadTextFile(path)); }
 
 CliqueGraph LoadDimacs(const std::string& path, bool edge_weights) {
   Result<DimacsGraph> d = ParseDimacsGraph(test::ReadTextFile(path), path);
