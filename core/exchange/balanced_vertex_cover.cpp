@@ -6,56 +6,411 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <queue>
 #include <string>
 #include <utility>
+
+#include "core/solvers/min_cut.hpp"
 
 namespace commerge {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr double kIntTol = 1e-6;
+using Fix = std::int8_t;  // per vertex in a node: -1 free, 0 not sent, 1 sent
+constexpr double kFracTol = 1e-6;
+constexpr int kMaxFixingPasses = 8;        // re-bounds of one node after reduced-cost fixing ...
+constexpr double kReboundFraction = 0.05;  // ... when at least this fraction of its free vertices got fixed
+constexpr double kMaxTotalWeight = 1e100;  // keeps the flow capacities (up to 2 x total + 1) finite
 
-// Vertex ids: left i -> i, right j -> left_count + j. Side 0 = left robot, side 1 = right robot.
-struct Model {
-  int left_count = 0;
-  int vertex_count = 0;
-  std::vector<std::vector<int>> neighbours;
-  std::vector<std::pair<int, int>> edges;  // (left id, right id), global ids
-  int share = 0;
-  int Side(int v) const { return v < left_count ? 0 : 1; }
-};
+// ---------------------------------------------------------------------------------------------------------------
+// Master LP of the Dantzig-Wolfe decomposition (restricted to the columns generated so far):
+//   min sum_k W_k mu_k  s.t.  sum_k mu_k = 1,  sum_k a_rk mu_k >= s_r (one row per active robot),  mu >= 0.
+// Dense revised simplex with Bland's rule (no cycling). Column 0 must satisfy every share row, so the basis
+// {mu_0, slacks} is feasible from the start and no phase 1 is needed. Variables: slack i (i < m) then mu_k.
+class MasterLp {
+ public:
+  void Reset(int m, const std::vector<double>& rhs) {
+    m_ = m;
+    rhs_ = rhs;
+    cost_.clear();
+    counts_.clear();
+    basis_.clear();
+  }
+  void AddColumn(double cost, const std::vector<double>& counts) {
+    cost_.push_back(cost);
+    counts_.insert(counts_.end(), counts.begin(), counts.end());
+  }
+  int columns() const { return static_cast<int>(cost_.size()); }
+  double column_cost(int k) const { return cost_[static_cast<std::size_t>(k)]; }
+  double column_count(int k, int i) const { return counts_[static_cast<std::size_t>(k * m_ + i)]; }
 
-// Fixing of one vertex in a node: -1 free, 0 not sent, 1 sent.
-using Fixing = std::vector<std::int8_t>;
+  // Built-in simplex. Returns false when it failed numerically (then the outputs are not usable).
+  bool Solve() {
+    const int rows = m_ + 1;
+    const auto sr = static_cast<std::size_t>(rows);
+    if (basis_.empty()) {
+      basis_.push_back(m_);  // mu_0
+      for (int i = 0; i < m_; ++i) basis_.push_back(i);
+    }
+    const int vars = m_ + columns();
+    double cmax = 1.0;
+    for (double c : cost_) cmax = std::max(cmax, std::fabs(c));
+    const double tol = 1e-10 * cmax;
+    std::vector<char> in_basis(static_cast<std::size_t>(vars), 0);
+    binv_.assign(sr * sr, 0.0);
+    for (int iter = 0; iter < 5000; ++iter) {
+      std::fill(in_basis.begin(), in_basis.end(), 0);
+      for (int b : basis_) in_basis[static_cast<std::size_t>(b)] = 1;
+      if (!Invert()) return false;
+      // x_B = B^-1 b, y = c_B B^-1.
+      xb_.assign(sr, 0.0);
+      y_.assign(sr, 0.0);
+      for (int i = 0; i < rows; ++i) {
+        double s = binv_[static_cast<std::size_t>(i) * sr];  // b_0 = 1
+        for (int j = 1; j < rows; ++j) s += binv_[static_cast<std::size_t>(i) * sr + static_cast<std::size_t>(j)] * rhs_[static_cast<std::size_t>(j - 1)];
+        xb_[static_cast<std::size_t>(i)] = s;
+      }
+      for (int j = 0; j < rows; ++j) {
+        double s = 0.0;
+        for (int i = 0; i < rows; ++i) s += Cost(basis_[static_cast<std::size_t>(i)]) * binv_[static_cast<std::size_t>(i) * sr + static_cast<std::size_t>(j)];
+        y_[static_cast<std::size_t>(j)] = s;
+      }
+      int enter = -1;
+      for (int j = 0; j < vars && enter < 0; ++j) {
+        if (in_basis[static_cast<std::size_t>(j)]) continue;
+        double d = Cost(j);
+        for (int i = 0; i < rows; ++i) d -= y_[static_cast<std::size_t>(i)] * Entry(i, j);
+        if (d < -tol) enter = j;
+      }
+      if (enter < 0) {
+        mu_.assign(static_cast<std::size_t>(columns()), 0.0);
+        value_ = 0.0;
+        for (int i = 0; i < rows; ++i) {
+          const int b = basis_[static_cast<std::size_t>(i)];
+          const double x = std::max(0.0, xb_[static_cast<std::size_t>(i)]);
+          if (b >= m_) mu_[static_cast<std::size_t>(b - m_)] = x;
+          value_ += Cost(b) * x;
+        }
+        t_ = y_[0];
+        lambda_.assign(static_cast<std::size_t>(m_), 0.0);
+        for (int i = 0; i < m_; ++i) lambda_[static_cast<std::size_t>(i)] = std::max(0.0, y_[static_cast<std::size_t>(i) + 1]);
+        return true;
+      }
+      // Ratio test on u = B^-1 A_enter (Bland: smallest basic variable index among ties).
+      int leave = -1;
+      double best = 0.0;
+      for (int i = 0; i < rows; ++i) {
+        double u = 0.0;
+        for (int j = 0; j < rows; ++j) u += binv_[static_cast<std::size_t>(i) * sr + static_cast<std::size_t>(j)] * Entry(j, enter);
+        if (u <= 1e-11) continue;
+        const double ratio = std::max(0.0, xb_[static_cast<std::size_t>(i)]) / u;
+        if (leave < 0 || ratio < best - 1e-12 ||
+            (ratio <= best + 1e-12 && basis_[static_cast<std::size_t>(i)] < basis_[static_cast<std::size_t>(leave)])) {
+          leave = i;
+          best = ratio;
+        }
+      }
+      if (leave < 0) return false;  // unbounded: impossible with the convexity row
+      basis_[static_cast<std::size_t>(leave)] = enter;
+    }
+    return false;
+  }
 
-// Unit propagation: a vertex fixed to 0 forces its neighbours to 1; a side with exactly `share` vertices not
-// fixed to 0 forces them all to 1. Returns false when the node is infeasible.
-bool Propagate(const Model& md, Fixing& fix) {
-  bool changed = true;
-  while (changed) {
-    changed = false;
-    for (int v = 0; v < md.vertex_count; ++v) {
-      if (fix[static_cast<std::size_t>(v)] != 0) continue;
-      for (int w : md.neighbours[static_cast<std::size_t>(v)]) {
-        std::int8_t& fw = fix[static_cast<std::size_t>(w)];
-        if (fw == 0) return false;
-        if (fw < 0) {
-          fw = 1;
-          changed = true;
+  // Outputs of the last Solve() (or of SetSolution()).
+  double value() const { return value_; }
+  double t() const { return t_; }
+  const std::vector<double>& lambda() const { return lambda_; }
+  const std::vector<double>& mu() const { return mu_; }
+
+  // For an external LP engine: the same master as a LinearProgram, and its solution.
+  LinearProgram AsLinearProgram() const {
+    LinearProgram lp;
+    const auto k = static_cast<std::size_t>(columns());
+    lp.objective = cost_;
+    lp.variable_lower.assign(k, 0.0);
+    lp.variable_upper.assign(k, kLpInfinity);
+    LpRow conv;
+    for (int j = 0; j < columns(); ++j) conv.terms.push_back({j, 1.0});
+    conv.lower = 1.0;
+    conv.upper = 1.0;
+    lp.rows.push_back(std::move(conv));
+    for (int i = 0; i < m_; ++i) {
+      LpRow row;
+      for (int j = 0; j < columns(); ++j) row.terms.push_back({j, column_count(j, i)});
+      row.lower = rhs_[static_cast<std::size_t>(i)];
+      lp.rows.push_back(std::move(row));
+    }
+    return lp;
+  }
+  bool SetSolution(const LpSolution& sol) {
+    if (sol.status != LpStatus::kOptimal || sol.values.size() != static_cast<std::size_t>(columns()) ||
+        sol.row_duals.size() != static_cast<std::size_t>(m_ + 1)) {
+      return false;
+    }
+    basis_.clear();  // the built-in simplex restarts from the slack basis next time
+    mu_ = sol.values;
+    for (double& x : mu_) x = std::max(0.0, x);
+    value_ = sol.objective;
+    t_ = sol.row_duals[0];
+    lambda_.assign(static_cast<std::size_t>(m_), 0.0);
+    for (int i = 0; i < m_; ++i) lambda_[static_cast<std::size_t>(i)] = std::max(0.0, sol.row_duals[static_cast<std::size_t>(i) + 1]);
+    return true;
+  }
+
+ private:
+  double Cost(int var) const { return var < m_ ? 0.0 : cost_[static_cast<std::size_t>(var - m_)]; }
+  // Entry of row `row` (0 = convexity) in the column of variable `var`.
+  double Entry(int row, int var) const {
+    if (var < m_) return row == var + 1 ? -1.0 : 0.0;
+    return row == 0 ? 1.0 : column_count(var - m_, row - 1);
+  }
+  // binv_ = B^-1 by Gauss-Jordan with partial pivoting.
+  bool Invert() {
+    const int rows = m_ + 1;
+    const auto sr = static_cast<std::size_t>(rows);
+    a_.assign(sr * sr, 0.0);
+    for (int i = 0; i < rows; ++i) {
+      for (int j = 0; j < rows; ++j) a_[static_cast<std::size_t>(i) * sr + static_cast<std::size_t>(j)] = Entry(i, basis_[static_cast<std::size_t>(j)]);
+    }
+    std::fill(binv_.begin(), binv_.end(), 0.0);
+    for (int i = 0; i < rows; ++i) binv_[static_cast<std::size_t>(i) * sr + static_cast<std::size_t>(i)] = 1.0;
+    for (int col = 0; col < rows; ++col) {
+      int piv = col;
+      for (int i = col + 1; i < rows; ++i) {
+        if (std::fabs(a_[static_cast<std::size_t>(i) * sr + static_cast<std::size_t>(col)]) >
+            std::fabs(a_[static_cast<std::size_t>(piv) * sr + static_cast<std::size_t>(col)])) {
+          piv = i;
+        }
+      }
+      const double p = a_[static_cast<std::size_t>(piv) * sr + static_cast<std::size_t>(col)];
+      if (std::fabs(p) < 1e-12) return false;
+      if (piv != col) {
+        for (int j = 0; j < rows; ++j) {
+          std::swap(a_[static_cast<std::size_t>(piv) * sr + static_cast<std::size_t>(j)], a_[static_cast<std::size_t>(col) * sr + static_cast<std::size_t>(j)]);
+          std::swap(binv_[static_cast<std::size_t>(piv) * sr + static_cast<std::size_t>(j)], binv_[static_cast<std::size_t>(col) * sr + static_cast<std::size_t>(j)]);
+        }
+      }
+      for (int j = 0; j < rows; ++j) {
+        a_[static_cast<std::size_t>(col) * sr + static_cast<std::size_t>(j)] /= p;
+        binv_[static_cast<std::size_t>(col) * sr + static_cast<std::size_t>(j)] /= p;
+      }
+      for (int i = 0; i < rows; ++i) {
+        if (i == col) continue;
+        const double f = a_[static_cast<std::size_t>(i) * sr + static_cast<std::size_t>(col)];
+        if (f == 0.0) continue;
+        for (int j = 0; j < rows; ++j) {
+          a_[static_cast<std::size_t>(i) * sr + static_cast<std::size_t>(j)] -= f * a_[static_cast<std::size_t>(col) * sr + static_cast<std::size_t>(j)];
+          binv_[static_cast<std::size_t>(i) * sr + static_cast<std::size_t>(j)] -= f * binv_[static_cast<std::size_t>(col) * sr + static_cast<std::size_t>(j)];
         }
       }
     }
-    int possible[2] = {0, 0};
-    for (int v = 0; v < md.vertex_count; ++v) {
-      if (fix[static_cast<std::size_t>(v)] != 0) ++possible[md.Side(v)];
+    return true;
+  }
+
+  int m_ = 0;
+  std::vector<double> rhs_;
+  std::vector<double> cost_;
+  std::vector<double> counts_;  // column-major: counts_[k * m_ + i]
+  std::vector<int> basis_;
+  std::vector<double> a_, binv_, xb_, y_;
+  std::vector<double> mu_, lambda_;
+  double value_ = 0.0;
+  double t_ = 0.0;
+};
+
+// ---------------------------------------------------------------------------------------------------------------
+// The model over the candidate (non-isolated) vertices, renumbered 0..n-1 in global id order (so each robot's
+// candidates stay a contiguous block).
+struct Model {
+  int n = 0;
+  int robots = 0;
+  std::vector<int> global_id;
+  std::vector<int> robot;           // per vertex
+  std::vector<int> robot_first;     // robots + 1 entries: block of robot r = [robot_first[r], robot_first[r+1])
+  std::vector<double> weight;
+  std::vector<int> adj_first;       // CSR adjacency
+  std::vector<int> adj;
+  std::vector<int> share;           // per robot
+  double total_weight = 0.0;
+  bool integral = true;             // every weight is an integer: objectives are integers
+  bool unit = true;                 // every weight is 1
+  int max_matching = 0;             // N_MM: a lower bound on the number of selected scans
+  double abs_tol = 1e-9;            // comparison tolerance in objective units
+  int Degree(int v) const { return adj_first[static_cast<std::size_t>(v) + 1] - adj_first[static_cast<std::size_t>(v)]; }
+};
+
+// An open node: the fixings that define it (branching decisions and reduced-cost fixings, each re-propagated from
+// the root fixings when the node is evaluated, so open nodes stay small), a lower bound and warm-start multipliers.
+struct Node {
+  std::vector<std::pair<int, Fix>> decisions;
+  double bound = 0.0;           // lower bound on the best objective in this subtree
+  std::vector<double> lambda;   // per robot: warm start of the Lagrange multipliers
+  std::uint64_t seq = 0;        // creation order: among equal bounds the newest node is explored first
+};
+
+// Best-first order: smallest bound, then newest (a dive among ties). std heap functions keep the "largest" on top.
+struct NodeOrder {
+  bool operator()(const Node& a, const Node& b) const {
+    if (a.bound != b.bound) return a.bound > b.bound;
+    return a.seq < b.seq;
+  }
+};
+
+class BvcSolver {
+ public:
+  BvcSolver(const Model& md, const BalancedCoverParams& params, LpSolver* external_lp)
+      : md_(md), params_(params), external_lp_(external_lp) {}
+
+  Status Run(MultiRobotCoverResult* res);
+
+ private:
+  // Node-independent helpers.
+  double RoundBound(double x) const {
+    if (!md_.integral) return x;
+    return std::ceil(x - std::min(0.25, md_.abs_tol));
+  }
+  bool Prunable(double bound) const {
+    if (best_obj_ == std::numeric_limits<double>::infinity()) return false;
+    return md_.integral ? bound > best_obj_ - 0.5 : bound >= best_obj_ - md_.abs_tol;
+  }
+  bool FixAndPropagate(std::vector<Fix>& fix, std::vector<int>& avail, int v, Fix value);
+  // Incumbent from a full 0/1 assignment that covers every edge: repaired to meet the shares, then pruned.
+  void OfferCover(std::vector<char> in);
+  bool RepairShares(std::vector<char>& in, std::vector<int>& missing, std::vector<int>& count);
+  void PruneRedundant(std::vector<char>& in, std::vector<int>& missing, std::vector<int>& count);
+  void AddDropSearch(std::vector<char>& in, std::vector<int>& missing, std::vector<int>& count);
+
+  // Node evaluation.
+  Status Evaluate(Node& node, MultiRobotCoverResult* res);
+  // Bounds the node (column generation); *done when it needs no branching (pruned or solved).
+  Status Bound(Node& node, MultiRobotCoverResult* res, bool* done, std::vector<double>* xbar,
+               std::vector<double>* lambda, double* lagrangian);
+  int ReducedCostFixing(Node& node, const std::vector<double>& lambda, double lagrangian, bool* infeasible);
+  Status BuildNetwork();
+  void BuildResidual(const std::vector<Fix>& fix);
+  Status Price(const std::vector<double>& lambda, MultiRobotCoverResult* res, double* pricing_value);
+  Status SolveMaster(MultiRobotCoverResult* res, bool* ok);
+  void OfferColumn(const std::vector<Fix>& fix, const std::vector<std::uint8_t>& x2);
+  void Branch(Node& node, const std::vector<double>& xbar, const std::vector<double>& lambda);
+  void Push(Node node);
+  // Sets fix_ / avail_ to the node's fixings; false when they contradict each other.
+  bool Materialize(const Node& node);
+
+  const Model& md_;
+  const BalancedCoverParams& params_;
+  LpSolver* external_lp_;
+
+  std::vector<char> best_;
+  double best_obj_ = std::numeric_limits<double>::infinity();
+  std::vector<Node> open_;         // heap in NodeOrder
+  Clock::time_point deadline_;
+  bool interrupted_ = false;       // the time limit struck inside a node
+  std::uint64_t next_seq_ = 0;
+  std::vector<Fix> root_fix_;      // fixings valid for the whole search
+  std::vector<Fix> fix_;           // fixings of the node being evaluated
+  std::vector<int> avail_;         // per robot: vertices of the evaluated node not fixed to 0
+
+  // The flow network, built once per solve (nodes only change its capacities).
+  std::vector<int> colour_;         // per vertex: 0/1 side, or 2 = doubled (non-bipartite component)
+  std::vector<int> node_left_;      // per vertex: network node of the left copy (or -1)
+  std::vector<int> node_right_;     // per vertex: network node of the right copy (or -1), offset by left count
+  double big_capacity_ = 0.0;       // capacity of vertices fixed to 0
+  int net_left_ = 0;
+  int net_right_ = 0;
+  BipartiteCoverFlow flow_;
+  std::vector<double> net_weight_;
+  std::vector<char> net_cover_;
+
+  // Residual of the current node.
+  std::vector<int> free_;           // free vertices
+  std::vector<int> local_;          // vertex -> index in free_ or -1
+  std::vector<int> ones_;           // per robot: vertices fixed to 1
+  std::vector<int> residual_share_; // per robot
+  std::vector<int> active_;         // robots with residual share > 0
+  double fixed_weight_ = 0.0;
+
+  // Column generation of the current node.
+  MasterLp master_;
+  std::vector<std::vector<std::uint8_t>> columns_;  // 2 * x per free index
+  std::vector<std::uint8_t> x2_;                     // last priced column
+  std::vector<std::vector<std::uint8_t>> pool_;      // LP support of the last bound, as 2x over all vertices
+  double x2_weight_ = 0.0;
+  std::vector<double> x2_count_;                     // per active robot
+};
+
+bool BvcSolver::FixAndPropagate(std::vector<Fix>& fix, std::vector<int>& avail, int v0, Fix value0) {
+  std::vector<std::pair<int, Fix>> queue{{v0, value0}};
+  for (std::size_t h = 0; h < queue.size(); ++h) {
+    const int v = queue[h].first;
+    const Fix value = queue[h].second;
+    Fix& fv = fix[static_cast<std::size_t>(v)];
+    if (fv == value) continue;
+    if (fv >= 0) return false;
+    fv = value;
+    if (value == 1) continue;
+    const int r = md_.robot[static_cast<std::size_t>(v)];
+    if (--avail[static_cast<std::size_t>(r)] < md_.share[static_cast<std::size_t>(r)]) return false;
+    for (int k = md_.adj_first[static_cast<std::size_t>(v)]; k < md_.adj_first[static_cast<std::size_t>(v) + 1]; ++k) {
+      const int w = md_.adj[static_cast<std::size_t>(k)];
+      if (fix[static_cast<std::size_t>(w)] == 0) return false;
+      if (fix[static_cast<std::size_t>(w)] < 0) queue.push_back({w, 1});
     }
-    for (int s = 0; s < 2; ++s) {
-      if (possible[s] < md.share) return false;
-      if (possible[s] == md.share) {
-        for (int v = 0; v < md.vertex_count; ++v) {
-          if (md.Side(v) == s && fix[static_cast<std::size_t>(v)] < 0) {
-            fix[static_cast<std::size_t>(v)] = 1;
-            changed = true;
+    if (avail[static_cast<std::size_t>(r)] == md_.share[static_cast<std::size_t>(r)]) {
+      for (int u = md_.robot_first[static_cast<std::size_t>(r)]; u < md_.robot_first[static_cast<std::size_t>(r) + 1]; ++u) {
+        if (fix[static_cast<std::size_t>(u)] < 0) queue.push_back({u, 1});
+      }
+    }
+  }
+  return true;
+}
+
+bool BvcSolver::RepairShares(std::vector<char>& in, std::vector<int>& missing, std::vector<int>& count) {
+  // Adds, for each robot short of its share, the vertex with the smallest weight minus the weight of the selected
+  // neighbours it makes redundant (lazy greedy), dropping those neighbours while their robot stays at its share.
+  using Entry = std::pair<double, int>;
+  for (int r = 0; r < md_.robots; ++r) {
+    const int s = md_.share[static_cast<std::size_t>(r)];
+    if (count[static_cast<std::size_t>(r)] >= s) continue;
+    auto score = [&](int u) {
+      double gain = 0.0;
+      for (int k = md_.adj_first[static_cast<std::size_t>(u)]; k < md_.adj_first[static_cast<std::size_t>(u) + 1]; ++k) {
+        const int x = md_.adj[static_cast<std::size_t>(k)];
+        const int rx = md_.robot[static_cast<std::size_t>(x)];
+        if (in[static_cast<std::size_t>(x)] && missing[static_cast<std::size_t>(x)] == 1 &&
+            count[static_cast<std::size_t>(rx)] > md_.share[static_cast<std::size_t>(rx)]) {
+          gain += md_.weight[static_cast<std::size_t>(x)];
+        }
+      }
+      return md_.weight[static_cast<std::size_t>(u)] - gain;
+    };
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
+    for (int u = md_.robot_first[static_cast<std::size_t>(r)]; u < md_.robot_first[static_cast<std::size_t>(r) + 1]; ++u) {
+      if (!in[static_cast<std::size_t>(u)]) heap.push({score(u), u});
+    }
+    while (count[static_cast<std::size_t>(r)] < s) {
+      if (heap.empty()) return false;
+      const Entry top = heap.top();
+      heap.pop();
+      const double now = score(top.second);
+      if (!heap.empty() && now > heap.top().first + 1e-12) {
+        heap.push({now, top.second});
+        continue;
+      }
+      const int u = top.second;
+      in[static_cast<std::size_t>(u)] = 1;
+      ++count[static_cast<std::size_t>(r)];
+      for (int k = md_.adj_first[static_cast<std::size_t>(u)]; k < md_.adj_first[static_cast<std::size_t>(u) + 1]; ++k) {
+        --missing[static_cast<std::size_t>(md_.adj[static_cast<std::size_t>(k)])];
+      }
+      for (int k = md_.adj_first[static_cast<std::size_t>(u)]; k < md_.adj_first[static_cast<std::size_t>(u) + 1]; ++k) {
+        const int x = md_.adj[static_cast<std::size_t>(k)];
+        const int rx = md_.robot[static_cast<std::size_t>(x)];
+        if (in[static_cast<std::size_t>(x)] && missing[static_cast<std::size_t>(x)] == 0 &&
+            count[static_cast<std::size_t>(rx)] > md_.share[static_cast<std::size_t>(rx)]) {
+          in[static_cast<std::size_t>(x)] = 0;
+          --count[static_cast<std::size_t>(rx)];
+          for (int k2 = md_.adj_first[static_cast<std::size_t>(x)]; k2 < md_.adj_first[static_cast<std::size_t>(x) + 1]; ++k2) {
+            ++missing[static_cast<std::size_t>(md_.adj[static_cast<std::size_t>(k2)])];
           }
         }
       }
@@ -64,86 +419,652 @@ bool Propagate(const Model& md, Fixing& fix) {
   return true;
 }
 
-bool IsFeasible(const Model& md, const std::vector<char>& in) {
-  for (const auto& e : md.edges) {
-    if (!in[static_cast<std::size_t>(e.first)] && !in[static_cast<std::size_t>(e.second)]) return false;
-  }
-  int count[2] = {0, 0};
-  for (int v = 0; v < md.vertex_count; ++v) {
-    if (in[static_cast<std::size_t>(v)]) ++count[md.Side(v)];
-  }
-  return count[0] >= md.share && count[1] >= md.share;
-}
-
-// Turns an edge cover `in` into a balanced cover: while a side is short of its share, adds the vertex of that side
-// that makes the most selected opposite vertices redundant, and drops those while the opposite side stays at or
-// above its share; finally drops every redundant vertex whose side stays at or above its share. Returns false when
-// a side has too few candidates.
-bool RepairAndPrune(const Model& md, std::vector<char>& in) {
-  const auto nv = static_cast<std::size_t>(md.vertex_count);
-  std::vector<int> missing(nv, 0);  // neighbours not selected
-  int count[2] = {0, 0};
-  for (int v = 0; v < md.vertex_count; ++v) {
-    if (in[static_cast<std::size_t>(v)]) ++count[md.Side(v)];
-    for (int w : md.neighbours[static_cast<std::size_t>(v)]) {
-      if (!in[static_cast<std::size_t>(w)]) ++missing[static_cast<std::size_t>(v)];
-    }
-  }
-  auto select = [&](int v) {
-    in[static_cast<std::size_t>(v)] = 1;
-    ++count[md.Side(v)];
-    for (int w : md.neighbours[static_cast<std::size_t>(v)]) --missing[static_cast<std::size_t>(w)];
-  };
-  auto drop = [&](int v) {
-    in[static_cast<std::size_t>(v)] = 0;
-    --count[md.Side(v)];
-    for (int w : md.neighbours[static_cast<std::size_t>(v)]) ++missing[static_cast<std::size_t>(w)];
-  };
-  for (int s = 0; s < 2; ++s) {
-    while (count[s] < md.share) {
-      int best = -1;
-      int best_gain = -1;
-      for (int u = 0; u < md.vertex_count; ++u) {
-        if (md.Side(u) != s || in[static_cast<std::size_t>(u)] || md.neighbours[static_cast<std::size_t>(u)].empty()) {
-          continue;
-        }
-        int gain = 0;
-        for (int w : md.neighbours[static_cast<std::size_t>(u)]) {
-          if (in[static_cast<std::size_t>(w)] && missing[static_cast<std::size_t>(w)] == 1) ++gain;
-        }
-        if (gain > best_gain) {
-          best_gain = gain;
-          best = u;
-        }
-      }
-      if (best < 0) return false;
-      select(best);
-      for (int w : md.neighbours[static_cast<std::size_t>(best)]) {
-        if (in[static_cast<std::size_t>(w)] && missing[static_cast<std::size_t>(w)] == 0 && count[1 - s] > md.share) {
-          drop(w);
-        }
-      }
-    }
-  }
+void BvcSolver::PruneRedundant(std::vector<char>& in, std::vector<int>& missing, std::vector<int>& count) {
   std::vector<int> order;
-  for (int v = 0; v < md.vertex_count; ++v) {
-    if (in[static_cast<std::size_t>(v)]) order.push_back(v);
+  for (int v = 0; v < md_.n; ++v) {
+    if (in[static_cast<std::size_t>(v)] && missing[static_cast<std::size_t>(v)] == 0) order.push_back(v);
   }
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return md.neighbours[static_cast<std::size_t>(a)].size() < md.neighbours[static_cast<std::size_t>(b)].size();
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    const double wa = md_.weight[static_cast<std::size_t>(a)];
+    const double wb = md_.weight[static_cast<std::size_t>(b)];
+    if (wa != wb) return wa > wb;
+    return md_.Degree(a) < md_.Degree(b);
   });
   for (int v : order) {
-    if (in[static_cast<std::size_t>(v)] && missing[static_cast<std::size_t>(v)] == 0 && count[md.Side(v)] > md.share) {
-      drop(v);
+    const int r = md_.robot[static_cast<std::size_t>(v)];
+    if (missing[static_cast<std::size_t>(v)] != 0 || count[static_cast<std::size_t>(r)] <= md_.share[static_cast<std::size_t>(r)]) {
+      continue;
     }
+    in[static_cast<std::size_t>(v)] = 0;
+    --count[static_cast<std::size_t>(r)];
+    for (int k = md_.adj_first[static_cast<std::size_t>(v)]; k < md_.adj_first[static_cast<std::size_t>(v) + 1]; ++k) {
+      ++missing[static_cast<std::size_t>(md_.adj[static_cast<std::size_t>(k)])];
+    }
+  }
+}
+
+void BvcSolver::AddDropSearch(std::vector<char>& in, std::vector<int>& missing, std::vector<int>& count) {
+  // (1, k)-swaps: send one more scan u and stop sending the neighbours it makes redundant (heaviest first, while
+  // their robots keep their shares) when that lowers the total weight.
+  auto set = [&](int v, char value) {
+    in[static_cast<std::size_t>(v)] = value;
+    count[static_cast<std::size_t>(md_.robot[static_cast<std::size_t>(v)])] += value ? 1 : -1;
+    for (int k = md_.adj_first[static_cast<std::size_t>(v)]; k < md_.adj_first[static_cast<std::size_t>(v) + 1]; ++k) {
+      missing[static_cast<std::size_t>(md_.adj[static_cast<std::size_t>(k)])] += value ? -1 : 1;
+    }
+  };
+  std::vector<int> cand;
+  std::vector<int> dropped;
+  for (int pass = 0; pass < 6; ++pass) {
+    bool improved = false;
+    for (int u = 0; u < md_.n; ++u) {
+      if (in[static_cast<std::size_t>(u)]) continue;
+      cand.clear();
+      double upper = 0.0;
+      for (int k = md_.adj_first[static_cast<std::size_t>(u)]; k < md_.adj_first[static_cast<std::size_t>(u) + 1]; ++k) {
+        const int x = md_.adj[static_cast<std::size_t>(k)];
+        if (in[static_cast<std::size_t>(x)] && missing[static_cast<std::size_t>(x)] == 1) {
+          cand.push_back(x);
+          upper += md_.weight[static_cast<std::size_t>(x)];
+        }
+      }
+      const double wu = md_.weight[static_cast<std::size_t>(u)];
+      if (upper <= wu + md_.abs_tol) continue;
+      std::sort(cand.begin(), cand.end(), [&](int a, int b) {
+        return md_.weight[static_cast<std::size_t>(a)] > md_.weight[static_cast<std::size_t>(b)];
+      });
+      set(u, 1);
+      dropped.clear();
+      double gain = -wu;
+      for (int x : cand) {
+        const int rx = md_.robot[static_cast<std::size_t>(x)];
+        if (missing[static_cast<std::size_t>(x)] == 0 &&
+            count[static_cast<std::size_t>(rx)] > md_.share[static_cast<std::size_t>(rx)]) {
+          set(x, 0);
+          dropped.push_back(x);
+          gain += md_.weight[static_cast<std::size_t>(x)];
+        }
+      }
+      if (gain > md_.abs_tol) {
+        improved = true;
+      } else {
+        for (int x : dropped) set(x, 1);
+        set(u, 0);
+      }
+    }
+    if (!improved) break;
+  }
+}
+
+void BvcSolver::OfferCover(std::vector<char> in) {
+  std::vector<int> missing(static_cast<std::size_t>(md_.n), 0);
+  std::vector<int> count(static_cast<std::size_t>(md_.robots), 0);
+  for (int v = 0; v < md_.n; ++v) {
+    if (in[static_cast<std::size_t>(v)]) ++count[static_cast<std::size_t>(md_.robot[static_cast<std::size_t>(v)])];
+    for (int k = md_.adj_first[static_cast<std::size_t>(v)]; k < md_.adj_first[static_cast<std::size_t>(v) + 1]; ++k) {
+      if (!in[static_cast<std::size_t>(md_.adj[static_cast<std::size_t>(k)])]) ++missing[static_cast<std::size_t>(v)];
+    }
+  }
+  if (!RepairShares(in, missing, count)) return;
+  PruneRedundant(in, missing, count);
+  AddDropSearch(in, missing, count);
+  double obj = 0.0;
+  for (int v = 0; v < md_.n; ++v) {
+    if (!in[static_cast<std::size_t>(v)]) continue;
+    obj += md_.weight[static_cast<std::size_t>(v)];
+  }
+  if (md_.integral) obj = std::round(obj);
+  if (obj < best_obj_ - (md_.integral ? 0.5 : md_.abs_tol)) {
+    best_obj_ = obj;
+    best_ = std::move(in);
+  }
+}
+
+Status BvcSolver::BuildNetwork() {
+  // 2-colour the candidate graph; components with an odd cycle use the bipartite double cover (two copies of each
+  // vertex, half its cost each: the min-cut then solves the half-integral vertex-cover LP). The network is built
+  // once; nodes only change capacities (fixed to 1: free, 0; fixed to 0: "infinite"), so flows carry over.
+  const auto n = static_cast<std::size_t>(md_.n);
+  colour_.assign(n, -1);
+  std::vector<int> comp;
+  for (std::size_t s = 0; s < n; ++s) {
+    if (colour_[s] >= 0) continue;
+    comp.assign(1, static_cast<int>(s));
+    colour_[s] = md_.robots == 2 ? md_.robot[s] : 0;  // two robots: the robot is the side
+    bool odd = false;
+    for (std::size_t h = 0; h < comp.size(); ++h) {
+      const int v = comp[h];
+      for (int k = md_.adj_first[static_cast<std::size_t>(v)]; k < md_.adj_first[static_cast<std::size_t>(v) + 1]; ++k) {
+        const int w = md_.adj[static_cast<std::size_t>(k)];
+        if (colour_[static_cast<std::size_t>(w)] < 0) {
+          colour_[static_cast<std::size_t>(w)] = 1 - colour_[static_cast<std::size_t>(v)];
+          comp.push_back(w);
+        } else if (colour_[static_cast<std::size_t>(w)] == colour_[static_cast<std::size_t>(v)]) {
+          odd = true;
+        }
+      }
+    }
+    if (odd) {
+      for (int v : comp) colour_[static_cast<std::size_t>(v)] = 2;
+    }
+  }
+  node_left_.assign(n, -1);
+  node_right_.assign(n, -1);
+  net_left_ = 0;
+  net_right_ = 0;
+  for (std::size_t v = 0; v < n; ++v) {
+    if (colour_[v] != 1) node_left_[v] = net_left_++;
+    if (colour_[v] != 0) node_right_[v] = net_right_++;
+  }
+  std::vector<std::pair<int, int>> net_edges;
+  for (std::size_t v = 0; v < n; ++v) {
+    if (colour_[v] == 1) continue;  // every edge once, from its left end (both directions for doubled edges)
+    for (int k = md_.adj_first[v]; k < md_.adj_first[v + 1]; ++k) {
+      net_edges.emplace_back(node_left_[v], node_right_[static_cast<std::size_t>(md_.adj[static_cast<std::size_t>(k)])]);
+    }
+  }
+  big_capacity_ = 2.0 * md_.total_weight + 1.0;
+  return flow_.Assign(net_left_, net_right_, net_edges);
+}
+
+void BvcSolver::BuildResidual(const std::vector<Fix>& fix) {
+  const auto n = static_cast<std::size_t>(md_.n);
+  free_.clear();
+  local_.assign(n, -1);
+  ones_.assign(static_cast<std::size_t>(md_.robots), 0);
+  fixed_weight_ = 0.0;
+  for (int v = 0; v < md_.n; ++v) {
+    const Fix f = fix[static_cast<std::size_t>(v)];
+    if (f == 1) {
+      ++ones_[static_cast<std::size_t>(md_.robot[static_cast<std::size_t>(v)])];
+      fixed_weight_ += md_.weight[static_cast<std::size_t>(v)];
+    } else if (f < 0) {
+      local_[static_cast<std::size_t>(v)] = static_cast<int>(free_.size());
+      free_.push_back(v);
+    }
+  }
+  residual_share_.assign(static_cast<std::size_t>(md_.robots), 0);
+  active_.clear();
+  for (int r = 0; r < md_.robots; ++r) {
+    residual_share_[static_cast<std::size_t>(r)] = std::max(0, md_.share[static_cast<std::size_t>(r)] - ones_[static_cast<std::size_t>(r)]);
+    if (residual_share_[static_cast<std::size_t>(r)] > 0) active_.push_back(r);
+  }
+}
+
+Status BvcSolver::Price(const std::vector<double>& lambda, MultiRobotCoverResult* res, double* pricing_value) {
+  const std::size_t nf = free_.size();
+  net_weight_.assign(static_cast<std::size_t>(net_left_ + net_right_), 0.0);
+  double negative = 0.0;
+  for (int v = 0; v < md_.n; ++v) {
+    const Fix f = fix_[static_cast<std::size_t>(v)];
+    double cap = 0.0;  // fixed to 1: already paid for, covers its edges for free
+    if (f == 0) {
+      cap = big_capacity_;  // never in a minimum cut
+    } else if (f < 0) {
+      const double c = md_.weight[static_cast<std::size_t>(v)] - lambda[static_cast<std::size_t>(md_.robot[static_cast<std::size_t>(v)])];
+      if (c < 0.0) negative += c;  // sent in every Lagrangian optimum
+      cap = std::max(0.0, c);
+    }
+    const int colour = colour_[static_cast<std::size_t>(v)];
+    if (colour == 2) {
+      net_weight_[static_cast<std::size_t>(node_left_[static_cast<std::size_t>(v)])] = 0.5 * cap;
+      net_weight_[static_cast<std::size_t>(net_left_ + node_right_[static_cast<std::size_t>(v)])] = 0.5 * cap;
+    } else if (colour == 0) {
+      net_weight_[static_cast<std::size_t>(node_left_[static_cast<std::size_t>(v)])] = cap;
+    } else {
+      net_weight_[static_cast<std::size_t>(net_left_ + node_right_[static_cast<std::size_t>(v)])] = cap;
+    }
+  }
+  // Warm start from the previous flow (any start is exact; a close one saves most augmentations).
+  Result<double> flow = flow_.Resolve(net_weight_, &net_cover_);
+  ++res->min_cut_solves;
+  if (!flow.ok()) return flow.status();
+  *pricing_value = *flow + negative;
+  x2_.assign(nf, 0);
+  x2_weight_ = 0.0;
+  x2_count_.assign(active_.size(), 0.0);
+  for (std::size_t i = 0; i < nf; ++i) {
+    const auto v = static_cast<std::size_t>(free_[i]);
+    const int r = md_.robot[v];
+    const double c = md_.weight[v] - lambda[static_cast<std::size_t>(r)];
+    std::uint8_t x2 = 0;
+    if (c < 0.0) {
+      x2 = 2;
+    } else if (colour_[v] == 2) {
+      x2 = static_cast<std::uint8_t>(net_cover_[static_cast<std::size_t>(node_left_[v])] +
+                                     net_cover_[static_cast<std::size_t>(net_left_ + node_right_[v])]);
+    } else if (colour_[v] == 0) {
+      x2 = static_cast<std::uint8_t>(2 * net_cover_[static_cast<std::size_t>(node_left_[v])]);
+    } else {
+      x2 = static_cast<std::uint8_t>(2 * net_cover_[static_cast<std::size_t>(net_left_ + node_right_[v])]);
+    }
+    x2_[i] = x2;
+    x2_weight_ += 0.5 * x2 * md_.weight[v];
+  }
+  for (std::size_t a = 0; a < active_.size(); ++a) {
+    const int r = active_[a];
+    double cnt = 0.0;
+    for (int v = md_.robot_first[static_cast<std::size_t>(r)]; v < md_.robot_first[static_cast<std::size_t>(r) + 1]; ++v) {
+      const int i = local_[static_cast<std::size_t>(v)];
+      if (i >= 0) cnt += 0.5 * x2_[static_cast<std::size_t>(i)];
+    }
+    x2_count_[a] = cnt;
+  }
+  return Status::Ok();
+}
+
+Status BvcSolver::SolveMaster(MultiRobotCoverResult* res, bool* ok) {
+  ++res->lp_solves;
+  if (external_lp_ == nullptr) {
+    *ok = master_.Solve();
+    if (*ok) return Status::Ok();
+    // The dense simplex gave up (iteration cap or a near-singular basis): let GLPK solve this master once.
+    GlpkSimplexSolver fallback;
+    Result<LpSolution> sol = fallback.Minimize(master_.AsLinearProgram());
+    if (!sol.ok()) return sol.status();
+    *ok = master_.SetSolution(*sol);
+    return Status::Ok();
+  }
+  Result<LpSolution> sol = external_lp_->Minimize(master_.AsLinearProgram());
+  if (!sol.ok()) return sol.status();
+  *ok = master_.SetSolution(*sol);
+  return Status::Ok();
+}
+
+void BvcSolver::OfferColumn(const std::vector<Fix>& fix, const std::vector<std::uint8_t>& x2) {
+  std::vector<char> in(static_cast<std::size_t>(md_.n), 0);
+  for (int v = 0; v < md_.n; ++v) {
+    const Fix f = fix[static_cast<std::size_t>(v)];
+    if (f == 1) {
+      in[static_cast<std::size_t>(v)] = 1;
+    } else if (f < 0) {
+      in[static_cast<std::size_t>(v)] = x2[static_cast<std::size_t>(local_[static_cast<std::size_t>(v)])] > 0 ? 1 : 0;
+    }
+  }
+  OfferCover(std::move(in));
+}
+
+void BvcSolver::Push(Node node) {
+  node.seq = next_seq_++;
+  open_.push_back(std::move(node));
+  std::push_heap(open_.begin(), open_.end(), NodeOrder());
+}
+
+bool BvcSolver::Materialize(const Node& node) {
+  fix_ = root_fix_;
+  avail_.assign(static_cast<std::size_t>(md_.robots), 0);
+  for (int u = 0; u < md_.n; ++u) {
+    if (fix_[static_cast<std::size_t>(u)] != 0) ++avail_[static_cast<std::size_t>(md_.robot[static_cast<std::size_t>(u)])];
+  }
+  for (const auto& d : node.decisions) {
+    if (!FixAndPropagate(fix_, avail_, d.first, d.second)) return false;
   }
   return true;
 }
 
-struct Node {
-  Fixing fix;
-  int bound = 0;  // lower bound inherited from the parent
-};
+void BvcSolver::Branch(Node& node, const std::vector<double>& xbar, const std::vector<double>& lambda) {
+  // The fractional free vertex with the largest fractionality x weight, nudged towards vertices with many free
+  // neighbours (with unit weights the LP is often 1/2 everywhere: then the residual degree decides, and fixing a
+  // well-connected vertex to 0 forces the most neighbours).
+  std::vector<std::pair<double, int>> ranked;
+  for (std::size_t i = 0; i < free_.size(); ++i) {
+    const double x = xbar[i];
+    const double frac = std::min(x, 1.0 - x);
+    if (frac <= kFracTol || fix_[static_cast<std::size_t>(free_[i])] >= 0) continue;
+    const int v = free_[i];
+    int residual_degree = 0;
+    for (int k = md_.adj_first[static_cast<std::size_t>(v)]; k < md_.adj_first[static_cast<std::size_t>(v) + 1]; ++k) {
+      residual_degree += local_[static_cast<std::size_t>(md_.adj[static_cast<std::size_t>(k)])] >= 0 ? 1 : 0;
+    }
+    const double score = frac * md_.weight[static_cast<std::size_t>(v)] * (1.0 + 1e-3 * residual_degree);
+    ranked.emplace_back(-score, static_cast<int>(i));
+  }
+  if (ranked.empty()) {
+    // No fractional vertex (the column generation stopped at its limit): branch on the largest degree.
+    int best = -1;
+    for (std::size_t i = 0; i < free_.size(); ++i) {
+      if (best < 0 || md_.Degree(free_[i]) > md_.Degree(free_[static_cast<std::size_t>(best)])) best = static_cast<int>(i);
+    }
+    if (best < 0) return;
+    ranked.emplace_back(0.0, best);
+  }
+  const int best = std::min_element(ranked.begin(), ranked.end())->second;
+  const int v = free_[static_cast<std::size_t>(best)];
+  const Fix preferred = xbar[static_cast<std::size_t>(best)] >= 0.5 ? 1 : 0;
+  // Children whose fixings are already contradictory are dropped here.
+  for (const Fix value : {static_cast<Fix>(1 - preferred), preferred}) {
+    std::vector<Fix> fix = fix_;
+    std::vector<int> avail = avail_;
+    if (!FixAndPropagate(fix, avail, v, value)) continue;
+    Node child{node.decisions, node.bound, lambda, 0};
+    child.decisions.emplace_back(v, value);
+    Push(std::move(child));  // the preferred child is pushed last: explored first among equal bounds
+  }
+}
+
+int BvcSolver::ReducedCostFixing(Node& node, const std::vector<double>& lambda, double lagrangian, bool* infeasible) {
+  // Lagrangian/LP reduced costs of the last pricing (see BipartiteCoverFlow::TerminalResidual): any solution of
+  // this node that sends free vertex v weighs at least fixed + lagrangian + d_v, and any that does not send a
+  // vertex of negative Lagrangian cost c_v weighs at least fixed + lagrangian - c_v. Vertices whose forced value
+  // cannot beat the incumbent are fixed the other way.
+  *infeasible = false;
+  if (best_obj_ == std::numeric_limits<double>::infinity()) return 0;
+  const double base = fixed_weight_ + lagrangian;
+  std::vector<std::pair<int, Fix>> fixes;
+  for (std::size_t i = 0; i < free_.size(); ++i) {
+    const int v = free_[i];
+    const double c = md_.weight[static_cast<std::size_t>(v)] - lambda[static_cast<std::size_t>(md_.robot[static_cast<std::size_t>(v)])];
+    if (c < 0.0) {
+      if (Prunable(RoundBound(base - c))) fixes.emplace_back(v, Fix{1});
+      continue;
+    }
+    double d = 0.0;
+    if (node_left_[static_cast<std::size_t>(v)] >= 0) d += flow_.TerminalResidual(node_left_[static_cast<std::size_t>(v)]);
+    if (node_right_[static_cast<std::size_t>(v)] >= 0) d += flow_.TerminalResidual(net_left_ + node_right_[static_cast<std::size_t>(v)]);
+    if (d > 0.0 && Prunable(RoundBound(base + d))) fixes.emplace_back(v, Fix{0});
+  }
+  for (const auto& f : fixes) {
+    node.decisions.push_back(f);
+    if (!FixAndPropagate(fix_, avail_, f.first, f.second)) {
+      *infeasible = true;
+      break;
+    }
+  }
+  return static_cast<int>(fixes.size());
+}
+
+Status BvcSolver::Evaluate(Node& node, MultiRobotCoverResult* res) {
+  if (!Materialize(node)) return Status::Ok();
+  for (int pass = 0;; ++pass) {
+    bool done = false;
+    std::vector<double> xbar;
+    std::vector<double> lambda(static_cast<std::size_t>(md_.robots), 0.0);
+    double lagrangian = 0.0;
+    Status st = Bound(node, res, &done, &xbar, &lambda, &lagrangian);
+    if (!st.ok()) return st;
+    if (interrupted_) {  // time limit inside the node: it stays open with the bound reached so far
+      Push(std::move(node));
+      return Status::Ok();
+    }
+    if (done) return Status::Ok();
+    if (pass < kMaxFixingPasses) {
+      bool infeasible = false;
+      const int fixed = ReducedCostFixing(node, lambda, lagrangian, &infeasible);
+      if (infeasible) return Status::Ok();
+      // Re-bound the node when the fixings are substantial; otherwise they only take effect in the children.
+      if (fixed > 0 && fixed >= kReboundFraction * static_cast<double>(free_.size())) continue;
+    }
+    Branch(node, xbar, lambda);
+    return Status::Ok();
+  }
+}
+
+Status BvcSolver::Bound(Node& node, MultiRobotCoverResult* res, bool* done, std::vector<double>* xbar_out,
+                        std::vector<double>* lambda_out, double* lagrangian_out) {
+  *done = false;
+  BuildResidual(fix_);
+  const std::size_t nf = free_.size();
+  std::vector<double>& lambda = *lambda_out;
+  std::vector<double>& xbar = *xbar_out;
+  xbar.assign(nf, 0.0);
+
+  if (active_.empty()) {
+    // No balance row left: a pure weighted vertex cover of the residual graph, solved by one min-cut (exact when
+    // the residual is bipartite; the half-integral LP otherwise).
+    std::fill(lambda.begin(), lambda.end(), 0.0);
+    double p = 0.0;
+    Status st = Price(lambda, res, &p);
+    if (!st.ok()) return st;
+    ++res->lp_solves;
+    *lagrangian_out = p;
+    node.bound = std::max(node.bound, RoundBound(fixed_weight_ + p));
+    OfferColumn(fix_, x2_);
+    const bool integral = std::all_of(x2_.begin(), x2_.end(), [](std::uint8_t x) { return x != 1; });
+    if (integral || Prunable(node.bound)) {  // an integral LP optimum solves the node
+      *done = true;
+      return Status::Ok();
+    }
+    for (std::size_t i = 0; i < nf; ++i) xbar[i] = 0.5 * x2_[i];
+    return Status::Ok();
+  }
+
+  // Column generation for the LP bound with the balance rows.
+  const std::size_t m = active_.size();
+  std::vector<double> rhs(m);
+  for (std::size_t a = 0; a < m; ++a) rhs[a] = residual_share_[static_cast<std::size_t>(active_[a])];
+  master_.Reset(static_cast<int>(m), rhs);
+  columns_.clear();
+  {
+    // Column 0: every free vertex (meets every residual share after propagation).
+    std::vector<double> counts(m, 0.0);
+    double w = 0.0;
+    for (std::size_t i = 0; i < nf; ++i) w += md_.weight[static_cast<std::size_t>(free_[i])];
+    for (std::size_t a = 0; a < m; ++a) {
+      const int r = active_[a];
+      for (int v = md_.robot_first[static_cast<std::size_t>(r)]; v < md_.robot_first[static_cast<std::size_t>(r) + 1]; ++v) {
+        if (local_[static_cast<std::size_t>(v)] >= 0) counts[a] += 1.0;
+      }
+    }
+    master_.AddColumn(w, counts);
+    columns_.emplace_back(nf, 2);
+  }
+  // Covers of the previous bound (full-graph covers, so their restriction to this node's free vertices covers its
+  // residual graph): in a dive they are the parent's LP support and give near-optimal multipliers at once.
+  for (const auto& full : pool_) {
+    std::vector<std::uint8_t> col(nf, 0);
+    std::vector<double> counts(m, 0.0);
+    double w = 0.0;
+    for (std::size_t i = 0; i < nf; ++i) {
+      col[i] = full[static_cast<std::size_t>(free_[i])];
+      w += 0.5 * col[i] * md_.weight[static_cast<std::size_t>(free_[i])];
+    }
+    for (std::size_t a = 0; a < m; ++a) {
+      const int r = active_[a];
+      for (int v = md_.robot_first[static_cast<std::size_t>(r)]; v < md_.robot_first[static_cast<std::size_t>(r) + 1]; ++v) {
+        const int i = local_[static_cast<std::size_t>(v)];
+        if (i >= 0) counts[a] += 0.5 * col[static_cast<std::size_t>(i)];
+      }
+    }
+    master_.AddColumn(w, counts);
+    columns_.push_back(std::move(col));
+  }
+  double lb = -std::numeric_limits<double>::infinity();
+  std::vector<double> start(static_cast<std::size_t>(md_.robots), 0.0);
+  for (std::size_t a = 0; a < m; ++a) {
+    const auto r = static_cast<std::size_t>(active_[a]);
+    start[r] = node.lambda.empty() ? 0.0 : node.lambda[r];
+  }
+  lambda = start;
+  bool have_master = false;
+  bool converged = false;
+  if (!pool_.empty()) {
+    bool ok = false;
+    Status st = SolveMaster(res, &ok);
+    if (!st.ok()) return st;
+    if (!ok) return Status(StatusCode::kInternal, "balanced vertex cover: the master LP could not be solved");
+    have_master = true;
+    for (std::size_t a = 0; a < m; ++a) lambda[static_cast<std::size_t>(active_[a])] = master_.lambda()[a];
+  }
+  const int kMaxColumns = 500;
+  for (int iter = 0;; ++iter) {
+    if (iter > 0 && Clock::now() > deadline_) {  // a huge node must not overrun the time limit
+      interrupted_ = true;
+      return Status::Ok();
+    }
+    double p = 0.0;
+    Status st = Price(lambda, res, &p);
+    if (!st.ok()) return st;
+    double lag = p;
+    for (std::size_t a = 0; a < m; ++a) lag += lambda[static_cast<std::size_t>(active_[a])] * rhs[a];
+    *lagrangian_out = lag;
+    lb = std::max(lb, lag);
+    {
+      // A priced cover that already meets the residual shares is a feasible solution.
+      bool feasible = std::all_of(x2_.begin(), x2_.end(), [](std::uint8_t x) { return x != 1; });
+      for (std::size_t a = 0; a < m && feasible; ++a) feasible = x2_count_[a] >= rhs[a] - 1e-9;
+      // Repairing infeasible covers is costly: only at the root, where it seeds the incumbent (elsewhere the
+      // rounded LP point of every node is repaired).
+      const bool root = res->nodes_explored <= 1;
+      if (feasible ? !Prunable(RoundBound(fixed_weight_ + x2_weight_ - md_.abs_tol)) : root) OfferColumn(fix_, x2_);
+    }
+    node.bound = std::max(node.bound, RoundBound(fixed_weight_ + lb));
+    if (Prunable(node.bound)) {
+      *done = true;
+      return Status::Ok();
+    }
+    if (have_master) {
+      double reduced = x2_weight_ - master_.t();
+      for (std::size_t a = 0; a < m; ++a) reduced -= master_.lambda()[a] * x2_count_[a];
+      const double tol = 1e-9 * std::max(1.0, std::fabs(master_.value()));
+      if (reduced >= -tol) {  // the restricted master is optimal: LP bound reached
+        converged = true;
+        break;
+      }
+      // No better integer bound is possible from this LP.
+      if (md_.integral && RoundBound(fixed_weight_ + master_.value()) <= node.bound) {
+        converged = true;
+        break;
+      }
+    }
+    if (iter >= kMaxColumns) break;
+    master_.AddColumn(x2_weight_, x2_count_);
+    columns_.push_back(x2_);
+    bool ok = false;
+    st = SolveMaster(res, &ok);
+    if (!st.ok()) return st;
+    if (!ok) return Status(StatusCode::kInternal, "balanced vertex cover: the master LP could not be solved");
+    have_master = true;
+    for (std::size_t a = 0; a < m; ++a) lambda[static_cast<std::size_t>(active_[a])] = master_.lambda()[a];
+  }
+  // Fractional LP point and its rounding. (lambda is the multiplier vector of the last pricing.) The LP support
+  // becomes the column pool of the next bound.
+  pool_.clear();
+  for (int k = 0; k < master_.columns(); ++k) {
+    const double mu = master_.mu()[static_cast<std::size_t>(k)];
+    if (mu <= 0.0) continue;
+    const auto& col = columns_[static_cast<std::size_t>(k)];
+    for (std::size_t i = 0; i < nf; ++i) xbar[i] += 0.5 * mu * col[i];
+    if (k == 0) continue;  // the all-free column is rebuilt anyway
+    std::vector<std::uint8_t> full(static_cast<std::size_t>(md_.n), 0);
+    for (int v = 0; v < md_.n; ++v) {
+      const Fix f = fix_[static_cast<std::size_t>(v)];
+      full[static_cast<std::size_t>(v)] = f == 1 ? 2 : (f == 0 ? 0 : col[static_cast<std::size_t>(local_[static_cast<std::size_t>(v)])]);
+    }
+    pool_.push_back(std::move(full));
+  }
+  bool integral = true;
+  std::vector<std::uint8_t> rounded(nf, 0);
+  for (std::size_t i = 0; i < nf; ++i) {
+    if (std::min(xbar[i], 1.0 - xbar[i]) > kFracTol) integral = false;
+    rounded[i] = xbar[i] >= 0.5 - kFracTol ? 2 : 0;
+  }
+  OfferColumn(fix_, rounded);
+  if ((integral && converged) || Prunable(node.bound)) *done = true;
+  return Status::Ok();
+}
+
+Status BvcSolver::Run(MultiRobotCoverResult* res) {
+  const Clock::time_point start = Clock::now();
+  deadline_ = start + std::chrono::duration_cast<Clock::duration>(
+                          std::chrono::duration<double>(std::min(params_.time_limit_s, 1e9)));
+  Status built = BuildNetwork();
+  if (!built.ok()) return built;
+  // Initial incumbent: every candidate, pruned.
+  OfferCover(std::vector<char>(static_cast<std::size_t>(md_.n), 1));
+
+  Node root;
+  root.lambda.assign(static_cast<std::size_t>(md_.robots), 0.0);
+  // Trivial bound: each robot sends at least its share of its cheapest scans; with unit weights every cover
+  // has at least N_MM scans (a matching needs one endpoint per matched edge).
+  double trivial = 0.0;
+  for (int r = 0; r < md_.robots; ++r) {
+    std::vector<double> ws(md_.weight.begin() + md_.robot_first[static_cast<std::size_t>(r)],
+                           md_.weight.begin() + md_.robot_first[static_cast<std::size_t>(r) + 1]);
+    std::sort(ws.begin(), ws.end());
+    for (int k = 0; k < md_.share[static_cast<std::size_t>(r)] && k < static_cast<int>(ws.size()); ++k) {
+      trivial += ws[static_cast<std::size_t>(k)];
+    }
+  }
+  if (md_.unit) trivial = std::max(trivial, static_cast<double>(md_.max_matching));
+  root.bound = RoundBound(trivial);
+  // A robot whose share equals its candidate count sends all of them.
+  root_fix_.assign(static_cast<std::size_t>(md_.n), -1);
+  for (int r = 0; r < md_.robots; ++r) {
+    const int first = md_.robot_first[static_cast<std::size_t>(r)];
+    const int last = md_.robot_first[static_cast<std::size_t>(r) + 1];
+    if (md_.share[static_cast<std::size_t>(r)] == last - first) {
+      std::fill(root_fix_.begin() + first, root_fix_.begin() + last, Fix{1});
+    }
+  }
+  const double root_bound = root.bound;
+  Push(std::move(root));
+  bool limit_hit = false;
+  double open_bound = std::numeric_limits<double>::infinity();
+  while (!open_.empty()) {
+    // The top has the smallest bound: once it cannot improve the incumbent, no open node can.
+    if (Prunable(open_.front().bound)) {
+      open_.clear();
+      break;
+    }
+    if (res->nodes_explored >= params_.max_nodes || interrupted_ || Clock::now() > deadline_) {
+      limit_hit = true;
+      open_bound = open_.front().bound;
+      break;
+    }
+    std::pop_heap(open_.begin(), open_.end(), NodeOrder());
+    Node node = std::move(open_.back());
+    open_.pop_back();
+    ++res->nodes_explored;
+    Status st = Evaluate(node, res);
+    if (!st.ok()) return st;
+  }
+  if (best_obj_ == std::numeric_limits<double>::infinity()) {
+    res->status = limit_hit ? BalancedCoverStatus::kLimitWithoutSolution : BalancedCoverStatus::kInfeasible;
+    res->lower_bound_weight = limit_hit ? std::min(open_bound, root_bound) : 0.0;
+    return Status::Ok();
+  }
+  res->selected_per_robot.assign(static_cast<std::size_t>(md_.robots), 0);
+  double obj = 0.0;
+  for (int v = 0; v < md_.n; ++v) {
+    if (!best_[static_cast<std::size_t>(v)]) continue;
+    res->selected.push_back(md_.global_id[static_cast<std::size_t>(v)]);
+    ++res->selected_per_robot[static_cast<std::size_t>(md_.robot[static_cast<std::size_t>(v)])];
+    obj += md_.weight[static_cast<std::size_t>(v)];
+  }
+  res->objective_scans = static_cast<int>(res->selected.size());
+  res->objective_weight = md_.integral ? std::round(obj) : obj;
+  const double lower = limit_hit ? std::min(open_bound, best_obj_) : best_obj_;
+  res->lower_bound_weight = std::min(lower, res->objective_weight);
+  const bool gap = md_.integral ? res->lower_bound_weight < res->objective_weight - 0.5
+                                : res->lower_bound_weight < res->objective_weight - md_.abs_tol;
+  res->status = gap ? BalancedCoverStatus::kFeasibleWithGap : BalancedCoverStatus::kOptimal;
+  if (!gap) res->lower_bound_weight = res->objective_weight;
+  return Status::Ok();
+}
+
+Status ValidateCommon(const BalancedCoverParams& params, int vertex_count) {
+  if (params.max_nodes < 1) return InvalidArgument("balanced vertex cover: max_nodes must be >= 1");
+  if (!(params.time_limit_s > 0.0)) return InvalidArgument("balanced vertex cover: time_limit_s must be > 0");
+  if (!params.vertex_weights.empty()) {
+    if (params.vertex_weights.size() != static_cast<std::size_t>(vertex_count)) {
+      return InvalidArgument("balanced vertex cover: " + std::to_string(params.vertex_weights.size()) +
+                             " vertex weights for " + std::to_string(vertex_count) + " vertices");
+    }
+    double total = 0.0;
+    for (std::size_t v = 0; v < params.vertex_weights.size(); ++v) {
+      const double w = params.vertex_weights[v];
+      if (!std::isfinite(w) || !(w > 0.0)) {
+        return InvalidArgument("balanced vertex cover: weight of vertex " + std::to_string(v) +
+                               " must be finite and > 0, got " + std::to_string(w));
+      }
+      total += w;
+    }
+    if (!(total <= kMaxTotalWeight)) {
+      return InvalidArgument("balanced vertex cover: the vertex weights sum to more than 1e100");
+    }
+  }
+  return Status::Ok();
+}
 
 }  // namespace
 
@@ -177,235 +1098,125 @@ Result<int> BalancedShare(int max_matching_size, const std::vector<double>& part
   return static_cast<int>(std::ceil(raw - 1e-9));
 }
 
+Result<MultiRobotCoverResult> SolveMultiRobotBalancedCover(const ExchangeGraph& graph,
+                                                           const BalancedCoverParams& params,
+                                                           LpSolver* lp_solver) {
+  const int robots = graph.robot_count();
+  if (!params.participation.empty() && params.participation.size() != static_cast<std::size_t>(robots)) {
+    return InvalidArgument("balanced vertex cover: participation must have one entry per robot (" +
+                           std::to_string(robots) + "), got " + std::to_string(params.participation.size()));
+  }
+  Status valid = ValidateCommon(params, graph.vertex_count());
+  if (!valid.ok()) return valid;
+
+  MultiRobotCoverResult res;
+  res.max_matching_size = MaximumMatchingSize(graph);
+  if (params.min_share_per_robot_override >= 0) {
+    res.min_share_per_robot = params.min_share_per_robot_override;
+  } else {
+    std::vector<double> p = params.participation;
+    if (p.empty() && robots > 0) p.assign(static_cast<std::size_t>(robots), 1.0 / robots);
+    if (p.empty()) p = {1.0};
+    Result<int> share = BalancedShare(res.max_matching_size, p);
+    if (!share.ok()) return share.status();
+    res.min_share_per_robot = *share;
+  }
+
+  // Candidate model.
+  Model md;
+  md.robots = robots;
+  const auto& adj = graph.adjacency();
+  std::vector<int> compact(static_cast<std::size_t>(graph.vertex_count()), -1);
+  md.robot_first.assign(static_cast<std::size_t>(robots) + 1, 0);
+  res.candidates_per_robot.assign(static_cast<std::size_t>(robots), 0);
+  for (int v = 0; v < graph.vertex_count(); ++v) {
+    if (adj[static_cast<std::size_t>(v)].empty()) continue;
+    compact[static_cast<std::size_t>(v)] = md.n++;
+    md.global_id.push_back(v);
+    md.robot.push_back(graph.robot_of(v));
+    md.weight.push_back(params.vertex_weights.empty() ? 1.0 : params.vertex_weights[static_cast<std::size_t>(v)]);
+    ++res.candidates_per_robot[static_cast<std::size_t>(graph.robot_of(v))];
+  }
+  for (int r = 0; r < robots; ++r) {
+    md.robot_first[static_cast<std::size_t>(r) + 1] = md.robot_first[static_cast<std::size_t>(r)] + res.candidates_per_robot[static_cast<std::size_t>(r)];
+  }
+  res.share_per_robot.assign(static_cast<std::size_t>(robots), 0);
+  bool infeasible = false;
+  for (int r = 0; r < robots; ++r) {
+    const int cand = res.candidates_per_robot[static_cast<std::size_t>(r)];
+    int s = 0;
+    if (cand > 0) s = params.min_share_per_robot_override >= 0 ? res.min_share_per_robot : std::min(res.min_share_per_robot, cand);
+    if (s > cand) infeasible = true;
+    res.share_per_robot[static_cast<std::size_t>(r)] = s;
+  }
+  res.selected_per_robot.assign(static_cast<std::size_t>(robots), 0);
+  if (md.n == 0) {
+    res.status = BalancedCoverStatus::kNoCandidates;
+    return res;
+  }
+  if (infeasible) {
+    res.status = BalancedCoverStatus::kInfeasible;
+    return res;
+  }
+  md.share = res.share_per_robot;
+  md.adj_first.assign(static_cast<std::size_t>(md.n) + 1, 0);
+  for (int i = 0; i < md.n; ++i) {
+    const int v = md.global_id[static_cast<std::size_t>(i)];
+    for (int w : adj[static_cast<std::size_t>(v)]) {
+      const int j = compact[static_cast<std::size_t>(w)];
+      md.adj.push_back(j);
+    }
+    md.adj_first[static_cast<std::size_t>(i) + 1] = static_cast<int>(md.adj.size());
+  }
+  for (double w : md.weight) {
+    md.total_weight += w;
+    if (w != std::floor(w)) md.integral = false;
+    if (w != 1.0) md.unit = false;
+  }
+  md.max_matching = res.max_matching_size;
+  if (md.total_weight > 1e15) md.integral = false;
+  md.abs_tol = 1e-9 * std::max(1.0, md.total_weight);
+
+  BvcSolver solver(md, params, lp_solver);
+  Status st = solver.Run(&res);
+  if (!st.ok()) return st;
+  return res;
+}
+
 Result<BalancedCoverResult> SolveBalancedVertexCover(const BipartiteGraph& graph, const BalancedCoverParams& params,
                                                      LpSolver* lp_solver) {
   if (!params.participation.empty() && params.participation.size() != 2) {
     return InvalidArgument("balanced vertex cover: participation must have 2 entries (one per robot), got " +
                            std::to_string(params.participation.size()));
   }
-  if (params.max_nodes < 1) return InvalidArgument("balanced vertex cover: max_nodes must be >= 1");
-  if (!(params.time_limit_s > 0.0)) return InvalidArgument("balanced vertex cover: time_limit_s must be > 0");
-  const Clock::time_point start = Clock::now();
-  GlpkSimplexSolver default_lp;
-  LpSolver& lp = lp_solver != nullptr ? *lp_solver : default_lp;
-
+  Result<ExchangeGraph> eg = ExchangeGraph::FromBipartite(graph);
+  if (!eg.ok()) return eg.status();
+  Result<MultiRobotCoverResult> mr = SolveMultiRobotBalancedCover(*eg, params, lp_solver);
+  if (!mr.ok()) return mr.status();
   BalancedCoverResult res;
-  Result<Matching> mm = HopcroftKarp(graph);
-  if (!mm.ok()) return mm.status();
-  res.max_matching_size = mm->size;
-  if (params.min_share_per_robot_override >= 0) {
-    res.min_share_per_robot = params.min_share_per_robot_override;
-  } else {
-    Result<int> share = BalancedShare(mm->size, params.participation);
-    if (!share.ok()) return share.status();
-    res.min_share_per_robot = *share;
-  }
-  if (graph.edges().empty()) {
-    res.status = BalancedCoverStatus::kNoCandidates;
-    return res;
-  }
-
-  Model md;
-  md.left_count = graph.left_count();
-  md.vertex_count = graph.left_count() + graph.right_count();
-  md.share = res.min_share_per_robot;
-  md.neighbours.assign(static_cast<std::size_t>(md.vertex_count), {});
-  for (const BipartiteEdge& e : graph.edges()) {
-    const int a = e.left;
-    const int b = md.left_count + e.right;
-    md.edges.emplace_back(a, b);
-    md.neighbours[static_cast<std::size_t>(a)].push_back(b);
-    md.neighbours[static_cast<std::size_t>(b)].push_back(a);
-  }
-  for (auto& nb : md.neighbours) {
-    std::sort(nb.begin(), nb.end());
-    nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
-  }
-  const auto nv = static_cast<std::size_t>(md.vertex_count);
-
-  // Incumbent from the König cover, repaired to meet the shares.
-  std::vector<char> best(nv, 0);
-  int best_obj = std::numeric_limits<int>::max();
-  auto offer = [&](std::vector<char> in) {
-    if (!RepairAndPrune(md, in) || !IsFeasible(md, in)) return;
-    int obj = 0;
-    for (char c : in) obj += c ? 1 : 0;
-    if (obj < best_obj) {
-      best_obj = obj;
-      best = std::move(in);
-    }
-  };
-  {
-    Result<VertexCover> konig = KonigVertexCover(graph, *mm);
-    if (!konig.ok()) return konig.status();
-    std::vector<char> in(nv, 0);
-    for (int u : konig->left) in[static_cast<std::size_t>(u)] = 1;
-    for (int v : konig->right) in[static_cast<std::size_t>(md.left_count + v)] = 1;
-    offer(std::move(in));
-  }
-
-  // Root node: isolated vertices are fixed to 0 (never needed, never counted).
-  Node root;
-  root.fix.assign(nv, -1);
-  for (std::size_t v = 0; v < nv; ++v) {
-    if (md.neighbours[v].empty()) root.fix[v] = 0;
-  }
-  root.bound = std::max(mm->size, 2 * md.share);
-  std::vector<Node> stack;
-  stack.push_back(std::move(root));
-  bool limit_hit = false;
-  int open_bound = std::numeric_limits<int>::max();  // min bound of nodes left open by a limit
-
-  std::vector<int> free_ids;
-  std::vector<int> local(nv, -1);
-  while (!stack.empty()) {
-    if (best_obj <= stack.back().bound) {  // cannot improve: prune without evaluating
-      stack.pop_back();
-      continue;
-    }
-    const double elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
-    if (res.nodes_explored >= params.max_nodes || elapsed_s > params.time_limit_s) {
-      limit_hit = true;
-      for (const Node& nd : stack) open_bound = std::min(open_bound, nd.bound);
-      break;
-    }
-    Node node = std::move(stack.back());
-    stack.pop_back();
-    ++res.nodes_explored;
-    if (!Propagate(md, node.fix)) continue;
-
-    int ones[2] = {0, 0};
-    free_ids.clear();
-    for (int v = 0; v < md.vertex_count; ++v) {
-      const std::int8_t f = node.fix[static_cast<std::size_t>(v)];
-      if (f == 1) ++ones[md.Side(v)];
-      if (f < 0) {
-        local[static_cast<std::size_t>(v)] = static_cast<int>(free_ids.size());
-        free_ids.push_back(v);
-      } else {
-        local[static_cast<std::size_t>(v)] = -1;
-      }
-    }
-    const int fixed_ones = ones[0] + ones[1];
-    const int deficit = std::max(0, md.share - ones[0]) + std::max(0, md.share - ones[1]);
-
-    // Residual graph: edges between two free vertices (all others are covered after propagation).
-    std::vector<BipartiteEdge> residual;
-    int left_free = 0;
-    std::vector<int> compact(nv, -1);
-    int right_free = 0;
-    for (int v : free_ids) {
-      compact[static_cast<std::size_t>(v)] = md.Side(v) == 0 ? left_free++ : right_free++;
-    }
-    for (const auto& e : md.edges) {
-      if (local[static_cast<std::size_t>(e.first)] >= 0 && local[static_cast<std::size_t>(e.second)] >= 0) {
-        residual.push_back({compact[static_cast<std::size_t>(e.first)], compact[static_cast<std::size_t>(e.second)]});
-      }
-    }
-    if (free_ids.empty()) {
-      std::vector<char> in(nv, 0);
-      for (std::size_t v = 0; v < nv; ++v) in[v] = node.fix[v] == 1 ? 1 : 0;
-      if (IsFeasible(md, in) && fixed_ones < best_obj) {
-        best_obj = fixed_ones;
-        best = std::move(in);
-      }
-      continue;
-    }
-    Result<BipartiteGraph> rg = BipartiteGraph::Create(left_free, right_free, residual);
-    if (!rg.ok()) return rg.status();
-    Result<Matching> rmm = HopcroftKarp(*rg);
-    if (!rmm.ok()) return rmm.status();
-    int bound = std::max(node.bound, fixed_ones + std::max(rmm->size, deficit));
-    if (bound >= best_obj) continue;
-
-    // LP relaxation over the free vertices.
-    LinearProgram prog;
-    prog.objective.assign(free_ids.size(), 1.0);
-    prog.variable_lower.assign(free_ids.size(), 0.0);
-    prog.variable_upper.assign(free_ids.size(), 1.0);
-    for (const auto& e : md.edges) {
-      const int a = local[static_cast<std::size_t>(e.first)];
-      const int b = local[static_cast<std::size_t>(e.second)];
-      if (a >= 0 && b >= 0) prog.rows.push_back(LpRow{{{a, 1.0}, {b, 1.0}}, 1.0, kLpInfinity});
-    }
-    for (int s = 0; s < 2; ++s) {
-      if (md.share - ones[s] <= 0) continue;
-      LpRow row;
-      for (std::size_t k = 0; k < free_ids.size(); ++k) {
-        if (md.Side(free_ids[k]) == s) row.terms.push_back({static_cast<int>(k), 1.0});
-      }
-      row.lower = static_cast<double>(md.share - ones[s]);
-      prog.rows.push_back(std::move(row));
-    }
-    Result<LpSolution> sol = lp.Minimize(prog);
-    ++res.lp_solves;
-    if (!sol.ok()) return sol.status();
-    if (sol->status == LpStatus::kInfeasible) continue;
-    if (sol->status != LpStatus::kOptimal) {
-      return Status(StatusCode::kInternal, "balanced vertex cover: LP relaxation is unbounded (a bug)");
-    }
-    bound = std::max(bound, fixed_ones + static_cast<int>(std::ceil(sol->objective - kIntTol)));
-    if (bound >= best_obj) continue;
-
-    // Rounding heuristic (x >= 1/2 covers every residual edge), then repair.
-    std::vector<char> rounded(nv, 0);
-    bool integral = true;
-    for (std::size_t v = 0; v < nv; ++v) rounded[v] = node.fix[v] == 1 ? 1 : 0;
-    int branch_var = -1;
-    double branch_score = -1.0;
-    for (std::size_t k = 0; k < free_ids.size(); ++k) {
-      const double x = sol->values[k];
-      const int v = free_ids[k];
-      if (x >= 0.5) rounded[static_cast<std::size_t>(v)] = 1;
-      const double frac = std::min(x, 1.0 - x);
-      if (frac > kIntTol) integral = false;
-      // Most fractional first; ties go to the most constrained (highest degree) vertex.
-      const double score = std::max(0.0, frac) + 1e-7 * static_cast<double>(md.neighbours[static_cast<std::size_t>(v)].size());
-      if (score > branch_score) {
-        branch_score = score;
-        branch_var = static_cast<int>(k);
-      }
-    }
-    if (integral) {
-      int obj = 0;
-      for (char c : rounded) obj += c ? 1 : 0;
-      if (IsFeasible(md, rounded)) {
-        if (obj < best_obj) {
-          best_obj = obj;
-          best = std::move(rounded);
-        }
-        continue;  // the node's LP optimum is integral: the node is solved
-      }
-    }
-    offer(rounded);
-    if (bound >= best_obj) continue;
-
-    const int v = free_ids[static_cast<std::size_t>(branch_var)];
-    const int preferred = sol->values[static_cast<std::size_t>(branch_var)] >= 0.5 ? 1 : 0;
-    Node other{node.fix, bound};
-    other.fix[static_cast<std::size_t>(v)] = static_cast<std::int8_t>(1 - preferred);
-    node.fix[static_cast<std::size_t>(v)] = static_cast<std::int8_t>(preferred);
-    node.bound = bound;
-    stack.push_back(std::move(other));
-    stack.push_back(std::move(node));  // explored first
-  }
-
-  if (best_obj == std::numeric_limits<int>::max()) {
-    res.status = limit_hit ? BalancedCoverStatus::kLimitWithoutSolution : BalancedCoverStatus::kInfeasible;
-    res.lower_bound_scans = limit_hit ? std::min(open_bound, std::max(mm->size, 2 * md.share)) : 0;
-    return res;
-  }
-  for (int v = 0; v < md.vertex_count; ++v) {
-    if (!best[static_cast<std::size_t>(v)]) continue;
-    if (v < md.left_count) {
+  res.status = mr->status;
+  const int left = graph.left_count();
+  for (int v : mr->selected) {
+    if (v < left) {
       res.selected_left.push_back(v);
     } else {
-      res.selected_right.push_back(v - md.left_count);
+      res.selected_right.push_back(v - left);
     }
   }
-  res.objective_scans = best_obj;
-  res.lower_bound_scans = limit_hit ? std::min(open_bound, best_obj) : best_obj;
-  res.status = res.lower_bound_scans < best_obj ? BalancedCoverStatus::kFeasibleWithGap : BalancedCoverStatus::kOptimal;
+  res.objective_scans = mr->objective_scans;
+  res.objective_weight = mr->objective_weight;
+  res.lower_bound_weight = mr->lower_bound_weight;
+  const bool unit = params.vertex_weights.empty();
+  if (unit) {
+    res.lower_bound_scans = static_cast<int>(std::lround(mr->lower_bound_weight));
+  } else {
+    res.lower_bound_scans = mr->status == BalancedCoverStatus::kOptimal ? mr->objective_scans : 0;
+  }
+  res.max_matching_size = mr->max_matching_size;
+  res.min_share_per_robot = mr->min_share_per_robot;
+  res.nodes_explored = mr->nodes_explored;
+  res.lp_solves = mr->lp_solves;
+  res.min_cut_solves = mr->min_cut_solves;
   return res;
 }
 

@@ -3,6 +3,7 @@
 
 #include <glpk.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -58,12 +59,12 @@ Status ValidateLinearProgram(const LinearProgram& lp) {
   return Status::Ok();
 }
 
-Result<LpSolution> GlpkSimplexSolver::Minimize(const LinearProgram& lp) {
-  Status valid = ValidateLinearProgram(lp);
-  if (!valid.ok()) return valid;
+namespace {
+
+// Builds the GLPK problem of a validated program (columns 1..n, rows 1..m).
+std::unique_ptr<glp_prob, GlpProbDeleter> BuildGlpkProblem(const LinearProgram& lp) {
   const int n = static_cast<int>(lp.objective.size());
   const int m = static_cast<int>(lp.rows.size());
-
   glp_term_out(GLP_OFF);
   std::unique_ptr<glp_prob, GlpProbDeleter> prob(glp_create_prob());
   glp_prob* p = prob.get();
@@ -100,6 +101,17 @@ Result<LpSolution> GlpkSimplexSolver::Minimize(const LinearProgram& lp) {
     }
     glp_set_mat_row(p, i + 1, static_cast<int>(ind.size()) - 1, ind.data(), val.data());
   }
+  return prob;
+}
+
+}  // namespace
+
+Result<LpSolution> GlpkSimplexSolver::Minimize(const LinearProgram& lp) {
+  Status valid = ValidateLinearProgram(lp);
+  if (!valid.ok()) return valid;
+  const int n = static_cast<int>(lp.objective.size());
+  std::unique_ptr<glp_prob, GlpProbDeleter> prob = BuildGlpkProblem(lp);
+  glp_prob* p = prob.get();
 
   LpSolution sol;
   if (n == 0) {
@@ -125,6 +137,9 @@ Result<LpSolution> GlpkSimplexSolver::Minimize(const LinearProgram& lp) {
     sol.objective = glp_get_obj_val(p);
     sol.values.resize(static_cast<std::size_t>(n));
     for (int j = 0; j < n; ++j) sol.values[static_cast<std::size_t>(j)] = glp_get_col_prim(p, j + 1);
+    const int m = static_cast<int>(lp.rows.size());
+    sol.row_duals.resize(static_cast<std::size_t>(m));
+    for (int i = 0; i < m; ++i) sol.row_duals[static_cast<std::size_t>(i)] = glp_get_row_dual(p, i + 1);
   } else if (st == GLP_NOFEAS) {
     sol.status = LpStatus::kInfeasible;
   } else if (st == GLP_UNBND) {
@@ -132,6 +147,81 @@ Result<LpSolution> GlpkSimplexSolver::Minimize(const LinearProgram& lp) {
   } else {
     return Status(StatusCode::kInternal, "LP: glp_simplex ended with status " + std::to_string(st));
   }
+  return sol;
+}
+
+Result<MipSolution> SolveMipWithGlpk(const LinearProgram& lp, const std::vector<bool>& is_integer,
+                                     const MipOptions& options) {
+  Status valid = ValidateLinearProgram(lp);
+  if (!valid.ok()) return valid;
+  const int n = static_cast<int>(lp.objective.size());
+  if (is_integer.size() != lp.objective.size()) {
+    return InvalidArgument("MIP: " + std::to_string(is_integer.size()) + " integer flags for " + std::to_string(n) +
+                           " variables");
+  }
+  if (!(options.time_limit_s > 0.0)) return InvalidArgument("MIP: time_limit_s must be > 0");
+  MipSolution sol;
+  if (n == 0) {
+    for (const LpRow& r : lp.rows) {
+      if (r.lower > 0.0 || r.upper < 0.0) {
+        sol.status = MipStatus::kInfeasible;
+        return sol;
+      }
+    }
+    sol.status = MipStatus::kOptimal;
+    return sol;
+  }
+  std::unique_ptr<glp_prob, GlpProbDeleter> prob = BuildGlpkProblem(lp);
+  glp_prob* p = prob.get();
+  for (int j = 0; j < n; ++j) {
+    if (is_integer[static_cast<std::size_t>(j)]) glp_set_col_kind(p, j + 1, GLP_IV);
+  }
+  glp_iocp parm;
+  glp_init_iocp(&parm);
+  parm.msg_lev = GLP_MSG_OFF;
+  parm.presolve = options.presolve ? GLP_ON : GLP_OFF;
+  const double limit_ms = std::min(options.time_limit_s * 1e3, 2.0e9);
+  parm.tm_lim = std::max(1, static_cast<int>(limit_ms));
+  if (!options.presolve) {
+    glp_smcp lp_parm;
+    glp_init_smcp(&lp_parm);
+    lp_parm.msg_lev = GLP_MSG_OFF;
+    const int lp_rc = glp_simplex(p, &lp_parm);
+    if (lp_rc != 0) return Status(StatusCode::kInternal, "MIP: glp_simplex failed with code " + std::to_string(lp_rc));
+    const int lp_st = glp_get_status(p);
+    if (lp_st == GLP_NOFEAS) {
+      sol.status = MipStatus::kInfeasible;
+      return sol;
+    }
+    if (lp_st == GLP_UNBND) {
+      sol.status = MipStatus::kUnbounded;
+      return sol;
+    }
+  }
+  const int rc = glp_intopt(p, &parm);
+  const int st = glp_mip_status(p);
+  if (rc == GLP_ENOPFS || rc == GLP_ENOFEAS || st == GLP_NOFEAS) {
+    sol.status = MipStatus::kInfeasible;
+    return sol;
+  }
+  if (rc == GLP_ENODFS) {
+    sol.status = MipStatus::kUnbounded;
+    return sol;
+  }
+  if (rc != 0 && rc != GLP_ETMLIM) {
+    return Status(StatusCode::kInternal, "MIP: glp_intopt failed with code " + std::to_string(rc));
+  }
+  if (st == GLP_OPT && rc == 0) {
+    sol.status = MipStatus::kOptimal;
+  } else if (st == GLP_FEAS || st == GLP_OPT) {
+    sol.status = MipStatus::kFeasible;
+  } else {
+    sol.status = MipStatus::kNoSolution;
+    return sol;
+  }
+  sol.objective = glp_mip_obj_val(p);
+  sol.values.resize(static_cast<std::size_t>(n));
+  for (int j = 0; j < n; ++j) sol.values[static_cast<std::size_t>(j)] = glp_mip_col_val(p, j + 1);
   return sol;
 }
 

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: a tiny linear-programming interface (minimisation, sparse rows, box bounds) and a GLPK simplex
-// implementation. Used for LP-relaxation bounds inside our own branch-and-bound solvers.
+// implementation. Used for LP-relaxation bounds inside our own branch-and-bound solvers. Also GLPK's own
+// branch-and-cut (glp_intopt) on the same model type, as the reference our exact solvers are tested and
+// benchmarked against.
 #pragma once
 
 #include <limits>
@@ -45,6 +47,9 @@ struct LpSolution {
   LpStatus status = LpStatus::kInfeasible;
   double objective = 0.0;      ///< valid when kOptimal
   std::vector<double> values;  ///< one per variable, valid when kOptimal
+  /// One dual value (shadow price) per row, valid when kOptimal: d objective / d row bound, so >= 0 for an active
+  /// ">=" row of a minimisation. Solvers that do not provide duals leave it empty.
+  std::vector<double> row_duals;
 };
 
 /// Checks sizes, indices, finiteness of coefficients and lower <= upper; InvalidArgument otherwise.
@@ -65,5 +70,30 @@ class GlpkSimplexSolver final : public LpSolver {
  public:
   Result<LpSolution> Minimize(const LinearProgram& lp) override;
 };
+
+enum class MipStatus {
+  kOptimal,     ///< `values` is an optimal integer solution
+  kFeasible,    ///< the time limit was hit; `values` is the best integer solution found (not proven optimal)
+  kInfeasible,  ///< no integer solution exists (or the LP relaxation is infeasible)
+  kNoSolution,  ///< the time limit was hit before any integer solution was found
+  kUnbounded,   ///< the LP relaxation is unbounded
+};
+
+struct MipSolution {
+  MipStatus status = MipStatus::kNoSolution;
+  double objective = 0.0;      ///< valid for kOptimal and kFeasible
+  std::vector<double> values;  ///< one per variable, valid for kOptimal and kFeasible
+};
+
+struct MipOptions {
+  double time_limit_s = 60.0;  ///< glp_intopt tm_lim (> 0)
+  bool presolve = true;        ///< glp_intopt's MIP presolver (then no separate glp_simplex call is needed)
+};
+
+/// Minimises `lp` with the variables flagged in `is_integer` (same length as the objective) restricted to
+/// integers, by GLPK's glp_intopt with its default branching, backtracking and cut settings. Silent.
+/// InvalidArgument for a malformed program or flag vector; Internal for an unexpected GLPK return code.
+Result<MipSolution> SolveMipWithGlpk(const LinearProgram& lp, const std::vector<bool>& is_integer,
+                                     const MipOptions& options = {});
 
 }  // namespace commerge
