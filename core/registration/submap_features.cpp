@@ -1,0 +1,276 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Submap preprocessing (REGISTRATION.md §1.2 steps 2-7, §2.1). One capped k-nearest search per point gives a
+// sorted neighbour list; its prefix within normal_radius_m gives the normal, its first covariance_neighbors
+// entries the GICP covariance, the whole list (within fpfh_radius_m) the descriptor support.
+#include "core/registration/submap_features.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace commerge {
+namespace {
+
+constexpr float kPiF = 3.14159265358979f;
+
+inline Eigen::Vector3f Pos(const PointXYZI& p) { return {p.x, p.y, p.z}; }
+
+// SPFH rows are padded to a multiple of 4 floats so that the weighted sums vectorise without a remainder.
+constexpr int kSpfhStride = 36;
+
+inline int Bin(float value, float lo, float hi) {
+  const float t = (value - lo) / (hi - lo) * static_cast<float>(kFpfhBins);
+  int b = static_cast<int>(std::floor(t));
+  return std::min(std::max(b, 0), kFpfhBins - 1);
+}
+
+// atan2 with a minimax polynomial for atan on [0, 1] (max error about 1e-5 rad): the angle only selects one of
+// 11 bins, and libm's atan2f was the single largest cost of the descriptor stage.
+inline float FastAtan2(float y, float x) {
+  const float ax = std::fabs(x), ay = std::fabs(y);
+  const float mx = std::max(ax, ay), mn = std::min(ax, ay);
+  if (!(mx > 0.0f)) return 0.0f;
+  const float z = mn / mx;
+  const float z2 = z * z;
+  float r = z * (0.99997726f +
+                 z2 * (-0.33262347f + z2 * (0.19354346f + z2 * (-0.11643287f + z2 * (0.05265332f + z2 * -0.01172120f)))));
+  if (ay > ax) r = 1.57079633f - r;
+  if (x < 0.0f) r = kPiF - r;
+  return y < 0.0f ? -r : r;
+}
+
+}  // namespace
+
+Status ValidateSubmapFeatureParams(const SubmapFeatureParams& p) {
+  if (!(std::isfinite(p.normal_radius_m) && p.normal_radius_m > 0.0)) {
+    return InvalidArgument("registration features: normal_radius_m must be finite and > 0");
+  }
+  if (!(std::isfinite(p.fpfh_radius_m) && p.fpfh_radius_m >= p.normal_radius_m)) {
+    return InvalidArgument("registration features: fpfh_radius_m must be finite and >= normal_radius_m");
+  }
+  if (p.max_neighbors < 4 || p.max_neighbors > 1024) {
+    return InvalidArgument("registration features: max_neighbors must be in [4, 1024], got " +
+                           std::to_string(p.max_neighbors));
+  }
+  if (p.min_normal_neighbors < 3 || p.min_normal_neighbors > p.max_neighbors) {
+    return InvalidArgument("registration features: min_normal_neighbors must be in [3, max_neighbors]");
+  }
+  if (!(p.linearity_threshold > 0.0 && p.linearity_threshold <= 1.0)) {
+    return InvalidArgument("registration features: linearity_threshold must be in (0, 1]");
+  }
+  if (p.min_covariance_neighbors < 5 || p.covariance_neighbors < p.min_covariance_neighbors ||
+      p.covariance_neighbors > p.max_neighbors) {
+    return InvalidArgument(
+        "registration features: need 5 <= min_covariance_neighbors <= covariance_neighbors <= max_neighbors");
+  }
+  return Status::Ok();
+}
+
+bool ComputePairFeature(const Eigen::Vector3f& p1, const Eigen::Vector3f& n1, const Eigen::Vector3f& p2,
+                        const Eigen::Vector3f& n2, PairFeature* feature) {
+  Eigen::Vector3f d = p2 - p1;
+  const float len = d.norm();
+  if (!(len > 0.0f)) return false;
+  d *= 1.0f / len;
+  const float a1 = n1.dot(d);
+  const float a2 = n2.dot(d);
+  // The source of the frame is the point whose normal is closer to the line (smaller acos |a|).
+  const Eigen::Vector3f* u = &n1;
+  const Eigen::Vector3f* other = &n2;
+  float a = a1;  // u . d
+  if (std::fabs(a1) < std::fabs(a2)) {
+    u = &n2;
+    other = &n1;
+    d = -d;
+    a = -a2;
+  }
+  // With unit d and u: v = (d x u) / s and w = u x v = (d - a u) / s, where s = |d x u| = sqrt(1 - a^2), so
+  // f2 = v . n_other = det[d, u, n_other] / s and f1 = atan2(w . n_other, u . n_other)
+  // = atan2(d . n_other - a (u . n_other), s (u . n_other)) (atan2 ignores the common positive factor 1 / s).
+  const float s2 = 1.0f - a * a;
+  if (!(s2 > 1e-12f)) return false;
+  const float s = std::sqrt(s2);
+  const float uo = u->dot(*other);
+  feature->f1 = FastAtan2(d.dot(*other) - a * uo, s * uo);
+  feature->f2 = d.cross(*u).dot(*other) / s;
+  feature->f3 = a;
+  return true;
+}
+
+void SubmapFeatures::ComputeGeometry(Span<const PointXYZI> points, Span<const Eigen::Vector3d> sensor_origins_m,
+                                     const SubmapFeatureParams& params) {
+  points_ = points;
+  const std::size_t n = points.size();
+  stats_ = SubmapFeatureStats{};
+  stats_.num_points = n;
+  keypoints_.clear();
+  descriptors_.clear();
+  tree_.Build(points);
+
+  const auto cap = static_cast<std::size_t>(params.max_neighbors);
+  const auto fpfh_r2 = static_cast<float>(params.fpfh_radius_m * params.fpfh_radius_m);
+  const auto normal_r2 = static_cast<float>(params.normal_radius_m * params.normal_radius_m);
+  knn_index_.resize(cap);
+  knn_dist_sq_.resize(cap);
+  neighbor_begin_.resize(n + 1);
+  neighbor_index_.clear();
+  neighbor_dist_sq_.clear();
+  normals_.assign(n, Eigen::Vector3f::Zero());
+  normal_valid_.assign(n, 0);
+  covariances_.assign(n, Eigen::Matrix3d::Identity());
+
+  const Eigen::Vector3d default_origin = Eigen::Vector3d::Zero();
+  const Span<const Eigen::Vector3d> origins =
+      sensor_origins_m.empty() ? Span<const Eigen::Vector3d>(&default_origin, 1) : sensor_origins_m;
+
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+  for (std::size_t i = 0; i < n; ++i) {
+    const PointXYZI& p = points[i];
+    const std::size_t k = tree_.Knn(p.x, p.y, p.z, cap, knn_index_.data(), knn_dist_sq_.data());
+    std::size_t kept = 0;
+    while (kept < k && knn_dist_sq_[kept] <= fpfh_r2) ++kept;
+    if (kept == cap) ++stats_.num_capped_neighborhoods;
+    neighbor_begin_[i] = neighbor_index_.size();
+    neighbor_index_.insert(neighbor_index_.end(), knn_index_.begin(), knn_index_.begin() + static_cast<std::ptrdiff_t>(kept));
+    neighbor_dist_sq_.insert(neighbor_dist_sq_.end(), knn_dist_sq_.begin(),
+                             knn_dist_sq_.begin() + static_cast<std::ptrdiff_t>(kept));
+
+    // Normal: the neighbours within normal_radius_m, sample covariance (1 / (n - 1)).
+    std::size_t nn = 0;
+    while (nn < kept && knn_dist_sq_[nn] < normal_r2) ++nn;
+    if (nn >= static_cast<std::size_t>(params.min_normal_neighbors)) {
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (std::size_t j = 0; j < nn; ++j) {
+        const PointXYZI& q = points[knn_index_[j]];
+        mean += Eigen::Vector3d(q.x, q.y, q.z);
+      }
+      mean /= static_cast<double>(nn);
+      Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+      for (std::size_t j = 0; j < nn; ++j) {
+        const PointXYZI& q = points[knn_index_[j]];
+        const Eigen::Vector3d e = Eigen::Vector3d(q.x, q.y, q.z) - mean;
+        c.noalias() += e * e.transpose();
+      }
+      c /= static_cast<double>(nn - 1);
+      eig.computeDirect(c);
+      const Eigen::Vector3d ev = eig.eigenvalues();  // ascending
+      const bool finite = ev.allFinite() && eig.eigenvectors().allFinite();
+      const double linearity = ev(2) > 0.0 ? (ev(2) - ev(1)) / ev(2) : 1.0;
+      if (finite && ev(2) > 0.0 && linearity <= params.linearity_threshold) {
+        Eigen::Vector3d normal = eig.eigenvectors().col(0).normalized();
+        // Towards the nearest sensor origin (spec §1.2 step 3; quirk 11: a list, not only the frame origin).
+        std::size_t best = 0;
+        double best_d2 = std::numeric_limits<double>::infinity();
+        for (std::size_t o = 0; o < origins.size(); ++o) {
+          const double d2 = (origins[o] - mean).squaredNorm();
+          if (d2 < best_d2) best_d2 = d2, best = o;
+        }
+        if (normal.dot(origins[best] - mean) < 0.0) normal = -normal;
+        if (normal.allFinite()) {
+          normals_[i] = normal.cast<float>();
+          normal_valid_[i] = 1;
+          ++stats_.num_valid_normals;
+        }
+      }
+    }
+
+    // GICP covariance: the k nearest (point included), 1 / n, eigenvalues replaced by (1e-3, 1, 1).
+    const std::size_t kc = std::min<std::size_t>(kept, static_cast<std::size_t>(params.covariance_neighbors));
+    if (kc >= static_cast<std::size_t>(params.min_covariance_neighbors)) {
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (std::size_t j = 0; j < kc; ++j) {
+        const PointXYZI& q = points[knn_index_[j]];
+        mean += Eigen::Vector3d(q.x, q.y, q.z);
+      }
+      mean /= static_cast<double>(kc);
+      Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+      for (std::size_t j = 0; j < kc; ++j) {
+        const PointXYZI& q = points[knn_index_[j]];
+        const Eigen::Vector3d e = Eigen::Vector3d(q.x, q.y, q.z) - mean;
+        c.noalias() += e * e.transpose();
+      }
+      c /= static_cast<double>(kc);
+      eig.computeDirect(c);
+      if (eig.eigenvalues().allFinite() && eig.eigenvectors().allFinite() && eig.eigenvalues()(2) > 0.0) {
+        const Eigen::Matrix3d& v = eig.eigenvectors();
+        covariances_[i] = v * Eigen::Vector3d(1e-3, 1.0, 1.0).asDiagonal() * v.transpose();
+        ++stats_.num_valid_covariances;
+      }
+    }
+  }
+  neighbor_begin_[n] = neighbor_index_.size();
+  stats_.mean_neighbors = n ? neighbor_index_.size() / n : 0;
+}
+
+void SubmapFeatures::ComputeDescriptors(const SubmapFeatureParams& /*params*/) {
+  const std::size_t n = points_.size();
+  keypoints_.clear();
+  keypoint_of_point_.assign(n, -1);
+
+  // Keypoints: a valid normal and >= 3 valid-normal neighbours within fpfh_radius_m (self included).
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!normal_valid_[i]) continue;
+    int valid = 0;
+    for (std::uint32_t j : neighbor_indices(i)) valid += normal_valid_[j];
+    if (valid >= 3) {
+      keypoint_of_point_[i] = static_cast<std::int32_t>(keypoints_.size());
+      keypoints_.push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  const std::size_t nk = keypoints_.size();
+  stats_.num_keypoints = nk;
+
+  // SPFH (spec step 6): histogram of the pair features with every other valid-normal neighbour.
+  spfh_.assign(nk * kSpfhStride, 0.0f);
+  for (std::size_t k = 0; k < nk; ++k) {
+    const std::uint32_t i = keypoints_[k];
+    const Span<const std::uint32_t> nb = neighbor_indices(i);
+    int num_valid = 0;
+    for (std::uint32_t j : nb) num_valid += (j != i && normal_valid_[j]);
+    if (num_valid == 0) continue;
+    const float inc = 100.0f / static_cast<float>(num_valid);
+    float* h = spfh_.data() + k * kSpfhStride;
+    const Eigen::Vector3f pi = Pos(points_[i]);
+    const Eigen::Vector3f& ni = normals_[i];
+    for (std::uint32_t j : nb) {
+      if (j == i || !normal_valid_[j]) continue;
+      PairFeature f;
+      if (!ComputePairFeature(pi, ni, Pos(points_[j]), normals_[j], &f)) continue;
+      h[Bin(f.f1, -kPiF, kPiF)] += inc;
+      h[kFpfhBins + Bin(f.f2, -1.0f, 1.0f)] += inc;
+      h[2 * kFpfhBins + Bin(f.f3, -1.0f, 1.0f)] += inc;
+    }
+  }
+
+  // FPFH (spec step 7): own SPFH + keypoint neighbours' SPFH weighted by 1 / d^2 (1 at d = 0, the point
+  // itself included), then each 11-bin block rescaled to sum 100.
+  descriptors_.assign(nk * kFpfhDims, 0.0f);
+  using Row = Eigen::Array<float, kSpfhStride, 1>;
+  for (std::size_t k = 0; k < nk; ++k) {
+    const std::uint32_t i = keypoints_[k];
+    float* out = descriptors_.data() + k * kFpfhDims;
+    Row acc = Eigen::Map<const Row>(spfh_.data() + k * kSpfhStride);
+    const Span<const std::uint32_t> nb = neighbor_indices(i);
+    const Span<const float> nd = neighbor_distances_sq(i);
+    for (std::size_t m = 0; m < nb.size(); ++m) {
+      const std::int32_t kq = keypoint_of_point_[nb[m]];
+      if (kq < 0) continue;
+      const float w = nd[m] > 0.0f ? 1.0f / nd[m] : 1.0f;
+      acc += w * Eigen::Map<const Row>(spfh_.data() + static_cast<std::size_t>(kq) * kSpfhStride);
+    }
+    for (int b = 0; b < kFpfhDims; ++b) out[b] = acc(b);
+    for (int block = 0; block < 3; ++block) {
+      float sum = 0.0f;
+      for (int b = 0; b < kFpfhBins; ++b) sum += out[block * kFpfhBins + b];
+      if (sum > 0.0f) {
+        const float scale = 100.0f / sum;
+        for (int b = 0; b < kFpfhBins; ++b) out[block * kFpfhBins + b] *= scale;
+      }
+    }
+  }
+}
+
+}  // namespace commerge

@@ -1,0 +1,85 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Shared by the registration tests (fast and heavy): cheap generated submap pairs, pose errors, real clouds.
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/cloud/voxel_grid.hpp"
+#include "core/geometry/se3.hpp"
+#include "core/registration/submap_registration.hpp"
+#include "core/registration/synthetic_submaps.hpp"
+#include "platform/io/kitti_bin.hpp"
+
+namespace commerge::test {
+
+inline Eigen::Isometry3d YawOffset(double yaw_deg, double x_m, double y_m, double z_m) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(x_m, y_m, z_m);
+  return T;
+}
+
+inline double RotationErrorDeg(const Eigen::Isometry3d& truth, const Eigen::Isometry3d& estimate) {
+  return RotationAngleRad(truth.linear().transpose() * estimate.linear()) * 180.0 / M_PI;
+}
+
+inline double TranslationErrorM(const Eigen::Isometry3d& truth, const Eigen::Isometry3d& estimate) {
+  return (truth.translation() - estimate.translation()).norm();
+}
+
+/// A light spinning LiDAR (32 x 512 rays, 80 m) so that a pair costs tens of milliseconds, also under qemu.
+inline SpinningLidar LightLidar() {
+  SpinningLidar lidar;
+  lidar.beams = 32;
+  lidar.azimuth_steps = 512;
+  lidar.max_range_m = 80.0f;
+  return lidar;
+}
+
+/// Two robots on street `scene_seed`: target scans from x = -8 m, source from x = -8 + shift_m in the other
+/// lane (reversed when asked), 3 scans 5 m apart each; the source frame is moved by T_anchor_offset.
+inline StreetPairSpec LightStreetSpec(std::uint32_t scene_seed, const Eigen::Isometry3d& T_anchor_offset,
+                                      float shift_m = 3.0f, bool reversed = false) {
+  StreetPairSpec spec;
+  spec.scene_seed = scene_seed;
+  spec.street_length_m = 260.0f;
+  spec.lidar = LightLidar();
+  spec.scans_per_submap = 3;
+  spec.scan_spacing_m = 5.0f;
+  spec.target_start_x_m = -8.0f;
+  spec.source_reversed = reversed;
+  spec.source_start_x_m = reversed ? -8.0f + 10.0f + shift_m : -8.0f + shift_m;
+  spec.T_anchor_offset = T_anchor_offset;
+  spec.scan_seed = 500u + scene_seed;
+  return spec;
+}
+
+inline SubmapView View(const SyntheticSubmap& s) { return SubmapView{s.points, s.sensor_origins_m}; }
+
+/// p' = T p for every point.
+inline std::vector<PointXYZI> Transformed(const std::vector<PointXYZI>& in, const Eigen::Isometry3d& T) {
+  std::vector<PointXYZI> out;
+  out.reserve(in.size());
+  for (const PointXYZI& p : in) {
+    const Eigen::Vector3d q = T * Eigen::Vector3d(p.x, p.y, p.z);
+    out.push_back({static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), p.intensity});
+  }
+  return out;
+}
+
+/// A KITTI-layout cloud moved by T and voxelised; empty when the file cannot be read.
+inline std::vector<PointXYZI> LoadVoxelised(const std::string& path, const Eigen::Isometry3d& T, double voxel_m) {
+  auto scan = platform::ReadKittiBin(path);
+  std::vector<PointXYZI> out;
+  if (!scan.ok()) return out;
+  const std::vector<PointXYZI> moved = Transformed(scan->points, T);
+  if (!VoxelDownsample(moved, VoxelGridParams{voxel_m}, &out).ok()) out.clear();
+  return out;
+}
+
+}  // namespace commerge::test
