@@ -1,88 +1,155 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Descriptor matching (REGISTRATION.md §1.2 step 8) with exact 33-D k-d trees (nanoflann).
+// Descriptor matching (REGISTRATION.md §1.2 step 8) by an exact brute-force pass over all descriptor pairs.
+//
+// Why brute force: a k-d tree in 33 dimensions visits most of its leaves anyway, and one pass over all pairs
+// yields both the 2-NN of every query and the reverse 1-NN of every database row that the mutual check needs.
+// The pass is a register-blocked kernel (4 queries x 8 database rows, 33 dimensions) written with the
+// compiler's portable vector types; on x86-64 an AVX2 clone is chosen at load time (the arithmetic is the same
+// sequence of IEEE multiplies and adds in every clone, so the results are identical).
 //
 // Cost control: in a submap voxelised at 1 m about half of the keypoints lie on open planes (road, facades)
 // and carry the same "flat" descriptor (every pair feature in the middle bin). They form one dense cluster in
-// descriptor space where every search is expensive and almost every query fails the ratio test, so only
-// keypoints whose descriptor differs from the flat one by >= min_saliency take part, at most
-// max_match_keypoints per submap (the most salient; ties by index).
+// descriptor space where almost every query fails the ratio test, so only keypoints whose descriptor differs
+// from the flat one by >= min_saliency take part, at most max_match_keypoints per submap (the most salient;
+// ties by index).
 #include "core/registration/feature_matching.hpp"
-
-#include <nanoflann.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#define CM_DESCRIPTOR_KERNEL_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define CM_DESCRIPTOR_KERNEL_CLONES
+#endif
+#if defined(__GNUC__)
+// The vector helpers below are file-local and always inlined: no 32-byte vector crosses a call boundary, so
+// the ABI note GCC gives for AVX-sized vectors without AVX does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
+#define CM_ALWAYS_INLINE __attribute__((always_inline)) inline
+#else
+#define CM_ALWAYS_INLINE inline
+#endif
+
 namespace commerge {
+namespace {
 
-struct FeatureMatcher::Index {
-  struct Adaptor {
-    const float* data = nullptr;
-    std::size_t count = 0;
-    std::size_t kdtree_get_point_count() const { return count; }
-    float kdtree_get_pt(std::size_t i, std::size_t dim) const { return data[i * kFpfhDims + dim]; }
-    template <class BBox>
-    bool kdtree_get_bbox(BBox&) const {
-      return false;
-    }
-  };
-  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Adaptor<float, Adaptor>, Adaptor, kFpfhDims,
-                                                   std::uint32_t>;
-  Adaptor adaptor;
-  std::unique_ptr<Tree> tree;
-  std::vector<float> descriptors;    // selected descriptors, row-major
-  std::vector<std::uint32_t> point;  // point index of each selected descriptor
-  std::vector<std::pair<float, std::uint32_t>> ranking;
+constexpr int kLanes = 8;      // database rows per block
+constexpr int kQueryRows = 4;  // query rows per register block
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+// Padding rows of the database sit this far from everything: their squared distances (~3e31) never win.
+constexpr float kFarAway = 1e15f;
+using Vec8f = float __attribute__((vector_size(32)));
+using Vec8i = std::int32_t __attribute__((vector_size(32)));
 
-  // Selects the salient keypoints of `f` and indexes their descriptors.
-  void Build(const SubmapFeatures& f, const FeatureMatchingParams& params, std::size_t* num_dropped) {
-    const std::vector<float>& all = f.descriptors();
-    const std::size_t n = f.keypoints().size();
-    ranking.clear();
-    const auto min_s2 = static_cast<float>(params.min_saliency * params.min_saliency);
-    for (std::size_t k = 0; k < n; ++k) {
-      const float s2 = FlatDescriptorDistanceSq(all.data() + k * kFpfhDims);
-      if (s2 >= min_s2) ranking.emplace_back(-s2, static_cast<std::uint32_t>(k));
-    }
-    if (ranking.size() > params.max_match_keypoints) {
-      std::nth_element(ranking.begin(), ranking.begin() + static_cast<std::ptrdiff_t>(params.max_match_keypoints),
-                       ranking.end());
-      ranking.resize(params.max_match_keypoints);
-    }
-    // Back to keypoint order so that the query order (and the tie-breaks) do not depend on the ranking.
-    std::sort(ranking.begin(), ranking.end(),
-              [](const std::pair<float, std::uint32_t>& a, const std::pair<float, std::uint32_t>& b) {
-                return a.second < b.second;
-              });
-    *num_dropped = n - ranking.size();
-    descriptors.resize(ranking.size() * kFpfhDims);
-    point.resize(ranking.size());
-    for (std::size_t m = 0; m < ranking.size(); ++m) {
-      const std::uint32_t k = ranking[m].second;
-      std::copy_n(all.data() + static_cast<std::size_t>(k) * kFpfhDims, kFpfhDims, descriptors.data() + m * kFpfhDims);
-      point[m] = f.keypoints()[k];
-    }
-    adaptor.data = descriptors.data();
-    adaptor.count = ranking.size();
-    if (adaptor.count == 0) return;
-    if (!tree) {
-      tree = std::make_unique<Tree>(kFpfhDims, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(10));
-    } else {
-      tree->buildIndex();
+template <class V, class T>
+CM_ALWAYS_INLINE V LoadVec(const T* p) {
+  V v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+template <class V, class T>
+CM_ALWAYS_INLINE void StoreVec(T* p, const V& v) {
+  std::memcpy(p, &v, sizeof(v));
+}
+CM_ALWAYS_INLINE Vec8f Select(Vec8i mask, Vec8f a, Vec8f b) {  // mask ? a : b, lane by lane
+  const Vec8i r = (LoadVec<Vec8i>(&a) & mask) | (LoadVec<Vec8i>(&b) & ~mask);
+  return LoadVec<Vec8f>(&r);
+}
+
+// All pairs of `queries` (num_queries rows, padded with readable rows to a multiple of kQueryRows) and the
+// database `blocks` (num_blocks x kFpfhDims x kLanes: rows transposed per block, padding rows kFarAway).
+// Per query (ascending database order, strict "<", so the lowest index wins ties): row_d1/row_i1 nearest,
+// row_d2 second. Per database row: col_d/col_i nearest query (strict "<" over ascending queries).
+CM_DESCRIPTOR_KERNEL_CLONES
+void ScanAllPairs(const float* queries, std::size_t num_queries, const float* blocks, std::size_t num_blocks,
+                  std::size_t num_database, float* row_d1, float* row_d2, std::uint32_t* row_i1, float* col_d,
+                  std::int32_t* col_i) {
+  for (std::size_t q0 = 0; q0 < num_queries; q0 += kQueryRows) {
+    const float* q = queries + q0 * kFpfhDims;
+    const std::size_t rows = std::min<std::size_t>(kQueryRows, num_queries - q0);
+    for (std::size_t b = 0; b < num_blocks; ++b) {
+      const float* blk = blocks + b * kFpfhDims * kLanes;
+      // Four named accumulators (not an array) so that they live in registers.
+      Vec8f a0 = {}, a1 = {}, a2 = {}, a3 = {};
+      for (int d = 0; d < kFpfhDims; ++d) {
+        const Vec8f v = LoadVec<Vec8f>(blk + d * kLanes);
+        const Vec8f e0 = q[d] - v;
+        const Vec8f e1 = q[kFpfhDims + d] - v;
+        const Vec8f e2 = q[2 * kFpfhDims + d] - v;
+        const Vec8f e3 = q[3 * kFpfhDims + d] - v;
+        a0 += e0 * e0;
+        a1 += e1 * e1;
+        a2 += e2 * e2;
+        a3 += e3 * e3;
+      }
+      const Vec8f acc[kQueryRows] = {a0, a1, a2, a3};
+      Vec8f cd = LoadVec<Vec8f>(col_d + b * kLanes);
+      Vec8i ci = LoadVec<Vec8i>(col_i + b * kLanes);
+      for (std::size_t r = 0; r < rows; ++r) {
+        const Vec8i closer = acc[r] < cd;
+        cd = Select(closer, acc[r], cd);
+        ci = (closer & static_cast<std::int32_t>(q0 + r)) | (ci & ~closer);
+        float lane_d[kLanes];
+        StoreVec(lane_d, acc[r]);
+        float& d1 = row_d1[q0 + r];
+        float& d2 = row_d2[q0 + r];
+        for (int l = 0; l < kLanes; ++l) {
+          const float dist = lane_d[l];
+          if (!(dist < d2)) continue;
+          const std::size_t j = b * kLanes + static_cast<std::size_t>(l);
+          if (j >= num_database) break;
+          if (dist < d1) {
+            d2 = d1;
+            d1 = dist;
+            row_i1[q0 + r] = static_cast<std::uint32_t>(j);
+          } else {
+            d2 = dist;
+          }
+        }
+      }
+      StoreVec(col_d + b * kLanes, cd);
+      StoreVec(col_i + b * kLanes, ci);
     }
   }
-  std::size_t size() const { return adaptor.count; }
-  const float* row(std::size_t i) const { return descriptors.data() + i * kFpfhDims; }
-  std::size_t Knn(const float* query, std::size_t k, std::uint32_t* idx, float* d2) const {
-    if (adaptor.count == 0) return 0;
-    nanoflann::KNNResultSet<float, std::uint32_t> rs(static_cast<std::uint32_t>(k));
-    rs.init(idx, d2);
-    tree->findNeighbors(rs, query, nanoflann::SearchParams());
-    return rs.size();
+}
+
+// Fills `out` with the salient keypoints of `f` (see the file comment).
+void SelectSalient(const SubmapFeatures& f, const FeatureMatchingParams& params,
+                   std::vector<std::pair<float, std::uint32_t>>* ranking, FeatureMatcher::Selection* out,
+                   std::size_t* num_dropped) {
+  const std::vector<float>& all = f.descriptors();
+  const std::size_t n = f.keypoints().size();
+  ranking->clear();
+  const auto min_s2 = static_cast<float>(params.min_saliency * params.min_saliency);
+  for (std::size_t k = 0; k < n; ++k) {
+    const float s2 = FlatDescriptorDistanceSq(all.data() + k * kFpfhDims);
+    if (s2 >= min_s2) ranking->emplace_back(-s2, static_cast<std::uint32_t>(k));
   }
-};
+  if (ranking->size() > params.max_match_keypoints) {
+    std::nth_element(ranking->begin(), ranking->begin() + static_cast<std::ptrdiff_t>(params.max_match_keypoints),
+                     ranking->end());
+    ranking->resize(params.max_match_keypoints);
+  }
+  // Back to keypoint order so that the query order (and the tie-breaks) do not depend on the ranking.
+  std::sort(ranking->begin(), ranking->end(),
+            [](const std::pair<float, std::uint32_t>& a, const std::pair<float, std::uint32_t>& b) {
+              return a.second < b.second;
+            });
+  *num_dropped = n - ranking->size();
+  out->descriptors.resize(ranking->size() * kFpfhDims);
+  out->point.resize(ranking->size());
+  for (std::size_t m = 0; m < ranking->size(); ++m) {
+    const std::uint32_t k = (*ranking)[m].second;
+    std::copy_n(all.data() + static_cast<std::size_t>(k) * kFpfhDims, kFpfhDims, out->descriptors.data() + m * kFpfhDims);
+    out->point[m] = f.keypoints()[k];
+  }
+}
+
+}  // namespace
 
 float FlatDescriptorDistanceSq(const float* descriptor) {
   float s = 0.0f;
@@ -107,55 +174,82 @@ Status ValidateFeatureMatchingParams(const FeatureMatchingParams& p) {
   if (!(p.min_saliency >= 0.0 && p.min_saliency < 250.0)) {
     return InvalidArgument("registration matching: min_saliency must be in [0, 250)");
   }
-  if (p.max_match_keypoints < 2) return InvalidArgument("registration matching: max_match_keypoints must be >= 2");
+  if (p.max_match_keypoints < 2 || p.max_match_keypoints > 100000) {
+    return InvalidArgument("registration matching: max_match_keypoints must be in [2, 100000]");
+  }
   return Status::Ok();
 }
 
-FeatureMatcher::FeatureMatcher() : source_index_(std::make_unique<Index>()), target_index_(std::make_unique<Index>()) {}
-FeatureMatcher::~FeatureMatcher() = default;
+void FindDescriptorNeighbors(const float* queries, std::size_t num_queries, const float* database,
+                             std::size_t num_database, std::vector<float>* scratch, DescriptorNeighbors* out) {
+  out->nearest.assign(num_queries, kNone);
+  out->d1_sq.assign(num_queries, std::numeric_limits<float>::infinity());
+  out->d2_sq.assign(num_queries, std::numeric_limits<float>::infinity());
+  out->reverse_nearest.assign(num_database, kNone);
+  if (num_queries == 0 || num_database == 0) return;
+  const std::size_t num_blocks = (num_database + kLanes - 1) / kLanes;
+  const std::size_t padded_queries = (num_queries + kQueryRows - 1) / kQueryRows * kQueryRows;
+  // scratch: [transposed database blocks | padded queries | column distances | column indices (as int32)]
+  const std::size_t block_floats = num_blocks * kFpfhDims * kLanes;
+  const std::size_t query_floats = padded_queries * kFpfhDims;
+  const std::size_t column_floats = num_blocks * kLanes;
+  scratch->resize(block_floats + query_floats + 2 * column_floats);
+  float* blocks = scratch->data();
+  float* padded = blocks + block_floats;
+  float* col_d = padded + query_floats;
+  auto* col_i = reinterpret_cast<std::int32_t*>(col_d + column_floats);
+  static_assert(sizeof(float) == sizeof(std::int32_t), "column indices share the float scratch");
+  for (std::size_t j = 0; j < num_blocks * kLanes; ++j) {
+    float* dst = blocks + (j / kLanes) * kFpfhDims * kLanes + j % kLanes;
+    for (int d = 0; d < kFpfhDims; ++d) dst[d * kLanes] = j < num_database ? database[j * kFpfhDims + d] : kFarAway;
+  }
+  std::copy_n(queries, num_queries * kFpfhDims, padded);
+  std::fill(padded + num_queries * kFpfhDims, padded + query_floats, 0.0f);
+  std::fill(col_d, col_d + column_floats, std::numeric_limits<float>::infinity());
+  std::fill(col_i, col_i + column_floats, -1);
+  ScanAllPairs(padded, num_queries, blocks, num_blocks, num_database, out->d1_sq.data(), out->d2_sq.data(),
+               out->nearest.data(), col_d, col_i);
+  for (std::size_t j = 0; j < num_database; ++j) out->reverse_nearest[j] = static_cast<std::uint32_t>(col_i[j]);
+}
 
 FeatureMatchingStats FeatureMatcher::Match(const SubmapFeatures& source, const SubmapFeatures& target,
                                            const FeatureMatchingParams& params, std::vector<Correspondence>* out) {
   out->clear();
   FeatureMatchingStats stats;
-  source_index_->Build(source, params, &stats.num_source_not_salient);
-  target_index_->Build(target, params, &stats.num_target_not_salient);
-  // Queries come from the side with fewer descriptors (j), searched in the larger side (i).
-  const bool source_is_query = source_index_->size() <= target_index_->size();
-  const Index& big = source_is_query ? *target_index_ : *source_index_;
-  const Index& small = source_is_query ? *source_index_ : *target_index_;
+  SelectSalient(source, params, &ranking_, &source_, &stats.num_source_not_salient);
+  SelectSalient(target, params, &ranking_, &target_, &stats.num_target_not_salient);
+  // Queries come from the side with fewer descriptors, searched in the larger side.
+  const bool source_is_query = source_.size() <= target_.size();
+  const Selection& big = source_is_query ? target_ : source_;
+  const Selection& small = source_is_query ? source_ : target_;
   if (big.size() == 0 || small.size() == 0) return stats;
+  FindDescriptorNeighbors(small.descriptors.data(), small.size(), big.descriptors.data(), big.size(), &scratch_,
+                          &neighbors_);
 
   const auto gate_sq = static_cast<float>(params.max_descriptor_distance * params.max_descriptor_distance);
   const auto ratio_sq = static_cast<float>(params.ratio_sq);
   stats.num_queries = small.size();
   for (std::size_t q = 0; q < small.size(); ++q) {
-    std::uint32_t idx[2] = {0, 0};
-    float d2[2] = {0.0f, std::numeric_limits<float>::infinity()};
-    const std::size_t found = big.Knn(small.row(q), 2, idx, d2);
-    if (found == 0) continue;
-    if (found < 2) d2[1] = std::numeric_limits<float>::infinity();
-    if (!(d2[0] <= gate_sq)) {
+    const std::uint32_t i = neighbors_.nearest[q];
+    const float d1 = neighbors_.d1_sq[q];
+    const float d2 = neighbors_.d2_sq[q];
+    if (!(d1 <= gate_sq)) {
       ++stats.num_failed_gate;
       continue;
     }
-    if (!(d2[0] <= ratio_sq * d2[1])) {
+    if (!(d1 <= ratio_sq * d2)) {
       ++stats.num_failed_ratio;
       continue;
     }
-    if (params.mutual) {
-      std::uint32_t back = 0;
-      float back_d2 = 0.0f;
-      if (small.Knn(big.row(idx[0]), 1, &back, &back_d2) != 1 || back != q) {
-        ++stats.num_failed_mutual;
-        continue;
-      }
+    if (params.mutual && neighbors_.reverse_nearest[i] != q) {
+      ++stats.num_failed_mutual;
+      continue;
     }
     Correspondence c;
-    c.source_index = source_is_query ? small.point[q] : big.point[idx[0]];
-    c.target_index = source_is_query ? big.point[idx[0]] : small.point[q];
-    c.descriptor_distance_sq = d2[0];
-    c.ratio_sq = std::isfinite(d2[1]) && d2[1] > 0.0f ? d2[0] / d2[1] : 0.0f;
+    c.source_index = source_is_query ? small.point[q] : big.point[i];
+    c.target_index = source_is_query ? big.point[i] : small.point[q];
+    c.descriptor_distance_sq = d1;
+    c.ratio_sq = std::isfinite(d2) && d2 > 0.0f ? d1 / d2 : 0.0f;
     out->push_back(c);
   }
   // Most distinctive first; stable keeps the query order among equal ratios (deterministic).

@@ -6,7 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <memory>
+#include <utility>
 #include <vector>
 
 #include "core/common/status.hpp"
@@ -57,13 +57,27 @@ struct FeatureMatchingStats {
   std::size_t num_target_not_salient = 0;
 };
 
-/// Reusable matcher (keeps its 33-D k-d trees and scratch between calls). Not thread-safe.
+/// Result of a brute-force nearest-neighbour pass between query and database descriptors (kFpfhDims each).
+struct DescriptorNeighbors {
+  /// Per query: its nearest database row (UINT32_MAX when the database is empty), d1^2 and the second
+  /// smallest d2^2 (infinity when there is none). Ties: the lowest database index is the nearest.
+  std::vector<std::uint32_t> nearest;
+  std::vector<float> d1_sq;
+  std::vector<float> d2_sq;
+  /// Per database row: its nearest query row (UINT32_MAX when there are no queries); ties: lowest index.
+  std::vector<std::uint32_t> reverse_nearest;
+};
+
+/// Exact 2-NN of every query row in the database and 1-NN of every database row in the queries, in one pass
+/// over all pairs (no N x M matrix: blocks of 4 queries x 8 database rows stay in registers). Row-major
+/// inputs; `scratch` keeps its capacity between calls. Every value must be finite.
+void FindDescriptorNeighbors(const float* queries, std::size_t num_queries, const float* database,
+                             std::size_t num_database, std::vector<float>* scratch, DescriptorNeighbors* out);
+
+/// Reusable matcher (keeps the selected descriptors and scratch between calls). Not thread-safe.
 class FeatureMatcher {
  public:
-  FeatureMatcher();
-  ~FeatureMatcher();
-  FeatureMatcher(const FeatureMatcher&) = delete;
-  FeatureMatcher& operator=(const FeatureMatcher&) = delete;
+  FeatureMatcher() = default;
 
   /// Fills *out (cleared first) with correspondences ordered by ascending d1^2 / d2^2 (ties: by query index),
   /// a spatially scattered order that the chained rotation measurements of the robust solver rely on.
@@ -71,10 +85,19 @@ class FeatureMatcher {
   FeatureMatchingStats Match(const SubmapFeatures& source, const SubmapFeatures& target,
                              const FeatureMatchingParams& params, std::vector<Correspondence>* out);
 
+  /// Salient keypoints of one submap (see FeatureMatchingParams::min_saliency and max_match_keypoints).
+  struct Selection {
+    std::vector<float> descriptors;    // row-major
+    std::vector<std::uint32_t> point;  // point index of each selected descriptor
+    std::size_t size() const noexcept { return point.size(); }
+  };
+
  private:
-  struct Index;
-  std::unique_ptr<Index> source_index_;
-  std::unique_ptr<Index> target_index_;
+  Selection source_;
+  Selection target_;
+  std::vector<std::pair<float, std::uint32_t>> ranking_;
+  std::vector<float> scratch_;
+  DescriptorNeighbors neighbors_;
 };
 
 }  // namespace commerge

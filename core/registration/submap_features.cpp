@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Submap preprocessing (REGISTRATION.md §1.2 steps 2-7, §2.1). One capped k-nearest search per point gives a
+// Submap preprocessing (REGISTRATION.md §1.2 steps 2-7, §2.1). One capped radius search per point gives a
 // sorted neighbour list; its prefix within normal_radius_m gives the normal, its first covariance_neighbors
 // entries the GICP covariance, the whole list (within fpfh_radius_m) the descriptor support.
 #include "core/registration/submap_features.hpp"
@@ -110,14 +110,9 @@ void SubmapFeatures::ComputeGeometry(Span<const PointXYZI> points, Span<const Ei
   descriptors_.clear();
   tree_.Build(points);
 
-  const auto cap = static_cast<std::size_t>(params.max_neighbors);
-  const auto fpfh_r2 = static_cast<float>(params.fpfh_radius_m * params.fpfh_radius_m);
   const auto normal_r2 = static_cast<float>(params.normal_radius_m * params.normal_radius_m);
-  knn_index_.resize(cap);
-  knn_dist_sq_.resize(cap);
-  neighbor_begin_.resize(n + 1);
-  neighbor_index_.clear();
-  neighbor_dist_sq_.clear();
+  neighbors_.Compute(points, static_cast<float>(params.fpfh_radius_m), static_cast<std::size_t>(params.max_neighbors));
+  stats_.num_capped_neighborhoods = neighbors_.num_capped();
   normals_.assign(n, Eigen::Vector3f::Zero());
   normal_valid_.assign(n, 0);
   covariances_.assign(n, Eigen::Matrix3d::Identity());
@@ -128,29 +123,23 @@ void SubmapFeatures::ComputeGeometry(Span<const PointXYZI> points, Span<const Ei
 
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
   for (std::size_t i = 0; i < n; ++i) {
-    const PointXYZI& p = points[i];
-    const std::size_t k = tree_.Knn(p.x, p.y, p.z, cap, knn_index_.data(), knn_dist_sq_.data());
-    std::size_t kept = 0;
-    while (kept < k && knn_dist_sq_[kept] <= fpfh_r2) ++kept;
-    if (kept == cap) ++stats_.num_capped_neighborhoods;
-    neighbor_begin_[i] = neighbor_index_.size();
-    neighbor_index_.insert(neighbor_index_.end(), knn_index_.begin(), knn_index_.begin() + static_cast<std::ptrdiff_t>(kept));
-    neighbor_dist_sq_.insert(neighbor_dist_sq_.end(), knn_dist_sq_.begin(),
-                             knn_dist_sq_.begin() + static_cast<std::ptrdiff_t>(kept));
+    const Span<const std::uint32_t> nb = neighbors_.indices(i);
+    const Span<const float> nb_d2 = neighbors_.distances_sq(i);
+    const std::size_t kept = nb.size();
 
     // Normal: the neighbours within normal_radius_m, sample covariance (1 / (n - 1)).
     std::size_t nn = 0;
-    while (nn < kept && knn_dist_sq_[nn] < normal_r2) ++nn;
+    while (nn < kept && nb_d2[nn] < normal_r2) ++nn;
     if (nn >= static_cast<std::size_t>(params.min_normal_neighbors)) {
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (std::size_t j = 0; j < nn; ++j) {
-        const PointXYZI& q = points[knn_index_[j]];
+        const PointXYZI& q = points[nb[j]];
         mean += Eigen::Vector3d(q.x, q.y, q.z);
       }
       mean /= static_cast<double>(nn);
       Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
       for (std::size_t j = 0; j < nn; ++j) {
-        const PointXYZI& q = points[knn_index_[j]];
+        const PointXYZI& q = points[nb[j]];
         const Eigen::Vector3d e = Eigen::Vector3d(q.x, q.y, q.z) - mean;
         c.noalias() += e * e.transpose();
       }
@@ -182,13 +171,13 @@ void SubmapFeatures::ComputeGeometry(Span<const PointXYZI> points, Span<const Ei
     if (kc >= static_cast<std::size_t>(params.min_covariance_neighbors)) {
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (std::size_t j = 0; j < kc; ++j) {
-        const PointXYZI& q = points[knn_index_[j]];
+        const PointXYZI& q = points[nb[j]];
         mean += Eigen::Vector3d(q.x, q.y, q.z);
       }
       mean /= static_cast<double>(kc);
       Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
       for (std::size_t j = 0; j < kc; ++j) {
-        const PointXYZI& q = points[knn_index_[j]];
+        const PointXYZI& q = points[nb[j]];
         const Eigen::Vector3d e = Eigen::Vector3d(q.x, q.y, q.z) - mean;
         c.noalias() += e * e.transpose();
       }
@@ -201,8 +190,7 @@ void SubmapFeatures::ComputeGeometry(Span<const PointXYZI> points, Span<const Ei
       }
     }
   }
-  neighbor_begin_[n] = neighbor_index_.size();
-  stats_.mean_neighbors = n ? neighbor_index_.size() / n : 0;
+  stats_.mean_neighbors = n ? neighbors_.total() / n : 0;
 }
 
 void SubmapFeatures::ComputeDescriptors(const SubmapFeatureParams& /*params*/) {

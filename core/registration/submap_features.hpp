@@ -13,6 +13,7 @@
 
 #include "core/cloud/kd_tree.hpp"
 #include "core/cloud/point.hpp"
+#include "core/cloud/radius_neighbors.hpp"
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 
@@ -74,8 +75,8 @@ struct SubmapFeatureStats {
 /// Reusable: buffers keep their capacity between calls. Not thread-safe.
 class SubmapFeatures {
  public:
-  /// Stage 1 (spec §1.2 steps 2-3, §2.1): k-d tree, one neighbour search per point (capped at
-  /// max_neighbors, radius fpfh_radius_m), normals, covariances. Each normal is flipped to point towards the
+  /// Stage 1 (spec §1.2 steps 2-3, §2.1): k-d tree (for GICP), the neighbours of every point (capped at
+  /// max_neighbors, radius fpfh_radius_m; core/cloud/radius_neighbors), normals, covariances. Each normal is flipped to point towards the
   /// nearest of `sensor_origins_m` (same frame as the points; empty = the frame origin).
   /// Preconditions (the caller checks, see RegisterSubmaps): every point finite, params valid,
   /// points.size() < 2^32.
@@ -100,21 +101,13 @@ class SubmapFeatures {
   const SubmapFeatureStats& stats() const noexcept { return stats_; }
 
   /// Neighbours of point i (itself included), closest first: indices and squared distances [m^2].
-  Span<const std::uint32_t> neighbor_indices(std::size_t i) const noexcept {
-    return {neighbor_index_.data() + neighbor_begin_[i], neighbor_begin_[i + 1] - neighbor_begin_[i]};
-  }
-  Span<const float> neighbor_distances_sq(std::size_t i) const noexcept {
-    return {neighbor_dist_sq_.data() + neighbor_begin_[i], neighbor_begin_[i + 1] - neighbor_begin_[i]};
-  }
+  Span<const std::uint32_t> neighbor_indices(std::size_t i) const noexcept { return neighbors_.indices(i); }
+  Span<const float> neighbor_distances_sq(std::size_t i) const noexcept { return neighbors_.distances_sq(i); }
 
  private:
   Span<const PointXYZI> points_;
   KdTree3 tree_;
-  std::vector<std::size_t> neighbor_begin_;
-  std::vector<std::uint32_t> neighbor_index_;
-  std::vector<float> neighbor_dist_sq_;
-  std::vector<std::uint32_t> knn_index_;
-  std::vector<float> knn_dist_sq_;
+  RadiusNeighbors neighbors_;
   std::vector<Eigen::Vector3f> normals_;
   std::vector<std::uint8_t> normal_valid_;
   std::vector<Eigen::Matrix3d> covariances_;

@@ -8,7 +8,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "core/registration/feature_matching.hpp"
@@ -200,6 +202,59 @@ TEST_CASE("Descriptors: every point of an exact plane carries the flat-plane des
   REQUIRE(f.keypoints().size() == pts.size());
   for (std::size_t k = 0; k < f.keypoints().size(); ++k) {
     CHECK(FlatDescriptorDistanceSq(f.descriptors().data() + k * kFpfhDims) < 1e-6f);
+  }
+}
+
+}  // namespace commerge
+
+namespace commerge {
+
+TEST_CASE("Descriptor neighbours equal brute force: 2-NN per query, reverse 1-NN per row, ties to the lower index") {
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 40; ++trial) {
+    const std::size_t nq = rng() % 70, nd = rng() % 90;
+    // Coarse integer values make exact distance ties frequent.
+    const int levels = trial % 2 == 0 ? 3 : 1000;
+    std::uniform_int_distribution<int> v(0, levels - 1);
+    std::vector<float> q(nq * kFpfhDims), d(nd * kFpfhDims);
+    for (float& x : q) x = static_cast<float>(v(rng));
+    for (float& x : d) x = static_cast<float>(v(rng));
+    const auto dist = [&](std::size_t a, std::size_t b) {
+      float s = 0.0f;
+      for (int k = 0; k < kFpfhDims; ++k) {
+        const float e = q[a * kFpfhDims + static_cast<std::size_t>(k)] - d[b * kFpfhDims + static_cast<std::size_t>(k)];
+        s += e * e;
+      }
+      return s;
+    };
+    DescriptorNeighbors got;
+    std::vector<float> scratch;
+    FindDescriptorNeighbors(q.data(), nq, d.data(), nd, &scratch, &got);
+    REQUIRE(got.nearest.size() == nq);
+    REQUIRE(got.reverse_nearest.size() == nd);
+    CAPTURE(trial);
+    for (std::size_t a = 0; a < nq; ++a) {
+      std::vector<std::pair<float, std::uint32_t>> ref;
+      for (std::size_t b = 0; b < nd; ++b) ref.emplace_back(dist(a, b), static_cast<std::uint32_t>(b));
+      std::sort(ref.begin(), ref.end());
+      if (nd == 0) {
+        CHECK(got.nearest[a] == UINT32_MAX);
+        continue;
+      }
+      CHECK(got.nearest[a] == ref[0].second);
+      CHECK(got.d1_sq[a] == ref[0].first);
+      if (nd > 1) {
+        CHECK(got.d2_sq[a] == ref[1].first);
+      } else {
+        CHECK(std::isinf(got.d2_sq[a]));
+      }
+    }
+    for (std::size_t b = 0; b < nd; ++b) {
+      std::vector<std::pair<float, std::uint32_t>> ref;
+      for (std::size_t a = 0; a < nq; ++a) ref.emplace_back(dist(a, b), static_cast<std::uint32_t>(a));
+      std::sort(ref.begin(), ref.end());
+      CHECK(got.reverse_nearest[b] == (nq == 0 ? UINT32_MAX : ref[0].second));
+    }
   }
 }
 
