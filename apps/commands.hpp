@@ -16,5 +16,6 @@ struct Command {
 Command AddBudgetCommand(CLI::App& root);
 Command AddDemoCommand(CLI::App& root);
 Command AddVoxelizeCommand(CLI::App& root);
+Command AddSimCommand(CLI::App& root);
 
 }  // namespace commerge::app

@@ -15,7 +15,8 @@ int main(int argc, char** argv) {
   root.set_version_flag("--version", "commerge " CM_VERSION);
   root.require_subcommand(1);
 
-  const std::vector<Command> commands = {AddDemoCommand(root), AddBudgetCommand(root), AddVoxelizeCommand(root)};
+  const std::vector<Command> commands = {AddDemoCommand(root), AddBudgetCommand(root), AddVoxelizeCommand(root),
+                                       AddSimCommand(root)};
 
   try {
     root.parse(argc, argv);

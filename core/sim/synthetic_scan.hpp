@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: a small ray-cast LiDAR scan generator (ground plane + box buildings), seeded and deterministic.
-// Used by the demo, benchmarks and tests when real scans are absent. The full multi-robot simulator
-// (worlds, trajectories, drift) builds on it.
+// Used by the demo, benchmarks and tests when real scans are absent. The multi-robot simulator (`commerge sim`)
+// lives beside it: world.hpp (accelerated ray casting, more primitive kinds; WorldFromBoxScene converts a
+// BoxScene), lidar_models.hpp, multi_robot_mission.hpp, procedural_world.hpp.
 #pragma once
 
 #include <cstdint>

@@ -28,7 +28,7 @@ endfunction()
 set(CM_BIN ${CM_EMU} $<TARGET_FILE:commerge>)
 
 cm_cli_test(NAME "version" RC 0 REGEX "commerge ${PROJECT_VERSION}" COMMAND ${CM_BIN} --version)
-cm_cli_test(NAME "help lists the subcommands" RC 0 REGEX "demo.*budget.*voxelize" COMMAND ${CM_BIN} --help)
+cm_cli_test(NAME "help lists the subcommands" RC 0 REGEX "demo.*budget.*voxelize.*sim" COMMAND ${CM_BIN} --help)
 cm_cli_test(NAME "unknown subcommand is a usage error" RC 2 COMMAND ${CM_BIN} fly)
 cm_cli_test(NAME "budget: jetson-nano server defaults fit" RC 0 REGEX "memory budget of server fits"
             COMMAND ${CM_BIN} budget --app server --board jetson-nano)
@@ -51,6 +51,45 @@ cm_cli_test(NAME "voxelize reads the demo map" RC 0 REGEX "map_ground_truth.pcd:
 set_tests_properties("cli: voxelize reads the demo map" PROPERTIES FIXTURES_REQUIRED demo_out)
 cm_cli_test(NAME "voxelize names a missing file" RC 1 REGEX "does-not-exist.bin: no such file"
             COMMAND ${CM_BIN} voxelize "${CM_CLI_OUT}/does-not-exist.bin" "${CM_CLI_OUT}/x.pcd")
+
+
+# commerge sim: tiny datasets (16 beams x 90 columns, a few keyframes) so that they stay fast under qemu.
+cm_cli_test(NAME "sim: help lists the options" RC 0
+            REGEX "--world.*--robots.*--overlap.*--keyframes.*--lidar.*--seed.*--drift.*--out.*--force"
+            COMMAND ${CM_BIN} sim --help)
+cm_cli_test(NAME "sim: writes a small KITTI dataset" RC 0
+            REGEX "indoor world, 2 robots, complete overlap, 4 keyframes each.*robot 1: .*scans: 8 in .*wrote .*sim-a.*peak RSS"
+            COMMAND ${CM_BIN} sim --world indoor --robots 2 --overlap complete --keyframes 4 --azimuth-steps 90 --seed 5
+                    --out "${CM_CLI_OUT}/sim-a" --force)
+set_tests_properties("cli: sim: writes a small KITTI dataset" PROPERTIES FIXTURES_SETUP sim_a)
+cm_cli_test(NAME "sim: the same seed again, on two threads" RC 0 REGEX "scans: 8 in .*2 threads"
+            COMMAND ${CM_BIN} sim --world indoor --robots 2 --overlap complete --keyframes 4 --azimuth-steps 90 --seed 5
+                    --threads 2 --out "${CM_CLI_OUT}/sim-b" --force)
+set_tests_properties("cli: sim: the same seed again, on two threads" PROPERTIES FIXTURES_SETUP sim_b)
+foreach(file robot_1/velodyne/000003.bin robot_0/poses.txt robot_1/poses_gt.txt start_transforms.txt)
+  add_test(NAME "cli: sim: same seed, identical ${file}"
+           COMMAND "${CMAKE_COMMAND}" -E compare_files "${CM_CLI_OUT}/sim-a/${file}" "${CM_CLI_OUT}/sim-b/${file}")
+  set_tests_properties("cli: sim: same seed, identical ${file}" PROPERTIES FIXTURES_REQUIRED "sim_a\;sim_b")
+endforeach()
+cm_cli_test(NAME "sim: refuses a non-empty output directory without --force" RC 2
+            REGEX "sim-a: already exists and is not empty \\(use --force"
+            COMMAND ${CM_BIN} sim --keyframes 2 --out "${CM_CLI_OUT}/sim-a")
+set_tests_properties("cli: sim: refuses a non-empty output directory without --force" PROPERTIES FIXTURES_REQUIRED sim_a)
+cm_cli_test(NAME "sim: livox scans in a cave, 3 robots, partial overlap" RC 0
+            REGEX "cave world, 3 robots, partial overlap.*lidar livox \\(400 rays/frame\\).*scans: 9 in"
+            COMMAND ${CM_BIN} sim --world cave --robots 3 --overlap partial --keyframes 3 --lidar livox --livox-points 400
+                    --out "${CM_CLI_OUT}/sim-cave" --force)
+cm_cli_test(NAME "sim: poses only, 5 robots x 2000 keyframes" RC 0
+            REGEX "5 robots, moderate overlap, 2000 keyframes each.*robot 4: 19[0-9][0-9] m driven"
+            COMMAND ${CM_BIN} sim --world campus --robots 5 --keyframes 2000 --poses-only --out "${CM_CLI_OUT}/sim-poses" --force)
+cm_cli_test(NAME "sim: an unknown world is a usage error" RC 2 REGEX "--world: forest not in"
+            COMMAND ${CM_BIN} sim --world forest --out "${CM_CLI_OUT}/sim-bad")
+cm_cli_test(NAME "sim: six robots is a usage error" RC 2 REGEX "--robots: Value 6 not in range"
+            COMMAND ${CM_BIN} sim --robots 6 --out "${CM_CLI_OUT}/sim-bad")
+cm_cli_test(NAME "sim: one keyframe is a usage error" RC 2 REGEX "--keyframes"
+            COMMAND ${CM_BIN} sim --keyframes 1 --out "${CM_CLI_OUT}/sim-bad")
+cm_cli_test(NAME "sim: --livox-points needs the livox model" RC 2 REGEX "--livox-points applies to --lidar livox"
+            COMMAND ${CM_BIN} sim --livox-points 100 --out "${CM_CLI_OUT}/sim-bad")
 
 if(CM_WITH_MIMALLOC)
   add_test(NAME "oom: mimalloc heap cap raises std::bad_alloc" COMMAND ${CM_EMU} $<TARGET_FILE:cm_alloc_probe> --until-oom)
