@@ -30,14 +30,18 @@
 //    on the bipartite double cover of non-bipartite components, which yields the half-integral vertex-cover LP).
 //    The master LP (convexity + one row per robot short of its share) is a dense simplex, or a caller-supplied
 //    LpSolver. Without a balance row a bipartite node is solved exactly by a single min-cut, so the unbalanced
-//    weighted cover (share 0) costs one max-flow. One network is built per solve; nodes only change capacities,
-//    and every max-flow is warm-started from the previous one. The LP support of a node seeds its children.
+//    weighted cover (share 0) costs one max-flow. The pricing multipliers are smoothed towards the best ones so
+//    far (Wentges stabilisation), starting from the parent's. One network is built per solve (rebuilt at the
+//    root without the vertices its fixings remove); nodes only change capacities, and every max-flow is
+//    warm-started from the previous one (or from the parent's flow when the search jumps). The LP support of a
+//    node seeds its children.
 //  * Reduced-cost fixing: the max-flow is an LP dual, so a vertex whose forced inclusion (or exclusion) provably
-//    cannot beat the incumbent is fixed and the node re-bounded.
-//  * Branching on the fractional vertex with the largest fractionality x weight (ties: most free neighbours);
-//    nodes are explored best bound first, newest first among equal bounds (a dive).
-//  * Incumbents: the rounded LP point of every node (and every priced cover at the root), repaired to meet the
-//    shares (greedy swaps), pruned of redundant scans and improved by (1, k)-swaps.
+//    cannot beat the incumbent is fixed and the node re-bounded. The root's fixings hold for the whole search.
+//  * Branching on the fractional vertex whose two branches both promise a large cost increase (estimated from
+//    the LP point; pseudo-random among ties); nodes are explored best bound first, newest first among equal
+//    bounds (a dive).
+//  * Incumbents: the rounded LP point of every node (and every root pricing that raised the bound), repaired to
+//    meet the shares (greedy swaps), pruned of redundant scans and improved by (1, k)-swaps.
 #pragma once
 
 #include <cstdint>

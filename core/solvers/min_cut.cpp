@@ -73,12 +73,20 @@ Status BipartiteCoverFlow::Assign(int left_count, int right_count, const std::ve
   }
   left_count_ = left_count;
   right_count_ = right_count;
+  seen_.assign(static_cast<std::size_t>(node_count_), 0U);
+  stamp_ = 0;
   return Status::Ok();
 }
 
 double BipartiteCoverFlow::TerminalResidual(int v) const {
-  const int a = first_[static_cast<std::size_t>(v)];
-  return v < left_count_ ? arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(a)].rev)].cap : arcs_[static_cast<std::size_t>(a)].cap;
+  const Arc& terminal = arcs_[static_cast<std::size_t>(first_[static_cast<std::size_t>(v)])];
+  return v < left_count_ ? arcs_[static_cast<std::size_t>(terminal.rev)].cap : terminal.cap;
+}
+
+void BipartiteCoverFlow::Send(int a, double f) {
+  Arc& arc = arcs_[static_cast<std::size_t>(a)];
+  arc.cap -= f;
+  arcs_[static_cast<std::size_t>(arc.rev)].cap += f;
 }
 
 bool BipartiteCoverFlow::BuildLevels() {
@@ -143,9 +151,7 @@ Result<double> BipartiteCoverFlow::Resolve(const std::vector<double>& weights, s
       if (d <= 0.0) continue;
       arcs_[static_cast<std::size_t>(ra)].cap -= d;
       const int v = arcs_[static_cast<std::size_t>(a)].head;
-      const int vt = first_[static_cast<std::size_t>(v)];
-      arcs_[static_cast<std::size_t>(vt)].cap += d;
-      arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(vt)].rev)].cap -= d;
+      Send(arcs_[static_cast<std::size_t>(first_[static_cast<std::size_t>(v)])].rev, d);  // sink -> v
       excess -= d;
       reduced += d;
     }
@@ -165,9 +171,7 @@ Result<double> BipartiteCoverFlow::Resolve(const std::vector<double>& weights, s
       if (d <= 0.0) continue;
       arcs_[static_cast<std::size_t>(a)].cap -= d;
       const int u = arcs_[static_cast<std::size_t>(a)].head;
-      const int su = arcs_[static_cast<std::size_t>(first_[static_cast<std::size_t>(u)])].rev;
-      arcs_[static_cast<std::size_t>(su)].cap += d;
-      arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(su)].rev)].cap -= d;
+      Send(first_[static_cast<std::size_t>(u)], d);  // u -> source
       excess -= d;
       reduced += d;
     }
@@ -217,40 +221,86 @@ Result<double> BipartiteCoverFlow::Solve(const std::vector<double>& weights, std
       const int vt = first_[static_cast<std::size_t>(v)];
       const double f = std::min({want, arcs_[static_cast<std::size_t>(su)].cap, arcs_[static_cast<std::size_t>(vt)].cap});
       if (f <= eps_) continue;
-      arcs_[static_cast<std::size_t>(su)].cap -= f;
-      arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(su)].rev)].cap += f;
-      arcs_[static_cast<std::size_t>(a)].cap -= f;
-      arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(a)].rev)].cap += f;
-      arcs_[static_cast<std::size_t>(vt)].cap -= f;
-      arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(vt)].rev)].cap += f;
-    }
-  }
-  // Greedy start: saturate along single edges.
-  for (int u = 0; u < left_count_; ++u) {
-    const int su = arcs_[static_cast<std::size_t>(first_[static_cast<std::size_t>(u)])].rev;
-    for (int a = first_[static_cast<std::size_t>(u)] + 1; a < first_[static_cast<std::size_t>(u) + 1]; ++a) {
-      if (arcs_[static_cast<std::size_t>(su)].cap <= eps_) break;
-      const int v = arcs_[static_cast<std::size_t>(a)].head;
-      const int vt = first_[static_cast<std::size_t>(v)];
-      const double f = std::min(arcs_[static_cast<std::size_t>(su)].cap, arcs_[static_cast<std::size_t>(vt)].cap);
-      if (f <= eps_) continue;
-      arcs_[static_cast<std::size_t>(su)].cap -= f;
-      arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(su)].rev)].cap += f;
-      arcs_[static_cast<std::size_t>(a)].cap -= f;
-      arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(a)].rev)].cap += f;
-      arcs_[static_cast<std::size_t>(vt)].cap -= f;
-      arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(vt)].rev)].cap += f;
+      Send(su, f);
+      Send(a, f);
+      Send(vt, f);
     }
   }
   return MaxFlowAndCut(weights, in_cover);
 }
 
-Result<double> BipartiteCoverFlow::MaxFlowAndCut(const std::vector<double>& weights, std::vector<char>* in_cover) {
-  const int n = left_count_ + right_count_;
-  const int source = n;
-  const int sink = n + 1;
-  has_flow_ = true;
-  last_phases_ = 0;
+bool BipartiteCoverFlow::AugmentLocally() {
+  // Ford-Fulkerson from one left vertex u at a time: a breadth-first search from u (never through the source)
+  // for a right vertex with residual sink capacity, then an augmentation along the path found. A search that
+  // fails proves that nothing it visited can reach the sink, and that stays true for the rest of the computation
+  // (an augmenting path entering that set could not leave it), so its nodes are marked reached from the source
+  // for good and skipped by all later searches. Failed searches thus cost one pass over the source side in total;
+  // after a warm start the successful ones stay near the few vertices whose capacities changed.
+  level_.assign(static_cast<std::size_t>(node_count_), -1);  // >= 0: reached from the source
+  parent_.resize(static_cast<std::size_t>(node_count_));
+  // Work allowed for successful searches, in scanned arcs: about one Dinic phase. Short searches are free: many
+  // short augmenting paths suit this method, many long ones suit Dinic's phases.
+  constexpr std::int64_t kFreeWork = 16;
+  std::int64_t budget = 2 * static_cast<std::int64_t>(arcs_.size()) + 64;
+  for (int u = 0; u < left_count_; ++u) {
+    const int from_source = arcs_[static_cast<std::size_t>(first_[static_cast<std::size_t>(u)])].rev;
+    while (level_[static_cast<std::size_t>(u)] < 0 && arcs_[static_cast<std::size_t>(from_source)].cap > eps_) {
+      if (++stamp_ == 0) {  // wrapped: forget all old marks
+        std::fill(seen_.begin(), seen_.end(), 0U);
+        stamp_ = 1;
+      }
+      queue_.assign(1, u);
+      seen_[static_cast<std::size_t>(u)] = stamp_;
+      int found = -1;
+      std::int64_t work = 0;
+      for (std::size_t h = 0; h < queue_.size() && found < 0; ++h) {
+        const int x = queue_[h];
+        const int end = first_[static_cast<std::size_t>(x) + 1];
+        work += end - first_[static_cast<std::size_t>(x)];
+        // Arc first_[x] is x's terminal arc; the others are left -> right arcs (infinite) or right -> left arcs
+        // (residual capacity = the flow on the edge).
+        for (int a = first_[static_cast<std::size_t>(x)] + 1; a < end; ++a) {
+          const Arc& arc = arcs_[static_cast<std::size_t>(a)];
+          const auto y = static_cast<std::size_t>(arc.head);
+          if (seen_[y] == stamp_ || level_[y] >= 0 || !(arc.cap > eps_)) continue;
+          seen_[y] = stamp_;
+          parent_[y] = a;
+          if (arc.head >= left_count_ && arcs_[static_cast<std::size_t>(first_[y])].cap > eps_) {
+            found = arc.head;
+            break;
+          }
+          queue_.push_back(arc.head);
+        }
+      }
+      if (found < 0) {
+        for (int x : queue_) level_[static_cast<std::size_t>(x)] = 0;
+        break;
+      }
+      budget -= std::max<std::int64_t>(0, work - kFreeWork);
+      if (budget < 0) return false;
+      // Bottleneck: the source arc, the sink arc and the right -> left arcs of the path.
+      const int to_sink = first_[static_cast<std::size_t>(found)];
+      double f = std::min(arcs_[static_cast<std::size_t>(from_source)].cap, arcs_[static_cast<std::size_t>(to_sink)].cap);
+      for (int y = found; y != u;) {
+        const Arc& arc = arcs_[static_cast<std::size_t>(parent_[static_cast<std::size_t>(y)])];
+        f = std::min(f, arc.cap);
+        y = arcs_[static_cast<std::size_t>(arc.rev)].head;
+      }
+      for (int y = found; y != u;) {
+        const int a = parent_[static_cast<std::size_t>(y)];
+        Send(a, f);
+        y = arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(a)].rev)].head;
+      }
+      Send(from_source, f);
+      Send(to_sink, f);
+    }
+  }
+  return true;
+}
+
+void BipartiteCoverFlow::Dinic() {
+  const int source = left_count_ + right_count_;
+  const int sink = source + 1;
   std::vector<int>& path = stack_;  // arcs of the current DFS path
   while (BuildLevels()) {
     ++last_phases_;
@@ -264,8 +314,7 @@ Result<double> BipartiteCoverFlow::MaxFlowAndCut(const std::vector<double>& weig
         std::size_t cut_at = path.size();
         for (std::size_t i = 0; i < path.size(); ++i) {
           const int a = path[i];
-          arcs_[static_cast<std::size_t>(a)].cap -= f;
-          arcs_[static_cast<std::size_t>(arcs_[static_cast<std::size_t>(a)].rev)].cap += f;
+          Send(a, f);
           if (cut_at == path.size() && arcs_[static_cast<std::size_t>(a)].cap <= eps_) cut_at = i;
         }
         // Retreat to the tail of the first saturated arc.
@@ -293,14 +342,22 @@ Result<double> BipartiteCoverFlow::MaxFlowAndCut(const std::vector<double>& weig
       ++cursor_[static_cast<std::size_t>(x)];
     }
   }
-  // level_ now holds the residual reachability from the source of the last (failed) BFS.
+}
+
+Result<double> BipartiteCoverFlow::MaxFlowAndCut(const std::vector<double>& weights, std::vector<char>* in_cover) {
+  const int n = left_count_ + right_count_;
+  has_flow_ = true;
+  last_phases_ = 0;
+  // Local searches from each vertex with spare source capacity, which suit the small changes between successive
+  // solves; Dinic's phases take over when the remaining augmenting paths turn out to be many and long.
+  if (!AugmentLocally()) Dinic();
+  // level_ >= 0 now marks the nodes reachable from the source in the residual network.
   double flow = 0.0;
-  in_cover->assign(static_cast<std::size_t>(n), 0);
+  in_cover->resize(static_cast<std::size_t>(n));
   for (int v = 0; v < n; ++v) {
     const bool reached = level_[static_cast<std::size_t>(v)] >= 0;
     if (v < left_count_) {
-      const int su = arcs_[static_cast<std::size_t>(first_[static_cast<std::size_t>(v)])].rev;
-      flow += weights[static_cast<std::size_t>(v)] - arcs_[static_cast<std::size_t>(su)].cap;
+      flow += weights[static_cast<std::size_t>(v)] - TerminalResidual(v);
       (*in_cover)[static_cast<std::size_t>(v)] = reached ? 0 : 1;
     } else {
       (*in_cover)[static_cast<std::size_t>(v)] = reached ? 1 : 0;

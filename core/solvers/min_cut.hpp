@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// commerge: minimum-weight vertex cover of a bipartite graph with real vertex weights, by max-flow / min-cut
-// (Dinic). Network: source -> left vertex (capacity = its weight), left -> right along every edge (infinite),
-// right vertex -> sink (capacity = its weight). A minimum s-t cut is a minimum-weight cover: the left vertices
-// not reachable from the source in the residual network plus the right vertices that are. Used by stage B for
-// exact weighted covers and for Lagrangian bounds (the network is built once and solved for many weight vectors).
+// commerge: minimum-weight vertex cover of a bipartite graph with real vertex weights, by max-flow / min-cut.
+// Network: source -> left vertex (capacity = its weight), left -> right along every edge (infinite), right vertex
+// -> sink (capacity = its weight). A minimum s-t cut is a minimum-weight cover: the left vertices not reachable
+// from the source in the residual network plus the right vertices that are. Used by stage B for exact weighted
+// covers and for Lagrangian bounds (the network is built once and solved for many weight vectors, each solve
+// starting from the previous flow). Maximum flow: augmenting paths searched locally from each left vertex with
+// spare capacity (cheap when few capacities changed), then Dinic when many long paths remain.
 #pragma once
 
 #include <cstdint>
@@ -45,10 +47,16 @@ class BipartiteCoverFlow {
 
   int left_count() const noexcept { return left_count_; }
   int right_count() const noexcept { return right_count_; }
-  /// Dinic phases (blocking-flow rounds) of the last Solve() or Resolve(): a work measure.
+  /// Dinic phases (blocking-flow rounds) of the last Solve() or Resolve(): a work measure (0 when the local
+  /// augmenting-path searches sufficed).
   std::int64_t last_phases() const noexcept { return last_phases_; }
 
  private:
+  void Send(int arc, double f);  // pushes f along `arc` (and returns it on the reverse arc)
+  // Augmenting paths by breadth-first searches from single left vertices; false when it gave up on its work
+  // budget (the flow is then valid but not maximum). On success level_ marks the nodes reachable from the source.
+  bool AugmentLocally();
+  void Dinic();  // completes the maximum flow; level_ then marks the nodes reachable from the source
   bool BuildLevels();
   Status CheckWeights(const std::vector<double>& weights);  // also sets eps_
   Result<double> MaxFlowAndCut(const std::vector<double>& weights, std::vector<char>* in_cover);
@@ -71,6 +79,9 @@ class BipartiteCoverFlow {
   std::vector<int> cursor_;
   std::vector<int> queue_;
   std::vector<int> stack_;
+  std::vector<int> parent_;          // per node: the arc a local search reached it by
+  std::vector<std::uint32_t> seen_;  // per node: stamp of the last local search that reached it
+  std::uint32_t stamp_ = 0;
   double eps_ = 0.0;
   bool has_flow_ = false;  // arcs_ hold a feasible flow of the current network
   std::int64_t last_phases_ = 0;
