@@ -36,7 +36,7 @@ struct FeatureMatchingParams {
 float FlatDescriptorDistanceSq(const float* descriptor);
 
 /// InvalidArgument when ratio_sq is not in (0, 1], the gate is not finite and > 0, the cap is 0 or > 16384,
-/// min_saliency is not in [0, 250) or max_match_keypoints < 2.
+/// min_saliency is not in [0, 250) or max_match_keypoints is not in [2, 100000].
 Status ValidateFeatureMatchingParams(const FeatureMatchingParams& params);
 
 /// A putative point correspondence: source point index, target point index (into the submaps' points).
