@@ -28,7 +28,7 @@ apt_install() { $SUDO apt-get install -y --no-install-recommends "$@"; }
 host_pkgs=(cmake make g++ pkg-config ca-certificates
            liblcm-dev liblcm-bin liblcm-java default-jdk-headless
            libeigen3-dev libglpk-dev doctest-dev libmimalloc-dev libnanoflann-dev
-           libcli11-dev time)
+           libcli11-dev zlib1g-dev time)
 missing=()
 for p in "${host_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
@@ -52,7 +52,7 @@ if [ $cross -eq 1 ]; then
   fi
   # glpk, mimalloc and glib are Multi-Arch: same; apt may upgrade matching amd64 packages to keep lock-step.
   apt_install g++-aarch64-linux-gnu qemu-user libc6-dev:arm64 \
-              libglpk-dev:arm64 libmimalloc-dev:arm64 libglib2.0-0:arm64
+              libglpk-dev:arm64 libmimalloc-dev:arm64 libglib2.0-0:arm64 zlib1g-dev:arm64
   # LCM has no Multi-Arch field: installing liblcm1:arm64 would remove the host LCM (and make lcm-gen an
   # aarch64 binary). Extract the arm64 packages into a private overlay instead (PLATFORM.md 3.2).
   overlay="$repo/.deps/sysroot-arm64-lcm"

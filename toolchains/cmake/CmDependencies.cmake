@@ -20,6 +20,16 @@ if(NOT TARGET lcm::lcm)
                         INTERFACE_INCLUDE_DIRECTORIES "${LCM_INCLUDE_DIR}")
 endif()
 
+# zlib (Debian zlib1g-dev): the deflate stream inside the report's PNG pictures (platform/report). A tested,
+# everywhere-present compressor beats writing our own deflate; a PNG written with stored blocks would be ~3 MB.
+find_path(ZLIB_INCLUDE_DIR zlib.h REQUIRED)
+find_library(ZLIB_LIBRARY z REQUIRED)
+if(NOT TARGET cm_zlib)
+  add_library(cm_zlib UNKNOWN IMPORTED)
+  set_target_properties(cm_zlib PROPERTIES IMPORTED_LOCATION "${ZLIB_LIBRARY}"
+                        INTERFACE_INCLUDE_DIRECTORIES "${ZLIB_INCLUDE_DIR}")
+endif()
+
 # Header-only, from Debian: CLI11 (subcommands, --help, validation), nanoflann (k-d tree, used by registration).
 find_path(CLI11_INCLUDE_DIR CLI/CLI.hpp REQUIRED)
 if(NOT TARGET cm_cli11)
