@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "apps/app_common.hpp"
+#include "apps/cmd_sim.hpp"
 #include "apps/commands.hpp"
 #include "core/common/bytes.hpp"
 #include "core/sim/lidar_models.hpp"
@@ -26,22 +27,6 @@
 namespace commerge::app {
 
 namespace {
-
-struct SimOptions {
-  std::string world = "urban";
-  std::string overlap = "moderate";
-  std::string lidar = "vlp16";
-  int robots = 2;
-  int keyframes = 500;
-  std::uint64_t seed = 1;
-  double drift = 1.0;
-  std::string out_dir = "out/sim";
-  bool force = false;
-  bool poses_only = false;
-  int threads = 1;
-  int azimuth_steps = 0;  // 0 = the model's
-  int livox_points = 0;   // 0 = the model's
-};
 
 using Clock = std::chrono::steady_clock;
 
@@ -130,6 +115,8 @@ std::string InfoText(const SimOptions& o, const MissionPlan& plan, const LidarMo
   line("lidar_range_noise_std_m", FloatText(lidar.range_noise_std_m));
   line("sensor_height_m", num(plan.sensor_height_m));
   line("lane_offset_m", num(plan.lane_offset_m));
+  line("direction", p.same_direction ? "same" : "alternate");
+  line("roll_pitch_wobble_deg", num(p.roll_pitch_wobble_deg));
   line("block_size_m", num(plan.network.block_m));
   line("grid_nodes", std::to_string(plan.network.nx) + " x " + std::to_string(plan.network.ny));
   line("world_primitives", std::to_string(world.boxes) + " boxes, " + std::to_string(world.cylinders) + " cylinders, " +
@@ -155,8 +142,10 @@ std::string InfoText(const SimOptions& o, const MissionPlan& plan, const LidarMo
   return t;
 }
 
+}  // namespace
+
 int RunSim(const SimOptions& o) {
-  const char* tag = "commerge sim";
+  const char* tag = o.tag.c_str();
   auto world_kind = WorldKindFromName(o.world);
   auto overlap_mode = OverlapModeFromName(o.overlap);
   auto lidar_kind = LidarKindFromName(o.lidar);
@@ -173,6 +162,8 @@ int RunSim(const SimOptions& o) {
   params.keyframes_per_robot = o.keyframes;
   params.seed = o.seed;
   params.drift.scale = o.drift;
+  params.roll_pitch_wobble_deg = o.wobble_deg;
+  params.same_direction = o.direction == "same";
   if (Status st = ValidateMissionParams(params); !st.ok()) {
     std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
     return kExitUsage;
@@ -306,7 +297,6 @@ int RunSim(const SimOptions& o) {
   return kExitOk;
 }
 
-}  // namespace
 
 Command AddSimCommand(CLI::App& root) {
   auto o = std::make_shared<SimOptions>();
@@ -326,6 +316,13 @@ Command AddSimCommand(CLI::App& root) {
       ->check(CLI::IsMember({"vlp16", "hdl64", "os128", "os2-128", "livox"}, CLI::ignore_case))
       ->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of the world, the routes, the noise and the drift")->capture_default_str();
+  cmd->add_option("--direction", o->direction,
+                  "Shared laps: alternate (odd robots drive the other way round, on the other lane) or same")
+      ->check(CLI::IsMember({"alternate", "same"}))
+      ->capture_default_str();
+  cmd->add_option("--wobble-deg", o->wobble_deg, "Amplitude of the vehicle's true roll and pitch [deg]")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
   cmd->add_option("--drift", o->drift, "Odometry drift scale (0 = perfect odometry, 1 = default model)")
       ->check(CLI::Range(0.0, 100.0))
       ->capture_default_str();

@@ -17,5 +17,6 @@ Command AddBudgetCommand(CLI::App& root);
 Command AddDemoCommand(CLI::App& root);
 Command AddVoxelizeCommand(CLI::App& root);
 Command AddSimCommand(CLI::App& root);
+Command AddRunCommand(CLI::App& root);
 
 }  // namespace commerge::app

@@ -16,7 +16,7 @@ int main(int argc, char** argv) {
   root.require_subcommand(1);
 
   const std::vector<Command> commands = {AddDemoCommand(root), AddBudgetCommand(root), AddVoxelizeCommand(root),
-                                       AddSimCommand(root)};
+                                       AddSimCommand(root), AddRunCommand(root)};
 
   try {
     root.parse(argc, argv);

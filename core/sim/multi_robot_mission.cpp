@@ -540,7 +540,7 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
       if (!walk.empty()) step_shared.push_back(shared ? 1 : 0);
       walk.push_back(node);
     };
-    const bool reversed = (r % 2) == 1;
+    const bool reversed = !params.same_direction && (r % 2) == 1;
     // The tour as a cyclic sequence starting at `start` (first occurrence), in this robot's direction.
     auto tour_from = [&](int start) {
       std::vector<int> cyc(tour.begin(), tour.end() - 1);  // closed: last == first

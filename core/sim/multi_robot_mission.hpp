@@ -71,6 +71,9 @@ struct MissionParams {
   DriftParams drift;
   double block_size_m = 0.0;          ///< grid spacing of the network; 0 = the world's default (shrunk for short routes)
   double roll_pitch_wobble_deg = 0.5; ///< amplitude of the smooth true roll / pitch of the vehicle
+  /// Shared laps: false = odd robots drive the tour the other way round (revisits in the opposite direction,
+  /// on the other lane: the hard case for place recognition), true = every robot in the same direction.
+  bool same_direction = false;
 };
 
 /// OK or invalid argument naming the field.

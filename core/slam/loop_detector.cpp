@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/slam/loop_detector.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -20,6 +21,15 @@ Status ValidateLoopDetectorParams(const LoopDetectorParams& p) {
   }
   if (!(p.effective_correspondences > 0.0) || !(p.min_inlier_ratio >= 0.0 && p.min_inlier_ratio <= 1.0)) {
     return InvalidArgument("loop detector: effective_correspondences must be > 0 and min_inlier_ratio in [0, 1]");
+  }
+  if (p.yaw_screening_iterations < 0 || p.yaw_refinements < 1 || p.yaw_refinements > p.yaw_hypotheses) {
+    return InvalidArgument("loop detector: yaw_screening_iterations must be >= 0 and yaw_refinements in [1, "
+                           "yaw_hypotheses], got " + std::to_string(p.yaw_screening_iterations) + " and " +
+                           std::to_string(p.yaw_refinements));
+  }
+  if (!(p.prediction_accept_inlier_ratio > 0.0)) {
+    return InvalidArgument("loop detector: prediction_accept_inlier_ratio must be > 0 (> 1 disables it), got " +
+                           std::to_string(p.prediction_accept_inlier_ratio));
   }
   return Status::Ok();
 }
@@ -93,23 +103,53 @@ Result<LoopCheck> LoopVerifier::Verify(std::uint32_t query, std::uint32_t match,
   // direction, or after drift, are far from the prediction).
   bool have_best = false;
   IcpResult best;
-  for (int h = -1; h < p.yaw_hypotheses; ++h) {
-    Eigen::Isometry3d guess = T_match_query_odom;
-    if (h >= 0) {
-      guess = Eigen::Isometry3d::Identity();
-      guess.linear() = Eigen::AngleAxisd(2.0 * M_PI * h / p.yaw_hypotheses, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    }
-    if (!guess.matrix().allFinite()) continue;
-    auto r = icp_.Align(query_scan, guess, p.icp);
-    if (!r.ok()) return r.status();
-    if (r->num_inliers == 0) continue;
-    // Prefer more overlap first (a tiny residual on a sliver is not a loop), then the lower residual.
-    const bool better = !have_best || r->inlier_ratio > best.inlier_ratio + 0.05 ||
-                        (r->inlier_ratio >= best.inlier_ratio - 0.05 &&
-                         r->mean_squared_residual_m2 < best.mean_squared_residual_m2);
-    if (better) {
-      best = *r;
+  // Prefer more overlap first (a tiny residual on a sliver is not a loop), then the lower residual.
+  auto better_than = [](const IcpResult& a, const IcpResult& b) {
+    return a.inlier_ratio > b.inlier_ratio + 0.05 ||
+           (a.inlier_ratio >= b.inlier_ratio - 0.05 && a.mean_squared_residual_m2 < b.mean_squared_residual_m2);
+  };
+  auto consider = [&](const IcpResult& r) {
+    if (r.num_inliers == 0) return;
+    if (!have_best || better_than(r, best)) {
+      best = r;
       have_best = true;
+    }
+  };
+  if (T_match_query_odom.matrix().allFinite()) {
+    auto r = icp_.Align(query_scan, T_match_query_odom, p.icp);
+    if (!r.ok()) return r.status();
+    consider(*r);
+  }
+  const bool prediction_verified = have_best && best.converged &&
+                                   best.inlier_ratio >= p.prediction_accept_inlier_ratio &&
+                                   best.mean_squared_residual_m2 <= p.max_icp_mean_squared_residual_m2;
+  if (!prediction_verified) {
+    // Yaw-only restarts (revisits in the opposite direction, or after drift, are far from the prediction):
+    // screened with a few iterations each, the most promising refined in full.
+    const bool screen = p.yaw_screening_iterations > 0 && p.yaw_screening_iterations < p.icp.max_iterations;
+    IcpParams screening = p.icp;
+    if (screen) screening.max_iterations = p.yaw_screening_iterations;
+    screened_.clear();
+    for (int h = 0; h < p.yaw_hypotheses; ++h) {
+      Eigen::Isometry3d guess = Eigen::Isometry3d::Identity();
+      guess.linear() = Eigen::AngleAxisd(2.0 * M_PI * h / p.yaw_hypotheses, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      auto r = icp_.Align(query_scan, guess, screening);
+      if (!r.ok()) return r.status();
+      if (!screen) {
+        consider(*r);
+      } else if (r->num_inliers > 0) {
+        screened_.push_back(*r);
+      }
+    }
+    if (screen) {
+      std::stable_sort(screened_.begin(), screened_.end(),
+                       [&](const IcpResult& a, const IcpResult& b) { return better_than(a, b); });
+      const std::size_t refine = std::min<std::size_t>(screened_.size(), static_cast<std::size_t>(std::max(p.yaw_refinements, 1)));
+      for (std::size_t i = 0; i < refine; ++i) {
+        auto r = icp_.Align(query_scan, screened_[i].T_target_source, p.icp);
+        if (!r.ok()) return r.status();
+        consider(*r);
+      }
     }
   }
   if (!have_best || !best.converged) {

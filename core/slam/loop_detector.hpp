@@ -28,6 +28,14 @@ struct LoopDetectorParams {
   double max_icp_mean_squared_residual_m2 = 0.3;
   /// ICP restarts at yaw = k * 360 / yaw_hypotheses (plus the odometry guess): robust to any heading.
   int yaw_hypotheses = 12;
+  /// The yaw restarts are skipped when ICP from the trajectory's prediction already converged with at least
+  /// this inlier ratio and passed the residual gate (a revisit the odometry predicts well: the common case on
+  /// repeated laps, where the restarts would cost 12 more ICP runs per keyframe). > 1 disables the shortcut.
+  double prediction_accept_inlier_ratio = 0.6;
+  /// Yaw restarts run this many ICP iterations each; only the best `yaw_refinements` of them (most inliers,
+  /// then lowest residual) continue with the full IcpParams::max_iterations. 0 = every restart runs in full.
+  int yaw_screening_iterations = 8;
+  int yaw_refinements = 2;
   /// Fewer inliers / source points than this fails the check (the residual alone can be small on a
   /// sliver of overlap).
   double min_inlier_ratio = 0.3;
@@ -88,6 +96,8 @@ struct LoopCheck {
 /// Geometric verification of a descriptor candidate with multi-hypothesis point-to-point ICP.
 class LoopVerifier {
  public:
+  LoopVerifier() { screened_.reserve(360); }  // yaw_hypotheses <= 360: Verify() never grows it
+
   /// `query_scan` and `match_scan` are voxelised scans in their sensor frames; `T_match_query_odom` is the
   /// relative pose the current trajectory estimate predicts (used as one more initial guess).
   Result<LoopCheck> Verify(std::uint32_t query, std::uint32_t match, double descriptor_distance,
@@ -96,6 +106,7 @@ class LoopVerifier {
 
  private:
   PointToPointIcp icp_;
+  std::vector<IcpResult> screened_;  ///< yaw restarts after the screening iterations
 };
 
 }  // namespace commerge

@@ -1,0 +1,48 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// `commerge run`: robots and server in one process, every message LCM-encoded, counted and decoded again
+// (the bytes reported are the bytes on the wire). Shared with `commerge demo`.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "apps/app_common.hpp"
+
+namespace commerge::app {
+
+struct RunOptions {
+  std::vector<std::string> datasets;  ///< one robot each: DIR or DIR:FIRST-LAST
+  std::string out_dir = "out/run";
+  /// Modes run side by side; the last one gives the final result (merged map, trajectories).
+  std::vector<std::string> modes = {"send-all", "A", "A+B", "A+C", "A+B+C"};
+  std::string sensor = "hdl-64e";  ///< SOLiD preset of the robots' LiDAR
+  bool gt_from_poses = false;
+  double tau_inter = 0.10;
+  std::int64_t tau_area = 10000;
+  double tau_con_m = 5.0;
+  double keyframe_spacing_m = 1.0;  ///< the robots' keyframe spacing (paper: 1 m)
+  int threads = 2;                  ///< robots processed at once
+  bool report = true;
+  bool progress = true;
+  std::size_t merged_map_max_points = 4000000;
+  MemoryFlags memory;
+  std::string tag = "commerge run";  ///< message prefix
+};
+
+/// Figures of a finished run, for callers (the demo) that judge it.
+struct RunSummary {
+  std::vector<double> final_rmse_m;  ///< per robot, e_rmse against robot 0 in the final mode; -1 = none
+  double final_reduction_percent = 0.0;  ///< bytes saved against send-all (0 when send-all did not run)
+  int pairs_merged = 0;
+};
+
+/// Adds the flags of `commerge run` (except the positional datasets) to `cmd`.
+void AddRunFlags(CLI::App* cmd, RunOptions* options);
+
+/// Runs the whole job; returns an exit code (kExitOk also when a pair could not be merged: the report says
+/// why; kExitFailure for unreadable input or when no pair merged at all).
+int RunMergeJob(const RunOptions& options, RunSummary* summary = nullptr);
+
+}  // namespace commerge::app

@@ -1,0 +1,524 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "core/agent/merge_server.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include "core/cloud/scan_codec.hpp"
+#include "core/geometry/se3.hpp"
+
+namespace commerge {
+
+namespace {
+
+std::string RobotText(int robot) { return "robot " + std::to_string(robot); }
+
+// Unique ascending keyframes of one side of a loop list.
+std::vector<std::uint32_t> Endpoints(Span<const SequentialLoopCell> loops, bool alpha_side) {
+  std::vector<std::uint32_t> out;
+  out.reserve(loops.size());
+  for (const SequentialLoopCell& l : loops) {
+    out.push_back(static_cast<std::uint32_t>(alpha_side ? l.alpha_index : l.beta_index));
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+std::vector<std::uint32_t> ToKeyframes(const std::vector<int>& v) {
+  std::vector<std::uint32_t> out(v.begin(), v.end());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+bool IsFinitePose(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
+
+}  // namespace
+
+const char* ExchangeModeName(ExchangeMode mode) noexcept {
+  switch (mode) {
+    case ExchangeMode::kSendAll: return "send-all";
+    case ExchangeMode::kStageA: return "A";
+    case ExchangeMode::kStageAB: return "A+B";
+    case ExchangeMode::kStageAC: return "A+C";
+    case ExchangeMode::kStageABC: return "A+B+C";
+  }
+  return "?";
+}
+
+Result<ExchangeMode> ExchangeModeFromName(const std::string& name) {
+  std::string n;
+  for (char c : name) n.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
+  if (n == "send-all" || n == "all") return ExchangeMode::kSendAll;
+  if (n == "a") return ExchangeMode::kStageA;
+  if (n == "a+b" || n == "ab") return ExchangeMode::kStageAB;
+  if (n == "a+c" || n == "ac") return ExchangeMode::kStageAC;
+  if (n == "a+b+c" || n == "abc") return ExchangeMode::kStageABC;
+  return InvalidArgument("unknown exchange mode '" + name + "' (send-all, A, A+B, A+C, A+B+C)");
+}
+
+Status ValidateMergeServerParams(const MergeServerParams& params) {
+  if (!(params.submap_voxel_size_m >= 5e-3) || !std::isfinite(params.submap_voxel_size_m)) {
+    return InvalidArgument("submap_voxel_size_m = " + std::to_string(params.submap_voxel_size_m) +
+                           " must be finite and >= 0.005");
+  }
+  if (params.max_submap_points < 100) {
+    return InvalidArgument("max_submap_points = " + std::to_string(params.max_submap_points) + " must be >= 100");
+  }
+  if (params.registration_hypotheses < 1 || params.registration_hypotheses > 8) {
+    return InvalidArgument("registration_hypotheses = " + std::to_string(params.registration_hypotheses) +
+                           " is outside 1..8");
+  }
+  if (params.max_scan_bytes < (1u << 16)) {
+    return InvalidArgument("max_scan_bytes = " + std::to_string(params.max_scan_bytes) + " must be >= 65536");
+  }
+  if (Status st = ValidateStageCParams(params.cascade.stage_c); !st.ok()) return st;
+  SubmapRegistrationParams reg = MakeSubmapRegistrationParams(params.submap_voxel_size_m);
+  reg.gates = params.gates;
+  reg.max_hypotheses = params.registration_hypotheses;
+  if (Status st = ValidateSubmapRegistrationParams(reg); !st.ok()) return st;
+  return ValidateFrameSolverParams(params.frames);
+}
+
+MergeServer::MergeServer(int max_robots, std::size_t max_keyframes_per_robot, const MergeServerParams& params)
+    : params_(params), params_status_(ValidateMergeServerParams(params)), max_keyframes_(max_keyframes_per_robot) {
+  if (params_status_.ok() && (max_robots < 2 || max_robots > kMaxRobotId + 1)) {
+    params_status_ = InvalidArgument("max_robots = " + std::to_string(max_robots) + " is outside 2.." +
+                                     std::to_string(kMaxRobotId + 1));
+  }
+  if (params_status_.ok() && (max_keyframes_per_robot < 1 || max_keyframes_per_robot > (1u << 31))) {
+    params_status_ = InvalidArgument("max_keyframes_per_robot = " + std::to_string(max_keyframes_per_robot) +
+                                     " is outside 1..2^31");
+  }
+  robots_.resize(params_status_.ok() ? static_cast<std::size_t>(max_robots) : 0);
+}
+
+Status MergeServer::Reject(std::uint64_t* counter, Status status) {
+  ++*counter;
+  stats_.last_rejection = status.message();
+  return status;
+}
+
+Status MergeServer::EnsureKeyframe(int robot, std::uint32_t keyframe) {
+  if (keyframe >= max_keyframes_) {
+    return ResourceExhausted(RobotText(robot) + " keyframe " + std::to_string(keyframe) +
+                             " is beyond the server's capacity of " + std::to_string(max_keyframes_) +
+                             " keyframes per robot (--max-keyframes)");
+  }
+  RobotKeyframeDb& db = robots_[static_cast<std::size_t>(robot)];
+  if (keyframe < db.size()) return Status::Ok();
+  const std::size_t n = static_cast<std::size_t>(keyframe) + 1;
+  db.descriptors.resize(n * kKeyframeDescriptorDim, 0.0f);
+  db.valid.resize(n, 0);
+  db.pose_known.resize(n, 0);
+  db.T_map_sensor.resize(n, Eigen::Isometry3d::Identity());
+  db.stored_points.resize(n, 0);
+  return Status::Ok();
+}
+
+Status MergeServer::OnKeyframeBatch(const KeyframeBatch& batch) {
+  if (!params_status_.ok()) return params_status_;
+  if (batch.robot_id < 0 || batch.robot_id >= max_robots()) {
+    return Reject(&stats_.rejected_batches, InvalidArgument("keyframe batch: robot_id " + std::to_string(batch.robot_id) +
+                                                            " is outside 0.." + std::to_string(max_robots() - 1)));
+  }
+  const std::size_t n = batch.num_records();
+  if (batch.records.size() != n * kKeyframeRecordBytes || batch.stored_points.size() != n ||
+      n > kMaxRecordsPerBatch) {
+    return Reject(&stats_.rejected_batches,
+                  InvalidArgument("keyframe batch of " + RobotText(batch.robot_id) + ": " +
+                                  std::to_string(batch.records.size()) + " record bytes and " +
+                                  std::to_string(batch.stored_points.size()) +
+                                  " point counts do not describe 1.." + std::to_string(kMaxRecordsPerBatch) +
+                                  " records of " + std::to_string(kKeyframeRecordBytes) + " bytes"));
+  }
+  ++stats_.batches;
+  Status first_error;
+  for (std::size_t i = 0; i < n; ++i) {
+    auto record = DecodeKeyframeRecord(
+        Span<const std::uint8_t>(batch.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
+    Status st = record.ok() ? EnsureKeyframe(batch.robot_id, record->keyframe_index) : record.status();
+    if (!st.ok()) {
+      Status named(st.code(), "keyframe batch " + std::to_string(batch.sequence) + " of " + RobotText(batch.robot_id) +
+                                  ", record " + std::to_string(i) + ": " + st.message());
+      Reject(&stats_.rejected_records, named);
+      if (first_error.ok()) first_error = named;
+      continue;
+    }
+    RobotKeyframeDb& db = robots_[static_cast<std::size_t>(batch.robot_id)];
+    const std::size_t k = record->keyframe_index;
+    std::copy(record->descriptor.begin(), record->descriptor.end(),
+              db.descriptors.begin() + static_cast<std::ptrdiff_t>(k * kKeyframeDescriptorDim));
+    db.valid[k] = 1;
+    db.pose_known[k] = 1;
+    db.T_map_sensor[k] = record->T_world_sensor;
+    db.stored_points[k] = batch.stored_points[i];
+    ++stats_.records;
+  }
+  return first_error;
+}
+
+Status MergeServer::OnPoseUpdate(const PoseUpdate& update) {
+  if (!params_status_.ok()) return params_status_;
+  if (update.robot_id < 0 || update.robot_id >= max_robots()) {
+    return Reject(&stats_.rejected_pose_updates,
+                  InvalidArgument("pose update: robot_id " + std::to_string(update.robot_id) + " is outside 0.." +
+                                  std::to_string(max_robots() - 1)));
+  }
+  if (update.keyframes.size() != update.T_map_sensor.size() || update.keyframes.size() > kMaxPosesPerUpdate) {
+    return Reject(&stats_.rejected_pose_updates,
+                  InvalidArgument("pose update of " + RobotText(update.robot_id) + ": " +
+                                  std::to_string(update.keyframes.size()) + " keyframes but " +
+                                  std::to_string(update.T_map_sensor.size()) + " poses (at most " +
+                                  std::to_string(kMaxPosesPerUpdate) + ")"));
+  }
+  // Validate everything first: a refused update changes nothing.
+  for (std::size_t i = 0; i < update.keyframes.size(); ++i) {
+    if (!IsFinitePose(update.T_map_sensor[i]) || !IsValidRigidTransform(update.T_map_sensor[i], 1e-3)) {
+      return Reject(&stats_.rejected_pose_updates,
+                    InvalidArgument("pose update " + std::to_string(update.sequence) + " of " +
+                                    RobotText(update.robot_id) + ": keyframe " +
+                                    std::to_string(update.keyframes[i]) + " has a non-finite or non-rigid pose"));
+    }
+    if (update.keyframes[i] >= max_keyframes_) {
+      return Reject(&stats_.rejected_pose_updates, EnsureKeyframe(update.robot_id, update.keyframes[i]));
+    }
+  }
+  for (std::size_t i = 0; i < update.keyframes.size(); ++i) {
+    const std::uint32_t k = update.keyframes[i];
+    (void)EnsureKeyframe(update.robot_id, k);
+    RobotKeyframeDb& db = robots_[static_cast<std::size_t>(update.robot_id)];
+    db.T_map_sensor[k] = update.T_map_sensor[i];
+    db.pose_known[k] = 1;
+  }
+  ++stats_.pose_updates;
+  return Status::Ok();
+}
+
+bool MergeServer::has_scan(int robot, std::uint32_t keyframe) const {
+  return scans_.count(Key(robot, keyframe)) != 0;
+}
+
+Status MergeServer::OnScanChunk(const ScanChunk& chunk) {
+  if (!params_status_.ok()) return params_status_;
+  const std::string what = "scan chunk " + std::to_string(chunk.chunk_index) + "/" + std::to_string(chunk.num_chunks) +
+                           " of " + RobotText(chunk.robot_id) + " keyframe " + std::to_string(chunk.keyframe);
+  if (chunk.robot_id < 0 || chunk.robot_id >= max_robots()) {
+    return Reject(&stats_.rejected_chunks, InvalidArgument(what + ": robot_id is outside 0.." +
+                                                           std::to_string(max_robots() - 1)));
+  }
+  const std::uint64_t total = chunk.total_bytes;
+  const std::uint64_t per_chunk = kMaxScanChunkPayloadBytes;
+  if (chunk.num_chunks == 0 || chunk.num_chunks > kMaxChunksPerScan || chunk.chunk_index >= chunk.num_chunks ||
+      total < kEncodedScanHeaderBytes || total > static_cast<std::uint64_t>(chunk.num_chunks) * per_chunk ||
+      chunk.payload.empty() || chunk.payload.size() > per_chunk) {
+    return Reject(&stats_.rejected_chunks,
+                  InvalidArgument(what + ": inconsistent sizes (total " + std::to_string(total) + " bytes, payload " +
+                                  std::to_string(chunk.payload.size()) + ")"));
+  }
+  const std::uint64_t key = Key(chunk.robot_id, chunk.keyframe);
+  if (scans_.count(key)) {
+    ++stats_.duplicate_chunks;  // the scan is complete already: a retransmission
+    return Status::Ok();
+  }
+  auto it = partial_.find(key);
+  if (it == partial_.end()) {
+    if (held_bytes_ + total > params_.max_scan_bytes) {
+      ++stats_.chunks_over_budget;
+      return Reject(&stats_.rejected_chunks,
+                    ResourceExhausted(what + ": the server already holds " + std::to_string(held_bytes_) +
+                                      " scan bytes of max_scan_bytes = " + std::to_string(params_.max_scan_bytes)));
+    }
+    Partial p;
+    p.total_bytes = chunk.total_bytes;
+    p.num_chunks = chunk.num_chunks;
+    p.have.assign(chunk.num_chunks, 0);
+    p.bytes.assign(chunk.total_bytes, 0);
+    held_bytes_ += total;
+    it = partial_.emplace(key, std::move(p)).first;
+  }
+  Partial& p = it->second;
+  if (p.total_bytes != chunk.total_bytes || p.num_chunks != chunk.num_chunks) {
+    return Reject(&stats_.rejected_chunks, InvalidArgument(what + ": sizes differ from the scan's earlier chunks"));
+  }
+  // Chunk i covers [i x size, min(total, (i + 1) x size)) with size = ceil(total / num_chunks) (ScanChunkSpan).
+  const ChunkRange range = ScanChunkRange(total, p.num_chunks, chunk.chunk_index);
+  if (chunk.payload.size() != range.size) {
+    return Reject(&stats_.rejected_chunks, InvalidArgument(what + ": payload of " + std::to_string(chunk.payload.size()) +
+                                                           " bytes where the protocol puts " +
+                                                           std::to_string(range.size)));
+  }
+  const std::uint64_t offset = range.offset;
+  if (p.have[chunk.chunk_index]) {
+    ++stats_.duplicate_chunks;
+    return Status::Ok();
+  }
+  std::copy(chunk.payload.begin(), chunk.payload.end(), p.bytes.begin() + static_cast<std::ptrdiff_t>(offset));
+  p.have[chunk.chunk_index] = 1;
+  ++p.received;
+  ++stats_.chunks;
+  if (p.received < p.num_chunks) return Status::Ok();
+  // Complete: verify the scan before it is used.
+  std::vector<std::uint8_t> bytes = std::move(p.bytes);
+  partial_.erase(it);
+  if (auto header = VerifyEncodedScan(Span<const std::uint8_t>(bytes)); !header.ok() ||
+      EncodedScanBytes(header->num_points) != bytes.size()) {
+    held_bytes_ -= total;
+    ++stats_.corrupt_scans;
+    return Reject(&stats_.rejected_chunks,
+                  DataLoss(RobotText(chunk.robot_id) + " keyframe " + std::to_string(chunk.keyframe) +
+                           ": reassembled scan is corrupt (" +
+                           (header.ok() ? std::string("size does not match its point count") : header.status().message()) +
+                           "); it must be sent again"));
+  }
+  scans_.emplace(key, std::move(bytes));
+  ++stats_.scans_completed;
+  return Status::Ok();
+}
+
+void MergeServer::ClearScans() {
+  partial_.clear();
+  scans_.clear();
+  held_bytes_ = 0;
+}
+
+const MergeServer::PairState* MergeServer::FindPair(int alpha, int beta) const {
+  for (const PairState& p : pairs_) {
+    if (p.alpha == alpha && p.beta == beta) return &p;
+  }
+  return nullptr;
+}
+
+const ExchangeCascadeResult* MergeServer::cascade(int alpha, int beta) const {
+  const PairState* p = FindPair(alpha, beta);
+  return p ? &p->cascade : nullptr;
+}
+
+const StageCResult* MergeServer::stage_ac(int alpha, int beta) const {
+  const PairState* p = FindPair(alpha, beta);
+  return p && p->stage_ac_ran ? &p->stage_ac : nullptr;
+}
+
+Status MergeServer::RunCascades() {
+  if (!params_status_.ok()) return params_status_;
+  pairs_.clear();
+  std::vector<std::vector<Eigen::Vector3d>> positions(robots_.size());
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    positions[r].resize(robots_[r].size());
+    for (std::size_t k = 0; k < robots_[r].size(); ++k) positions[r][k] = robots_[r].T_map_sensor[k].translation();
+  }
+  for (int a = 0; a < max_robots(); ++a) {
+    for (int b = a + 1; b < max_robots(); ++b) {
+      const RobotKeyframeDb& A = robots_[static_cast<std::size_t>(a)];
+      const RobotKeyframeDb& B = robots_[static_cast<std::size_t>(b)];
+      if (A.size() == 0 || B.size() == 0) continue;
+      CascadeRobotInput in_a{{Span<const float>(A.descriptors), kKeyframeDescriptorDim, Span<const std::uint8_t>(A.valid)},
+                             Span<const Eigen::Vector3d>(positions[static_cast<std::size_t>(a)]),
+                             Span<const std::uint32_t>(A.stored_points)};
+      CascadeRobotInput in_b{{Span<const float>(B.descriptors), kKeyframeDescriptorDim, Span<const std::uint8_t>(B.valid)},
+                             Span<const Eigen::Vector3d>(positions[static_cast<std::size_t>(b)]),
+                             Span<const std::uint32_t>(B.stored_points)};
+      auto result = RunExchangeCascade(in_a, in_b, params_.cascade);
+      if (!result.ok()) {
+        return Status(result.status().code(), "cascade of robots " + std::to_string(a) + " and " + std::to_string(b) +
+                                                  ": " + result.status().message());
+      }
+      PairState state;
+      state.alpha = a;
+      state.beta = b;
+      state.cascade = std::move(*result);
+      const auto& l_seq = state.cascade.stage_a.cells;
+      if (!l_seq.empty()) {
+        // The A+C ablation: stage C over every loop of L_seq (both endpoints "selected").
+        std::vector<int> all_a, all_b;
+        for (std::uint32_t k : Endpoints(Span<const SequentialLoopCell>(l_seq), true)) all_a.push_back(static_cast<int>(k));
+        for (std::uint32_t k : Endpoints(Span<const SequentialLoopCell>(l_seq), false)) all_b.push_back(static_cast<int>(k));
+        StageCParams c = params_.cascade.stage_c;
+        c.loop_set = StageCLoopSet::kBothEndpointsSelected;
+        auto ac = RunStageC(Span<const SequentialLoopCell>(l_seq), Span<const int>(all_a), Span<const int>(all_b),
+                            Span<const Eigen::Vector3d>(positions[static_cast<std::size_t>(a)]),
+                            Span<const Eigen::Vector3d>(positions[static_cast<std::size_t>(b)]), c);
+        if (!ac.ok()) return ac.status();
+        state.stage_ac = std::move(*ac);
+        state.stage_ac_ran = true;
+      }
+      pairs_.push_back(std::move(state));
+    }
+  }
+  return Status::Ok();
+}
+
+Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
+  if (!params_status_.ok()) return params_status_;
+  ExchangePlan plan;
+  plan.mode = mode;
+  std::vector<std::vector<std::uint32_t>> wanted(robots_.size());
+  for (const PairState& p : pairs_) {
+    PairSelection s;
+    s.alpha = p.alpha;
+    s.beta = p.beta;
+    const auto& l_seq = p.cascade.stage_a.cells;
+    switch (mode) {
+      case ExchangeMode::kSendAll:
+      case ExchangeMode::kStageA:
+        s.alpha_keyframes = Endpoints(Span<const SequentialLoopCell>(l_seq), true);
+        s.beta_keyframes = Endpoints(Span<const SequentialLoopCell>(l_seq), false);
+        s.loops = l_seq.size();
+        break;
+      case ExchangeMode::kStageAB:
+        s.alpha_keyframes = ToKeyframes(p.cascade.stage_b.selected_left);
+        s.beta_keyframes = ToKeyframes(p.cascade.stage_b.selected_right);
+        s.loops = l_seq.size();
+        break;
+      case ExchangeMode::kStageAC:
+        if (p.stage_ac_ran) {
+          s.alpha_keyframes = Endpoints(Span<const SequentialLoopCell>(p.stage_ac.selected_loops), true);
+          s.beta_keyframes = Endpoints(Span<const SequentialLoopCell>(p.stage_ac.selected_loops), false);
+          s.loops = p.stage_ac.selected_loops.size();
+          if (s.loops == 0) s.no_selection_reason = "stage C (over L_seq): " + p.stage_ac.no_candidate_reason;
+        }
+        break;
+      case ExchangeMode::kStageABC:
+        s.alpha_keyframes = p.cascade.policy.alpha.keyframes;
+        s.beta_keyframes = p.cascade.policy.beta.keyframes;
+        s.loops = p.cascade.policy.loops;
+        break;
+    }
+    if (s.alpha_keyframes.empty() && s.beta_keyframes.empty() && s.no_selection_reason.empty()) {
+      s.no_selection_reason = p.cascade.no_candidate_reason.empty() ? "nothing selected" : p.cascade.no_candidate_reason;
+    }
+    if (mode != ExchangeMode::kSendAll) {
+      auto& wa = wanted[static_cast<std::size_t>(p.alpha)];
+      auto& wb = wanted[static_cast<std::size_t>(p.beta)];
+      wa.insert(wa.end(), s.alpha_keyframes.begin(), s.alpha_keyframes.end());
+      wb.insert(wb.end(), s.beta_keyframes.begin(), s.beta_keyframes.end());
+    }
+    plan.pairs.push_back(std::move(s));
+  }
+  if (mode == ExchangeMode::kSendAll) {
+    for (std::size_t r = 0; r < robots_.size(); ++r) {
+      for (std::size_t k = 0; k < robots_[r].size(); ++k) {
+        if (robots_[r].stored_points[k] > 0 || robots_[r].pose_known[k]) wanted[r].push_back(static_cast<std::uint32_t>(k));
+      }
+    }
+  }
+  std::int32_t request_id = 1;
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    auto& w = wanted[r];
+    std::sort(w.begin(), w.end());
+    w.erase(std::unique(w.begin(), w.end()), w.end());
+    if (w.empty()) continue;
+    ScanRequest req;
+    req.robot_id = static_cast<int>(r);
+    req.request_id = request_id++;
+    req.keyframes = w;
+    for (std::uint32_t k : w) {
+      const std::uint32_t n = k < robots_[r].size() ? robots_[r].stored_points[k] : 0;
+      plan.predicted_scan_bytes += EncodedScanBytes(n > 0 ? n : params_.cascade.policy.assumed_points_per_scan);
+    }
+    plan.requests.push_back(std::move(req));
+  }
+  return plan;
+}
+
+std::size_t MergeServer::BuildSubmap(int robot, Span<const std::uint32_t> keyframes, double voxel_size_m,
+                                     std::vector<PointXYZI>* points, std::vector<Eigen::Vector3d>* sensor_origins,
+                                     std::size_t* missing) {
+  points->clear();
+  sensor_origins->clear();
+  union_points_.clear();
+  std::size_t used = 0;
+  *missing = 0;
+  const RobotKeyframeDb& db = robots_[static_cast<std::size_t>(robot)];
+  for (std::uint32_t k : keyframes) {
+    auto it = scans_.find(Key(robot, k));
+    if (it == scans_.end() || k >= db.size() || !db.pose_known[k]) {
+      ++*missing;
+      continue;
+    }
+    if (!DecodeScan(Span<const std::uint8_t>(it->second), &scan_points_).ok()) {
+      ++*missing;
+      continue;
+    }
+    // Paper eq. M_alpha: every point of the scan placed with the keyframe's pose in the robot's map frame.
+    const Eigen::Isometry3f T = db.T_map_sensor[k].cast<float>();
+    for (const PointXYZI& p : scan_points_) {
+      const Eigen::Vector3f q = T * Eigen::Vector3f(p.x, p.y, p.z);
+      union_points_.push_back({q.x(), q.y(), q.z(), p.intensity});
+    }
+    sensor_origins->push_back(db.T_map_sensor[k].translation());
+    ++used;
+  }
+  VoxelGridParams v;
+  v.voxel_size_m = voxel_size_m;
+  if (!voxel_grid_.Downsample(Span<const PointXYZI>(union_points_), v, points).ok()) points->clear();
+  return used;
+}
+
+Result<PairMergeResult> MergeServer::MergePair(const PairSelection& pair, RegistrationStageObserver* observer) {
+  if (!params_status_.ok()) return params_status_;
+  if (pair.alpha < 0 || pair.beta < 0 || pair.alpha >= max_robots() || pair.beta >= max_robots() ||
+      pair.alpha == pair.beta) {
+    return InvalidArgument("pair (" + std::to_string(pair.alpha) + ", " + std::to_string(pair.beta) +
+                           ") is not two different robots of 0.." + std::to_string(max_robots() - 1));
+  }
+  PairMergeResult out;
+  out.alpha = pair.alpha;
+  out.beta = pair.beta;
+  if (pair.alpha_keyframes.empty() || pair.beta_keyframes.empty()) {
+    out.reason = pair.no_selection_reason.empty() ? "no scans selected" : pair.no_selection_reason;
+    return out;
+  }
+  // Both submaps at one voxel size; grown until both fit max_submap_points.
+  double voxel = params_.submap_voxel_size_m;
+  for (int attempt = 0;; ++attempt) {
+    out.alpha_scans = BuildSubmap(pair.alpha, Span<const std::uint32_t>(pair.alpha_keyframes), voxel, &alpha_points_,
+                                  &alpha_origins_, &out.alpha_missing);
+    out.beta_scans = BuildSubmap(pair.beta, Span<const std::uint32_t>(pair.beta_keyframes), voxel, &beta_points_,
+                                 &beta_origins_, &out.beta_missing);
+    const bool fits = alpha_points_.size() <= params_.max_submap_points && beta_points_.size() <= params_.max_submap_points;
+    if (fits || attempt == 8) break;
+    voxel *= 1.25;
+  }
+  out.alpha_submap_points = alpha_points_.size();
+  out.beta_submap_points = beta_points_.size();
+  out.voxel_size_m = voxel;
+  if (out.alpha_scans == 0 || out.beta_scans == 0) {
+    out.reason = "no selected scan was received (" + std::to_string(out.alpha_missing) + " of robot " +
+                 std::to_string(pair.alpha) + " and " + std::to_string(out.beta_missing) + " of robot " +
+                 std::to_string(pair.beta) + " missing)";
+    return out;
+  }
+  SubmapRegistrationParams reg = MakeSubmapRegistrationParams(voxel);
+  reg.gates = params_.gates;
+  reg.gates.max_points = std::max(reg.gates.max_points, params_.max_submap_points);
+  reg.max_hypotheses = params_.registration_hypotheses;
+  SubmapView source{Span<const PointXYZI>(beta_points_), Span<const Eigen::Vector3d>(beta_origins_)};
+  SubmapView target{Span<const PointXYZI>(alpha_points_), Span<const Eigen::Vector3d>(alpha_origins_)};
+  auto result = registration_.Register(source, target, reg, observer);
+  if (!result.ok()) return result.status();
+  out.attempted = true;
+  out.registration = *result;
+  if (!result->success()) out.reason = RegistrationVerdictName(result->verdict);
+  return out;
+}
+
+Result<FrameSolution> MergeServer::SolveFrames(Span<const PairMergeResult> pairs) const {
+  if (!params_status_.ok()) return params_status_;
+  std::vector<FrameMeasurement> measurements;
+  for (const PairMergeResult& p : pairs) {
+    if (!p.attempted || !p.registration.success()) continue;
+    FrameMeasurement m;
+    m.robot_a = p.alpha;
+    m.robot_b = p.beta;
+    m.T_a_b = p.registration.T_target_source;
+    m.weight = static_cast<double>(std::max<std::size_t>(1, p.registration.num_fine_inliers));
+    measurements.push_back(m);
+  }
+  return SolveRobotFrames(max_robots(), Span<const FrameMeasurement>(measurements), params_.frames);
+}
+
+}  // namespace commerge

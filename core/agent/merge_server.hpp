@@ -1,0 +1,186 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: the server as a transport-free agent (paper Fig. "main", (b)-(g)). It keeps each robot's keyframe
+// database (descriptors and poses from keyframe batches and pose updates), runs the exchange cascade for every
+// robot pair (affinity + stage A, stage B, stage C, policy), turns a plan into scan requests, reassembles the
+// scan chunks the robots answer with (bounded, de-duplicated, CRC-verified), builds the two submaps of a pair
+// from the received scans (paper eqs. M_alpha, M_beta), registers them coarse to fine, and combines the
+// pairwise transforms into one frame per robot, rejecting pairs inconsistent with the rest.
+//
+// Exchange modes (the paper's ablation, Table "ablation2"): which scans a pair's plan asks for.
+//   send-all : every stored scan of both robots (the baseline); registration uses stage A's scans
+//   A        : both endpoints of every loop of L_seq (stage A's best cluster)
+//   A+B      : stage B's balanced vertex cover of L_seq
+//   A+C      : the endpoints of the maximum edge-weighted clique over all of L_seq (no stage B)
+//   A+B+C    : the full cascade's exchange policy (the endpoints of L_K)
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/agent/messages.hpp"
+#include "core/cloud/point.hpp"
+#include "core/cloud/voxel_grid.hpp"
+#include "core/common/span.hpp"
+#include "core/common/status.hpp"
+#include "core/exchange/exchange_cascade.hpp"
+#include "core/merge/frame_solver.hpp"
+#include "core/registration/submap_registration.hpp"
+
+namespace commerge {
+
+enum class ExchangeMode : std::uint8_t { kSendAll, kStageA, kStageAB, kStageAC, kStageABC };
+inline constexpr int kNumExchangeModes = 5;
+/// "send-all", "A", "A+B", "A+C", "A+B+C".
+const char* ExchangeModeName(ExchangeMode mode) noexcept;
+/// Parses the names above (also "all", "a", "ab", "ac", "abc"); the error lists them.
+Result<ExchangeMode> ExchangeModeFromName(const std::string& name);
+
+struct MergeServerParams {
+  ExchangeCascadeParams cascade;
+  /// Voxel size of the submaps [m] (the robots' scans already are 1 m voxels; the union is voxelised again).
+  double submap_voxel_size_m = 1.0;
+  /// When a submap has more points, its voxel size grows by 25 % steps (at most 8) until it fits.
+  std::size_t max_submap_points = 60000;
+  /// Registration parameters are MakeSubmapRegistrationParams(voxel size used) with these gates.
+  RegistrationGates gates;
+  int registration_hypotheses = 2;
+  FrameSolverParams frames;
+  /// Bytes of scans (complete and partial) the server holds at once; chunks beyond are refused and counted.
+  std::uint64_t max_scan_bytes = 512ull << 20;
+};
+
+Status ValidateMergeServerParams(const MergeServerParams& params);
+
+/// The server's copy of one robot's keyframes.
+struct RobotKeyframeDb {
+  std::vector<float> descriptors;          ///< keyframe x kKeyframeDescriptorDim (zeros where invalid)
+  std::vector<std::uint8_t> valid;         ///< descriptor received
+  std::vector<std::uint8_t> pose_known;    ///< pose received (record or pose update)
+  std::vector<Eigen::Isometry3d> T_map_sensor;
+  std::vector<std::uint32_t> stored_points;
+  std::size_t size() const noexcept { return valid.size(); }
+};
+
+/// Scans one pair asks for in one mode.
+struct PairSelection {
+  int alpha = 0, beta = 0;
+  std::vector<std::uint32_t> alpha_keyframes, beta_keyframes;  ///< ascending
+  std::size_t loops = 0;           ///< loops behind the selection (|L_seq|, |L_K|, ...)
+  std::string no_selection_reason; ///< why it is empty (the cascade's reason)
+};
+
+struct ExchangePlan {
+  ExchangeMode mode = ExchangeMode::kStageABC;
+  std::vector<PairSelection> pairs;
+  /// One request per robot with something to send (the union over its pairs), request ids from 1 upwards.
+  std::vector<ScanRequest> requests;
+  std::uint64_t predicted_scan_bytes = 0;  ///< 12 + 6 n per requested scan, n as the robots reported
+};
+
+/// What registering one pair produced.
+struct PairMergeResult {
+  int alpha = 0, beta = 0;
+  bool attempted = false;           ///< false: nothing selected or no scan received (see reason)
+  std::string reason;               ///< why it was not attempted, or the failed verdict
+  std::size_t alpha_scans = 0, beta_scans = 0;        ///< received scans used
+  std::size_t alpha_missing = 0, beta_missing = 0;    ///< selected but not received
+  std::size_t alpha_submap_points = 0, beta_submap_points = 0;
+  double voxel_size_m = 0.0;        ///< of the submaps
+  RegistrationResult registration;  ///< T_target_source = T_alpha_beta (p_alpha = T p_beta)
+};
+
+struct MergeServerStats {
+  std::uint64_t batches = 0, records = 0, pose_updates = 0, chunks = 0, scans_completed = 0;
+  std::uint64_t rejected_batches = 0, rejected_records = 0, rejected_pose_updates = 0;
+  std::uint64_t rejected_chunks = 0, duplicate_chunks = 0, corrupt_scans = 0;
+  std::uint64_t chunks_over_budget = 0;
+  std::string last_rejection;  ///< the most recent rejection, in words
+};
+
+class MergeServer {
+ public:
+  /// Robots 0..max_robots-1 (2..kMaxRobotId + 1), at most max_keyframes_per_robot keyframes each.
+  MergeServer(int max_robots, std::size_t max_keyframes_per_robot, const MergeServerParams& params);
+
+  /// Message handlers. A malformed or foreign message is refused with a Status naming the field and counted in
+  /// stats(); it never changes the state.
+  Status OnKeyframeBatch(const KeyframeBatch& batch);
+  Status OnPoseUpdate(const PoseUpdate& update);
+  Status OnScanChunk(const ScanChunk& chunk);
+
+  /// Runs the cascade for every pair of robots that sent keyframes (alpha < beta). Results stay until the next
+  /// call; errors: bad parameters, malformed descriptor sets.
+  Status RunCascades();
+  /// Cascade of pair (alpha, beta) from the last RunCascades(); nullptr when it did not run.
+  const ExchangeCascadeResult* cascade(int alpha, int beta) const;
+  /// Stage C over all of L_seq (the A+C ablation) of the pair; nullptr when it did not run.
+  const StageCResult* stage_ac(int alpha, int beta) const;
+
+  /// The plan of one mode from the last RunCascades().
+  Result<ExchangePlan> Plan(ExchangeMode mode) const;
+
+  /// Drops every received and partial scan (between modes of a comparison run).
+  void ClearScans();
+
+  /// Builds the two submaps of `pair` from the received scans and registers beta's onto alpha's.
+  Result<PairMergeResult> MergePair(const PairSelection& pair, RegistrationStageObserver* observer = nullptr);
+
+  /// Combines successful pairwise results into one frame per robot (world = robot 0's map frame).
+  Result<FrameSolution> SolveFrames(Span<const PairMergeResult> pairs) const;
+
+  /// Submap of one robot (map frame points) from received scans of `keyframes`, voxelised at voxel_size_m.
+  /// Returns the number of scans used; missing ones are counted in *missing.
+  std::size_t BuildSubmap(int robot, Span<const std::uint32_t> keyframes, double voxel_size_m,
+                          std::vector<PointXYZI>* points, std::vector<Eigen::Vector3d>* sensor_origins,
+                          std::size_t* missing);
+
+  int max_robots() const noexcept { return static_cast<int>(robots_.size()); }
+  const RobotKeyframeDb& robot(int r) const { return robots_[static_cast<std::size_t>(r)]; }
+  const MergeServerStats& stats() const noexcept { return stats_; }
+  /// Complete, verified scans held, and their bytes.
+  std::size_t scans_received() const noexcept { return scans_.size(); }
+  std::uint64_t scan_bytes_held() const noexcept { return held_bytes_; }
+  bool has_scan(int robot, std::uint32_t keyframe) const;
+
+ private:
+  struct Partial {
+    std::uint32_t total_bytes = 0;
+    std::uint16_t num_chunks = 0;
+    std::uint16_t received = 0;
+    std::vector<std::uint8_t> have;
+    std::vector<std::uint8_t> bytes;
+  };
+  struct PairState {
+    int alpha = 0, beta = 0;
+    ExchangeCascadeResult cascade;
+    StageCResult stage_ac;
+    bool stage_ac_ran = false;
+  };
+  static std::uint64_t Key(int robot, std::uint32_t keyframe) {
+    return (static_cast<std::uint64_t>(robot) << 32) | keyframe;
+  }
+  Status Reject(std::uint64_t* counter, Status status);
+  Status EnsureKeyframe(int robot, std::uint32_t keyframe);
+  const PairState* FindPair(int alpha, int beta) const;
+
+  MergeServerParams params_;
+  Status params_status_;
+  std::size_t max_keyframes_;
+  std::vector<RobotKeyframeDb> robots_;
+  std::vector<PairState> pairs_;
+  std::map<std::uint64_t, Partial> partial_;
+  std::map<std::uint64_t, std::vector<std::uint8_t>> scans_;
+  std::uint64_t held_bytes_ = 0;
+  MergeServerStats stats_;
+  SubmapRegistration registration_;
+  VoxelGrid voxel_grid_;
+  std::vector<PointXYZI> scan_points_, union_points_, alpha_points_, beta_points_;
+  std::vector<Eigen::Vector3d> alpha_origins_, beta_origins_;
+};
+
+}  // namespace commerge

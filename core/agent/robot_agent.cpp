@@ -1,0 +1,213 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "core/agent/robot_agent.hpp"
+
+#include <algorithm>
+#include <string>
+
+#include "core/cloud/scan_codec.hpp"
+
+namespace commerge {
+
+Status ValidateRobotAgentParams(const RobotAgentParams& params) {
+  if (params.max_records_per_batch < 1 || params.max_records_per_batch > kMaxRecordsPerBatch) {
+    return InvalidArgument("max_records_per_batch = " + std::to_string(params.max_records_per_batch) +
+                           " is outside 1.." + std::to_string(kMaxRecordsPerBatch));
+  }
+  if (params.max_poses_per_update < 1 || params.max_poses_per_update > kMaxPosesPerUpdate) {
+    return InvalidArgument("max_poses_per_update = " + std::to_string(params.max_poses_per_update) +
+                           " is outside 1.." + std::to_string(kMaxPosesPerUpdate));
+  }
+  if (params.chunk_payload_bytes < 1 || params.chunk_payload_bytes > kMaxScanChunkPayloadBytes) {
+    return InvalidArgument("chunk_payload_bytes = " + std::to_string(params.chunk_payload_bytes) +
+                           " is outside 1.." + std::to_string(kMaxScanChunkPayloadBytes));
+  }
+  if (!(params.pose_update_min_translation_m >= 0.0) || !(params.pose_update_min_rotation_deg >= 0.0)) {
+    return InvalidArgument("pose_update_min_translation_m and pose_update_min_rotation_deg must be >= 0");
+  }
+  return ValidateRobotMapperParams(params.mapper);
+}
+
+RobotAgent::RobotAgent(int robot_id, const RobotAgentParams& params, const RobotMapperCapacity& capacity,
+                       PlaceDescriptor* descriptor, ScanStore* store)
+    : robot_id_(robot_id),
+      params_(params),
+      params_status_(ValidateRobotAgentParams(params)),
+      store_(store),
+      mapper_(params.mapper, capacity, descriptor, store) {
+  if (params_status_.ok() && (robot_id < 0 || robot_id > kMaxRobotId)) {
+    params_status_ = InvalidArgument("robot id " + std::to_string(robot_id) + " is outside 0.." +
+                                     std::to_string(kMaxRobotId));
+  }
+  if (params_status_.ok() && descriptor != nullptr && descriptor->dimension() != kKeyframeDescriptorDim) {
+    params_status_ = InvalidArgument("the place descriptor has " + std::to_string(descriptor->dimension()) +
+                                     " values; the keyframe record carries " +
+                                     std::to_string(kKeyframeDescriptorDim) + " (R-SOLiD)");
+  }
+  pose_dirty_.assign(capacity.max_keyframes, 0);
+  sent_pose_.assign(capacity.max_keyframes, std::array<float, 7>{});
+  dirty_scan_from_ = pose_dirty_.size();
+  encoded_.reserve(EncodedScanBytes(capacity.max_points_per_stored_scan));
+}
+
+void RobotAgent::RememberSent(std::size_t k) {
+  const Eigen::Isometry3d& T = mapper_.pose(k);
+  const Eigen::Quaterniond q(T.linear());
+  sent_pose_[k] = {static_cast<float>(T.translation().x()), static_cast<float>(T.translation().y()),
+                   static_cast<float>(T.translation().z()), static_cast<float>(q.w()), static_cast<float>(q.x()),
+                   static_cast<float>(q.y()), static_cast<float>(q.z())};
+}
+
+bool RobotAgent::MovedSinceSent(std::size_t k) const {
+  const Eigen::Isometry3d& T = mapper_.pose(k);
+  const std::array<float, 7>& s = sent_pose_[k];
+  const Eigen::Vector3d t(s[0], s[1], s[2]);
+  if ((T.translation() - t).norm() > params_.pose_update_min_translation_m) return true;
+  const Eigen::Quaterniond q_sent(s[3], s[4], s[5], s[6]);
+  const double angle_rad = Eigen::Quaterniond(T.linear()).angularDistance(q_sent.normalized());
+  return angle_rad * 180.0 / 3.14159265358979323846 > params_.pose_update_min_rotation_deg;
+}
+
+void RobotAgent::QueuePoses(Span<const std::uint32_t> keyframes) {
+  for (std::uint32_t k : keyframes) {
+    // Keyframes not yet sent go out with their current pose anyway.
+    if (k >= sent_upto_ || k >= pose_dirty_.size() || pose_dirty_[k]) continue;
+    // Keyframes without a valid descriptor are queued when passed; the others only when they moved enough.
+    if (!MovedSinceSent(k)) continue;
+    pose_dirty_[k] = 1;
+    ++dirty_count_;
+    dirty_scan_from_ = std::min<std::size_t>(dirty_scan_from_, k);
+  }
+}
+
+Result<KeyframeStep> RobotAgent::AddScan(Span<const PointXYZI> raw_scan, const Eigen::Isometry3d& T_odom_sensor) {
+  if (!params_status_.ok()) return params_status_;
+  auto step = mapper_.AddScan(raw_scan, T_odom_sensor);
+  if (step.ok()) QueuePoses(Span<const std::uint32_t>(step->changed_keyframes));
+  return step;
+}
+
+Status RobotAgent::Finish() {
+  if (!params_status_.ok()) return params_status_;
+  auto moved = mapper_.OptimizePending();
+  if (!moved.ok()) return moved.status();
+  QueuePoses(Span<const std::uint32_t>(*moved));
+  // Poses that crept away in steps below the threshold: the server ends within it of the final poses.
+  for (std::size_t k = 0; k < sent_upto_; ++k) {
+    if (!pose_dirty_[k] && MovedSinceSent(k)) {
+      pose_dirty_[k] = 1;
+      ++dirty_count_;
+      dirty_scan_from_ = std::min(dirty_scan_from_, k);
+    }
+  }
+  return Status::Ok();
+}
+
+Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch* batch) {
+  if (!params_status_.ok()) return params_status_;
+  batch->utime_us = utime_us;
+  batch->robot_id = robot_id_;
+  batch->records.clear();
+  batch->stored_points.clear();
+  const std::size_t n = mapper_.num_keyframes();
+  std::size_t records = 0;
+  while (sent_upto_ < n && records < params_.max_records_per_batch) {
+    const std::size_t k = sent_upto_++;
+    if (!mapper_.descriptor_valid(k)) {
+      // Its pose still matters (submaps, trajectories): it travels in the next pose update.
+      if (k < pose_dirty_.size() && !pose_dirty_[k]) {
+        pose_dirty_[k] = 1;
+        ++dirty_count_;
+        dirty_scan_from_ = std::min(dirty_scan_from_, k);
+      }
+      continue;
+    }
+    KeyframeRecord record;
+    record.keyframe_index = static_cast<std::uint32_t>(k);
+    record.T_world_sensor = mapper_.pose(k);
+    const Span<const float> d = mapper_.descriptor(k);
+    std::copy(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim), record.descriptor.begin());
+    record.descriptor_valid = true;
+    const std::size_t offset = batch->records.size();
+    batch->records.resize(offset + kKeyframeRecordBytes);
+    if (Status st = EncodeKeyframeRecord(record, Span<std::uint8_t>(batch->records.data() + offset, kKeyframeRecordBytes));
+        !st.ok()) {
+      batch->records.resize(offset);
+      return Status(st.code(), "robot " + std::to_string(robot_id_) + " keyframe " + std::to_string(k) + ": " +
+                                   st.message());
+    }
+    std::uint32_t points = 0;
+    if (auto view = store_->View(static_cast<std::uint32_t>(k)); view.ok()) {
+      if (auto header = ParseScanHeader(*view); header.ok()) points = header->num_points;
+    }
+    batch->stored_points.push_back(points);
+    RememberSent(k);
+    ++records;
+  }
+  if (records == 0) return false;
+  batch->sequence = batch_sequence_++;
+  return true;
+}
+
+bool RobotAgent::TakePoseUpdate(std::int64_t utime_us, PoseUpdate* update) {
+  update->utime_us = utime_us;
+  update->robot_id = robot_id_;
+  update->keyframes.clear();
+  update->T_map_sensor.clear();
+  if (dirty_count_ == 0) return false;
+  for (std::size_t k = dirty_scan_from_; k < sent_upto_ && update->keyframes.size() < params_.max_poses_per_update;
+       ++k) {
+    if (!pose_dirty_[k]) continue;
+    pose_dirty_[k] = 0;
+    --dirty_count_;
+    update->keyframes.push_back(static_cast<std::uint32_t>(k));
+    update->T_map_sensor.push_back(mapper_.pose(k));
+    RememberSent(k);
+    dirty_scan_from_ = k + 1;
+  }
+  if (dirty_count_ == 0) dirty_scan_from_ = pose_dirty_.size();
+  update->sequence = pose_sequence_++;
+  return true;
+}
+
+Result<ScanAnswer> RobotAgent::AnswerRequest(const ScanRequest& request, std::int64_t utime_us,
+                                             std::vector<ScanChunk>* chunks) {
+  if (!params_status_.ok()) return params_status_;
+  if (request.robot_id != robot_id_) {
+    return InvalidArgument("scan request for robot " + std::to_string(request.robot_id) + " reached robot " +
+                           std::to_string(robot_id_));
+  }
+  ScanAnswer answer;
+  const std::size_t payload = params_.chunk_payload_bytes;
+  for (std::uint32_t k : request.keyframes) {
+    if (Status st = store_->CopyEncoded(k, &encoded_); !st.ok()) {
+      answer.missing.push_back(k);
+      continue;
+    }
+    const std::size_t total = encoded_.size();
+    const std::size_t num_chunks = static_cast<std::size_t>(ScanChunkCount(total, payload));
+    if (num_chunks > kMaxChunksPerScan) {
+      answer.missing.push_back(k);
+      continue;
+    }
+    for (std::size_t c = 0; c < num_chunks; ++c) {
+      ScanChunk chunk;
+      chunk.utime_us = utime_us;
+      chunk.robot_id = robot_id_;
+      chunk.request_id = request.request_id;
+      chunk.keyframe = k;
+      chunk.total_bytes = static_cast<std::uint32_t>(total);
+      chunk.chunk_index = static_cast<std::uint16_t>(c);
+      chunk.num_chunks = static_cast<std::uint16_t>(num_chunks);
+      const ChunkRange range = ScanChunkRange(total, num_chunks, c);
+      chunk.payload.assign(encoded_.begin() + static_cast<std::ptrdiff_t>(range.offset),
+                           encoded_.begin() + static_cast<std::ptrdiff_t>(range.offset + range.size));
+      chunks->push_back(std::move(chunk));
+      ++answer.chunks;
+    }
+    ++answer.scans_sent;
+    answer.scan_bytes += total;
+  }
+  return answer;
+}
+
+}  // namespace commerge

@@ -1,0 +1,96 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: the robot as a transport-free agent. It feeds scans to the RobotMapper (keyframes, SOLiD, scan
+// store, loop closure) and keeps an outbox of what the server must learn: new keyframes (descriptor + pose
+// records, in batches) and poses that changed after they were sent. It answers the server's scan requests
+// with the stored encoded scans cut into chunks. The caller moves messages between agents (LCM, memq, or
+// direct calls in tests) and counts their bytes.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/agent/messages.hpp"
+#include "core/common/span.hpp"
+#include "core/common/status.hpp"
+#include "core/slam/robot_mapper.hpp"
+#include "core/slam/scan_store.hpp"
+
+namespace commerge {
+
+struct RobotAgentParams {
+  RobotMapperParams mapper;
+  /// Records per keyframe batch (1..kMaxRecordsPerBatch).
+  std::size_t max_records_per_batch = 256;
+  /// Poses per pose update (1..kMaxPosesPerUpdate).
+  std::size_t max_poses_per_update = 1024;
+  /// Payload bytes per scan chunk (1..kMaxScanChunkPayloadBytes): a chunk stays inside one UDP datagram.
+  std::size_t chunk_payload_bytes = kMaxScanChunkPayloadBytes;
+  /// A keyframe the optimisation moved is re-sent only when its pose differs from the one the server has by
+  /// more than this (loop closures move every pose a little; the server's submaps use 1 m voxels).
+  double pose_update_min_translation_m = 0.05;
+  double pose_update_min_rotation_deg = 0.2;
+};
+
+Status ValidateRobotAgentParams(const RobotAgentParams& params);
+
+/// What a scan request produced.
+struct ScanAnswer {
+  std::size_t scans_sent = 0;
+  std::size_t chunks = 0;
+  std::uint64_t scan_bytes = 0;              ///< encoded scan bytes (chunk payloads)
+  std::vector<std::uint32_t> missing;        ///< requested keyframes whose scan the robot no longer has
+};
+
+class RobotAgent {
+ public:
+  /// `descriptor` must produce kKeyframeDescriptorDim values (R-SOLiD); `descriptor` and `store` are not owned.
+  RobotAgent(int robot_id, const RobotAgentParams& params, const RobotMapperCapacity& capacity,
+             PlaceDescriptor* descriptor, ScanStore* store);
+
+  /// One scan with its odometry pose (see RobotMapper::AddScan). Poses moved by an optimisation are queued
+  /// for a pose update when their keyframe was already sent.
+  Result<KeyframeStep> AddScan(Span<const PointXYZI> raw_scan, const Eigen::Isometry3d& T_odom_sensor);
+
+  /// End of the mission: optimises pending loops (their moved poses are queued as above).
+  Status Finish();
+
+  /// Fills `*batch` with the next unsent keyframes that have a valid descriptor (poses of keyframes without one
+  /// are queued for a pose update), encoded with the current poses. False when there is nothing to send.
+  Result<bool> TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch* batch);
+
+  /// Fills `*update` with queued poses (ascending keyframes). False when none is queued.
+  bool TakePoseUpdate(std::int64_t utime_us, PoseUpdate* update);
+
+  /// Appends the chunks of every requested scan to `*chunks`. Requests for another robot are an error
+  /// (InvalidArgument); keyframes the store no longer has are listed in ScanAnswer::missing.
+  Result<ScanAnswer> AnswerRequest(const ScanRequest& request, std::int64_t utime_us, std::vector<ScanChunk>* chunks);
+
+  int robot_id() const noexcept { return robot_id_; }
+  const RobotMapper& mapper() const noexcept { return mapper_; }
+  const ScanStore& store() const noexcept { return *store_; }
+  /// Keyframes already put into batches (or queued as poses).
+  std::size_t keyframes_sent() const noexcept { return sent_upto_; }
+
+ private:
+  void QueuePoses(Span<const std::uint32_t> keyframes);
+  void RememberSent(std::size_t keyframe);
+  bool MovedSinceSent(std::size_t keyframe) const;
+
+  int robot_id_;
+  RobotAgentParams params_;
+  Status params_status_;
+  ScanStore* store_;
+  RobotMapper mapper_;
+  std::size_t sent_upto_ = 0;
+  std::int32_t batch_sequence_ = 0, pose_sequence_ = 0;
+  std::vector<std::uint8_t> pose_dirty_;  ///< per keyframe (capacity max_keyframes)
+  /// The pose the server has of each sent keyframe: translation [m] and quaternion (w, x, y, z).
+  std::vector<std::array<float, 7>> sent_pose_;
+  std::size_t dirty_count_ = 0;
+  std::size_t dirty_scan_from_ = 0;       ///< no dirty flag below this keyframe
+  std::vector<std::uint8_t> encoded_;
+};
+
+}  // namespace commerge
