@@ -55,6 +55,9 @@ int RunDemo(const DemoOptions& o) {
   run.keyframe_spacing_m = 0.9;
   run.threads = o.threads;
   run.memory = o.memory;
+  // Two small robots: size the budget for them unless the user asks otherwise.
+  if (run.memory.max_keyframes == 0) run.memory.max_keyframes = 2 * o.keyframes_per_robot + 100;
+  if (run.memory.scan_store_mb == 0) run.memory.scan_store_mb = 64;
   run.tag = "commerge demo";
   std::printf("\ncommerge demo: 2/2 the pipeline (commerge run %s %s --lidar vlp-16 --keyframe-spacing-m 0.9 "
               "--out %s)\n",

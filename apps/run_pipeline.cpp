@@ -514,7 +514,8 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
   }
   progress.Done();
   const std::int64_t robots_peak_rss = platform::ReadRss().peak_bytes;
-  std::printf("\nrobots (%.1f s):\n", SecondsSince(t_robots));
+  const double robots_s = SecondsSince(t_robots);
+  std::printf("\nrobots (%.1f s):\n", robots_s);
   std::vector<Trajectories> traj;
   for (int ri = 0; ri < num_robots; ++ri) {
     const RobotRun& r = robots[static_cast<std::size_t>(ri)];
@@ -877,6 +878,45 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     }
   }
   const platform::RssFigures rss = platform::ReadRss();
+  {
+    // Machine-readable figures (profiling/bench_scenarios.sh reads them).
+    std::string t = "key\tvalue\n";
+    auto kv = [&t](const std::string& k, const std::string& v) { t += k + "\t" + v + "\n"; };
+    kv("robots", std::to_string(num_robots));
+    std::size_t keyframes = 0;
+    for (const RobotRun& r : robots) keyframes += r.agent->mapper().num_keyframes();
+    kv("keyframes_total", std::to_string(keyframes));
+    kv("robots_s", Fmt("%.3f", robots_s));
+    kv("cascade_s", Fmt("%.3f", cascade_s));
+    kv("stream_bytes", std::to_string(stream_bytes));
+    kv("peak_rss_after_robots_bytes", std::to_string(robots_peak_rss));
+    kv("peak_rss_end_bytes", std::to_string(rss.peak_bytes));
+    for (const ModeOutcome& m : outcomes) {
+      const std::string p = std::string("mode.") + ExchangeModeName(m.mode) + ".";
+      std::size_t scans = 0, merged_pairs = 0;
+      for (const ScanRequest& q : m.plan.requests) scans += q.keyframes.size();
+      for (const PairMergeResult& pr : m.pairs) merged_pairs += pr.attempted && pr.registration.success();
+      kv(p + "scans", std::to_string(scans));
+      kv(p + "scan_bytes", std::to_string(m.scan_bytes()));
+      kv(p + "total_bytes", std::to_string(stream_bytes + m.ledger->Total().bytes));
+      kv(p + "pairs_merged", std::to_string(merged_pairs) + "/" + std::to_string(m.pairs.size()));
+      kv(p + "merge_s", Fmt("%.3f", m.merge_s));
+      double worst = -1.0;
+      std::size_t connected = 0;
+      for (std::size_t r = 1; r < m.robot_eval.size(); ++r) {
+        if (m.robot_eval[r].has_gt) {
+          worst = std::max(worst, m.robot_eval[r].rmse_m);
+          ++connected;
+        }
+      }
+      kv(p + "robots_merged", std::to_string(connected) + "/" + std::to_string(num_robots - 1));
+      kv(p + "worst_rmse_m", Fmt("%.3f", worst));
+    }
+    if (std::FILE* f = std::fopen((report_dir + "/metrics.tsv").c_str(), "w")) {
+      std::fputs(t.c_str(), f);
+      std::fclose(f);
+    }
+  }
   std::printf("\nwrote %s (merged_map.pcd/.ply %zu points, transforms.txt, trajectories/, report/)\n", o.out_dir.c_str(),
               map_after.size());
   std::printf("time %.1f s; peak RSS after the robots %s, at the end %s (robots and server in one process)\n",

@@ -29,13 +29,15 @@ bool ParseIndex(const std::string& s, std::size_t* out) {
 Result<RobotDatasetSpec> ParseRobotDatasetSpec(const std::string& argument) {
   RobotDatasetSpec spec;
   spec.dir = argument;
+  // The last ':' starts a range unless a '/' follows it (a ':' inside a path, e.g. /mnt/run:2/seq). A last
+  // path component containing ':' must therefore be written with a trailing '/'.
   const std::size_t colon = argument.rfind(':');
-  if (colon != std::string::npos) {
+  if (colon != std::string::npos && argument.find('/', colon) == std::string::npos) {
     const std::string range = argument.substr(colon + 1);
     const std::size_t dash = range.find('-');
     std::size_t first = 0, last = 0;
-    if (dash == std::string::npos || !ParseIndex(range.substr(0, dash), &first) ||
-        !ParseIndex(range.substr(dash + 1), &last)) {
+    if (dash == std::string::npos || range.find('-', dash + 1) != std::string::npos ||
+        !ParseIndex(range.substr(0, dash), &first) || !ParseIndex(range.substr(dash + 1), &last)) {
       return InvalidArgument("dataset '" + argument + "': the part after ':' must be FIRST-LAST (scan indices)");
     }
     if (first >= last) {
@@ -114,7 +116,7 @@ Result<RobotDataset> OpenRobotDataset(const RobotDatasetSpec& spec, bool gt_from
   }
   const std::size_t first = spec.first_scan;
   const std::size_t end = spec.has_range ? spec.end_scan : files.size();
-  if (first >= files.size() || end > files.size()) {
+  if (first >= end || first >= files.size() || end > files.size()) {
     return InvalidArgument("dataset " + d.name + ": range exceeds the " + std::to_string(files.size()) + " scans");
   }
   d.first_scan = first;

@@ -27,7 +27,8 @@ struct RobotDatasetSpec {
   bool has_range = false;
 };
 
-/// Parses "DIR" or "DIR:FIRST-LAST" (LAST exclusive, FIRST < LAST). Errors name the argument.
+/// Parses "DIR" or "DIR:FIRST-LAST" (LAST exclusive, FIRST < LAST). A ':' followed by a '/' belongs to the
+/// path (write "dir:v2/" for a last component with a ':'). Errors name the argument.
 Result<RobotDatasetSpec> ParseRobotDatasetSpec(const std::string& argument);
 
 struct RobotDataset {

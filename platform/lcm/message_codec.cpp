@@ -36,12 +36,21 @@ std::int64_t ReadBe(Span<const std::uint8_t> b, std::size_t offset, int bytes) {
 // Checks the fingerprint and that the buffer holds the fixed header up to `header_bytes` (after the hash).
 template <typename LcmType>
 Status CheckHeader(Span<const std::uint8_t> bytes, std::size_t header_bytes, const char* type) {
+  if (bytes.size() >= 8 && ReadBe(bytes, 0, 8) != LcmType::getHash()) {
+    return DataLoss(std::string(type) + ": fingerprint does not match (another message type or another layout "
+                                        "version of commerge)");
+  }
   if (bytes.size() < 8 + header_bytes) {
     return DataLoss(std::string(type) + ": " + std::to_string(bytes.size()) + " bytes is shorter than its header");
   }
-  if (ReadBe(bytes, 0, 8) != LcmType::getHash()) {
-    return DataLoss(std::string(type) + ": fingerprint does not match (another message type or another layout "
-                                        "version of commerge)");
+  return Status::Ok();
+}
+
+// The buffer must hold `needed` bytes for the counts it announces: checked before the decoder allocates.
+Status CheckRoom(Span<const std::uint8_t> bytes, std::int64_t needed, const char* type) {
+  if (static_cast<std::int64_t>(bytes.size()) < needed) {
+    return DataLoss(std::string(type) + ": " + std::to_string(bytes.size()) + " bytes cannot hold the " +
+                    std::to_string(needed) + " its counts announce");
   }
   return Status::Ok();
 }
@@ -130,6 +139,7 @@ Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes) {
     return DataLoss("keyframe_batch_t: num_record_bytes = " + std::to_string(nb) + " is not 92 x num_records = " +
                     std::to_string(n * 92));
   }
+  if (Status st = CheckRoom(bytes, 8 + 22 + nb + 4 * n, type); !st.ok()) return st;
   commerge::keyframe_batch_t msg;
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
@@ -236,6 +246,10 @@ Status EncodeScanRequest(const ScanRequest& m, std::vector<std::uint8_t>* out) {
     if (m.keyframes[i] > static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max())) {
       return InvalidArgument("exchange_policy_t: keyframe " + std::to_string(m.keyframes[i]) + " is too large");
     }
+    if (i > 0 && m.keyframes[i] <= m.keyframes[i - 1]) {
+      return InvalidArgument("exchange_policy_t: keyframes must be ascending and unique (keyframe_index[" +
+                             std::to_string(i) + "] = " + std::to_string(m.keyframes[i]) + ")");
+    }
     msg.keyframe_index[i] = static_cast<std::int32_t>(m.keyframes[i]);
   }
   return EncodeInto(msg, out, type);
@@ -248,6 +262,7 @@ Result<ScanRequest> DecodeScanRequest(Span<const std::uint8_t> bytes) {
   if (Status st = CheckCount(n, static_cast<std::int64_t>(kMaxKeyframesPerRequest), type, "num_keyframes"); !st.ok()) {
     return st;
   }
+  if (Status st = CheckRoom(bytes, 8 + 18 + 4 * n, type); !st.ok()) return st;
   commerge::exchange_policy_t msg;
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
@@ -298,6 +313,7 @@ Result<ScanChunk> DecodeScanChunk(Span<const std::uint8_t> bytes) {
   if (Status st = CheckCount(n, static_cast<std::int64_t>(kMaxScanChunkPayloadBytes), type, "num_bytes"); !st.ok()) {
     return st;
   }
+  if (Status st = CheckRoom(bytes, 8 + 30 + n, type); !st.ok()) return st;
   commerge::scan_chunk_t msg;
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;

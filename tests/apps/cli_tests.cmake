@@ -42,13 +42,20 @@ cm_cli_test(NAME "budget: over a cgroup v2 limit exits 3" RC 3
                     --proc-root "${CM_CLI_OUT}/fake-cgroup/proc" --cgroup-root "${CM_CLI_OUT}/fake-cgroup/cgroup")
 cm_cli_test(NAME "budget: a negative size is a usage error" RC 2 REGEX "scan-store-mb"
             COMMAND ${CM_BIN} budget --scan-store-mb -5)
-cm_cli_test(NAME "demo runs and writes the map" RC 0 REGEX "wrote .*map_ground_truth.pcd.*peak RSS"
-            COMMAND ${CM_BIN} demo --keyframes 2 --out "${CM_CLI_OUT}/demo")
-set_tests_properties("cli: demo runs and writes the map" PROPERTIES FIXTURES_SETUP demo_out)
-cm_cli_test(NAME "voxelize reads the demo map" RC 0 REGEX "map_ground_truth.pcd: [0-9]+ points \\(0 non-finite dropped\\)"
-            COMMAND ${CM_BIN} voxelize "${CM_CLI_OUT}/demo/map_ground_truth.pcd" "${CM_CLI_OUT}/demo/map_2m.ply"
-                    --voxel-size-m 2)
-set_tests_properties("cli: voxelize reads the demo map" PROPERTIES FIXTURES_REQUIRED demo_out)
+# The demo is the main job end to end (about 30 s natively): host only.
+cm_cli_test(NAME "demo merges the two robots correctly and writes the report" RC 0 LABELS heavy
+            REGEX "\\| A\\+B\\+C \\|.*T_world_robot.*wrote .*merged_map.*commerge demo: correct merge, alignment RMSE 0\\.[0-9]+ m"
+            COMMAND ${CM_BIN} demo --out "${CM_CLI_OUT}/demo")
+set_tests_properties("cli: demo merges the two robots correctly and writes the report" PROPERTIES FIXTURES_SETUP demo_out)
+cm_cli_test(NAME "voxelize reads the demo's merged map" RC 0 LABELS heavy
+            REGEX "merged_map.pcd: [0-9]+ points \\(0 non-finite dropped\\)"
+            COMMAND ${CM_BIN} voxelize "${CM_CLI_OUT}/demo/merged_map.pcd" "${CM_CLI_OUT}/demo/map_2m.ply" --voxel-size-m 2)
+set_tests_properties("cli: voxelize reads the demo's merged map" PROPERTIES FIXTURES_REQUIRED demo_out)
+foreach(file report/affinity_0_1.png report/trajectories_selected.png report/map_before.png report/map_after.png
+        report/bytes_per_mode.png merged_map.ply transforms.txt trajectories/robot_1_world.tum trajectories/robot_1_gt.tum)
+  add_test(NAME "cli: demo wrote ${file}" COMMAND "${CMAKE_COMMAND}" -E cat "${CM_CLI_OUT}/demo/${file}")
+  set_tests_properties("cli: demo wrote ${file}" PROPERTIES FIXTURES_REQUIRED demo_out LABELS heavy)
+endforeach()
 cm_cli_test(NAME "voxelize names a missing file" RC 1 REGEX "does-not-exist.bin: no such file"
             COMMAND ${CM_BIN} voxelize "${CM_CLI_OUT}/does-not-exist.bin" "${CM_CLI_OUT}/x.pcd")
 
@@ -102,4 +109,33 @@ if(NOT CMAKE_CROSSCOMPILING)  # peak RSS is measured natively (qemu inflates it)
            COMMAND "${PROJECT_SOURCE_DIR}/profiling/peak-ram.sh" $<TARGET_FILE:cm_alloc_probe> --touch-mb 64)
   set_tests_properties("profiling: peak-ram.sh reports the peak RSS of a command" PROPERTIES
     PASS_REGULAR_EXPRESSION "peak RSS: (6[4-9]|[7-9][0-9])\\.[0-9] MiB")
+endif()
+
+# commerge run: argument errors (fast everywhere) and real runs (host only).
+cm_cli_test(NAME "run: one dataset is a usage error" RC 2 REGEX "datasets"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-a/robot_0")
+cm_cli_test(NAME "run: a directory without scans names what is missing" RC 1 REGEX "no velodyne/ directory"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/nowhere" "${CM_CLI_OUT}/nowhere2" --out "${CM_CLI_OUT}/run-bad")
+cm_cli_test(NAME "run: an unknown exchange mode is a usage error" RC 2 REGEX "unknown exchange mode 'B'"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-a/robot_0" "${CM_CLI_OUT}/sim-a/robot_1" --modes A,B
+                    --out "${CM_CLI_OUT}/run-bad")
+set_tests_properties("cli: run: an unknown exchange mode is a usage error" PROPERTIES FIXTURES_REQUIRED sim_a)
+cm_cli_test(NAME "run: an empty time range is a usage error" RC 2 REGEX "range 5-5 is empty"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-a/robot_0:5-5" "${CM_CLI_OUT}/sim-a/robot_1" --out "${CM_CLI_OUT}/run-bad")
+cm_cli_test(NAME "run: tiny dataset, every mode, no pair merged is exit 1 with the reason" RC 1
+            REGEX "\\| send-all \\|.*\\| A\\+B\\+C \\|.*not merged: stage A.*no robot pair could be merged"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-a/robot_0" "${CM_CLI_OUT}/sim-a/robot_1" --lidar vlp-16
+                    --keyframe-spacing-m 0.9 --no-report --scan-store-mb 16 --max-keyframes 100
+                    --out "${CM_CLI_OUT}/run-tiny")
+set_tests_properties("cli: run: tiny dataset, every mode, no pair merged is exit 1 with the reason" PROPERTIES
+                     FIXTURES_REQUIRED sim_a)
+# The paper's protocol for one real sequence: two robots from two time ranges (KITTI 00 frames 0-9 and 5-15).
+set(CM_KITTI00 "${CM_SHARED_DATA_DIR}/kitti/kitti00_frames0-15")
+if(EXISTS "${CM_KITTI00}/velodyne")
+  cm_cli_test(NAME "run: KITTI 00 split into two robots by time merges against ground truth" RC 0 LABELS heavy
+              REGEX "robot 1: T_world_robot .* e_rmse 0\\.[0-2][0-9]* m"
+              COMMAND ${CM_BIN} run "${CM_KITTI00}:0-10" "${CM_KITTI00}:5-16" --gt-from-poses --tau-area 4 --no-report
+                      --scan-store-mb 64 --max-keyframes 100 --out "${CM_CLI_OUT}/run-kitti00")
+else()
+  message(STATUS "CM-SKIP: ${CM_KITTI00} is absent: the KITTI 00 run test is not registered")
 endif()

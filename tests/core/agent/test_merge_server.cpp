@@ -1,0 +1,316 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The server agent: malformed messages are refused and counted without changing the state; scan chunks are
+// reassembled whatever their order, de-duplicated and CRC-checked; plans per exchange mode match stage A's
+// loops computed by brute force; a pair's submaps built from received scans register to the ground truth.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "../registration/registration_test_support.hpp"
+#include "core/agent/merge_server.hpp"
+#include "core/cloud/scan_codec.hpp"
+#include "core/descriptor/descriptor_codec.hpp"
+
+using namespace commerge;
+
+namespace {
+
+// A random unit descriptor with non-negative entries (as SOLiD's).
+std::array<float, kKeyframeDescriptorDim> RandomDescriptor(std::mt19937* rng) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::array<float, kKeyframeDescriptorDim> d{};
+  double n = 0.0;
+  for (float& v : d) {
+    v = u(*rng);
+    n += static_cast<double>(v) * static_cast<double>(v);
+  }
+  for (float& v : d) v = static_cast<float>(static_cast<double>(v) / std::sqrt(n));
+  return d;
+}
+
+KeyframeBatch MakeBatch(int robot, const std::vector<std::array<float, kKeyframeDescriptorDim>>& descriptors,
+                        const std::vector<Eigen::Vector3d>& positions, std::uint32_t points) {
+  KeyframeBatch b;
+  b.robot_id = robot;
+  for (std::size_t k = 0; k < descriptors.size(); ++k) {
+    KeyframeRecord r;
+    r.keyframe_index = static_cast<std::uint32_t>(k);
+    r.T_world_sensor.translation() = positions[k];
+    r.descriptor = descriptors[k];
+    r.descriptor_valid = true;
+    const std::size_t at = b.records.size();
+    b.records.resize(at + kKeyframeRecordBytes);
+    REQUIRE(EncodeKeyframeRecord(r, Span<std::uint8_t>(b.records.data() + at, kKeyframeRecordBytes)).ok());
+    b.stored_points.push_back(points);
+  }
+  return b;
+}
+
+std::vector<std::uint8_t> Encode(const std::vector<PointXYZI>& points) {
+  std::vector<std::uint8_t> out(EncodedScanBytes(points.size()));
+  auto info = EncodeScan(Span<const PointXYZI>(points), Span<std::uint8_t>(out));
+  REQUIRE(info.ok());
+  out.resize(info->bytes_written);
+  return out;
+}
+
+std::vector<ScanChunk> Chunks(int robot, std::uint32_t keyframe, const std::vector<std::uint8_t>& bytes,
+                              std::size_t max_payload) {
+  std::vector<ScanChunk> out;
+  const std::uint64_t n = ScanChunkCount(bytes.size(), max_payload);
+  for (std::uint64_t i = 0; i < n; ++i) {
+    const ChunkRange r = ScanChunkRange(bytes.size(), n, i);
+    ScanChunk c;
+    c.robot_id = robot;
+    c.keyframe = keyframe;
+    c.total_bytes = static_cast<std::uint32_t>(bytes.size());
+    c.chunk_index = static_cast<std::uint16_t>(i);
+    c.num_chunks = static_cast<std::uint16_t>(n);
+    c.payload.assign(bytes.begin() + static_cast<std::ptrdiff_t>(r.offset),
+                     bytes.begin() + static_cast<std::ptrdiff_t>(r.offset + r.size));
+    out.push_back(c);
+  }
+  return out;
+}
+
+std::vector<PointXYZI> SomePoints(std::size_t n) {
+  std::vector<PointXYZI> p;
+  for (std::size_t i = 0; i < n; ++i) {
+    p.push_back({static_cast<float>(i % 37) * 0.5f, static_cast<float>(i % 11), static_cast<float>(i % 5), 0.0f});
+  }
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("Merge server refuses malformed keyframe batches and pose updates and counts them") {
+  MergeServer server(2, 100, MergeServerParams{});
+  std::mt19937 rng(1);
+  std::vector<std::array<float, kKeyframeDescriptorDim>> d = {RandomDescriptor(&rng), RandomDescriptor(&rng)};
+  std::vector<Eigen::Vector3d> pos = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0)};
+  KeyframeBatch good = MakeBatch(0, d, pos, 1000);
+
+  KeyframeBatch foreign = good;
+  foreign.robot_id = 2;  // the server was sized for robots 0 and 1
+  CHECK(server.OnKeyframeBatch(foreign).code() == StatusCode::kInvalidArgument);
+  KeyframeBatch ragged = good;
+  ragged.records.pop_back();
+  CHECK_FALSE(server.OnKeyframeBatch(ragged).ok());
+  CHECK(server.stats().rejected_batches == 2);
+  CHECK(server.robot(0).size() == 0);
+
+  // One corrupt record: the other is kept, the corrupt one counted.
+  KeyframeBatch corrupt = good;
+  corrupt.records[kKeyframeRecordBytes + 20] ^= 0xff;
+  corrupt.records[kKeyframeRecordBytes + 21] ^= 0xff;
+  const Status st = server.OnKeyframeBatch(corrupt);
+  const bool second_refused = !st.ok();
+  CHECK(server.robot(0).size() >= 1);
+  CHECK(server.robot(0).valid[0] == 1);
+  CHECK(server.stats().rejected_records == (second_refused ? 1u : 0u));
+
+  // A keyframe index beyond the server's capacity is refused, not allocated.
+  MergeServer small(2, 1, MergeServerParams{});
+  CHECK(small.OnKeyframeBatch(good).code() == StatusCode::kResourceExhausted);
+  CHECK(small.robot(0).size() == 1);
+
+  PoseUpdate update;
+  update.robot_id = 0;
+  update.keyframes = {0, 1};
+  update.T_map_sensor = {Eigen::Isometry3d::Identity()};
+  CHECK_FALSE(server.OnPoseUpdate(update).ok());  // counts differ
+  update.T_map_sensor.push_back(Eigen::Isometry3d::Identity());
+  update.T_map_sensor[1].translation().x() = std::nan("");
+  CHECK_FALSE(server.OnPoseUpdate(update).ok());  // non-finite pose: nothing applied
+  CHECK(server.stats().rejected_pose_updates == 2);
+  update.T_map_sensor[1] = Eigen::Isometry3d::Identity();
+  update.T_map_sensor[1].translation() = Eigen::Vector3d(5, 6, 7);
+  REQUIRE(server.OnPoseUpdate(update).ok());
+  CHECK(server.robot(0).T_map_sensor[1].translation().isApprox(Eigen::Vector3d(5, 6, 7)));
+}
+
+TEST_CASE("Merge server reassembles scan chunks in any order, ignores duplicates and refuses corrupt scans") {
+  MergeServerParams params;
+  params.max_scan_bytes = 1 << 16;
+  MergeServer server(2, 100, params);
+  const std::vector<std::uint8_t> scan = Encode(SomePoints(1000));  // 6012 bytes
+  std::vector<ScanChunk> chunks = Chunks(1, 4, scan, 700);
+  REQUIRE(chunks.size() == 9);
+  std::reverse(chunks.begin(), chunks.end());
+  for (std::size_t i = 0; i < chunks.size(); ++i) {
+    REQUIRE(server.OnScanChunk(chunks[i]).ok());
+    if (i == 3) REQUIRE(server.OnScanChunk(chunks[i]).ok());  // a retransmission
+    CHECK(server.has_scan(1, 4) == (i + 1 == chunks.size()));
+  }
+  CHECK(server.stats().duplicate_chunks == 1);
+  CHECK(server.OnScanChunk(chunks[0]).ok());  // after completion: a duplicate too
+  CHECK(server.stats().duplicate_chunks == 2);
+  CHECK(server.scans_received() == 1);
+  CHECK(server.scan_bytes_held() == scan.size());
+
+  // A flipped payload byte: the CRC refuses the scan, which is not kept.
+  std::vector<ScanChunk> bad = Chunks(0, 2, scan, 700);
+  bad[3].payload[5] ^= 0x01;
+  Status last;
+  for (const ScanChunk& c : bad) last = server.OnScanChunk(c);
+  CHECK(last.code() == StatusCode::kDataLoss);
+  CHECK_FALSE(server.has_scan(0, 2));
+  CHECK(server.stats().corrupt_scans == 1);
+  CHECK(server.scan_bytes_held() == scan.size());
+
+  // A payload of the wrong size for its index, and an index beyond the count.
+  std::vector<ScanChunk> odd = Chunks(0, 3, scan, 700);
+  odd[1].payload.pop_back();
+  CHECK(server.OnScanChunk(odd[1]).code() == StatusCode::kInvalidArgument);
+  odd[2].chunk_index = odd[2].num_chunks;
+  CHECK_FALSE(server.OnScanChunk(odd[2]).ok());
+
+  // The byte budget: scans beyond max_scan_bytes are refused and counted.
+  std::size_t refused = 0;
+  for (std::uint32_t k = 10; k < 30; ++k) {
+    for (const ScanChunk& c : Chunks(1, k, scan, 1200)) refused += !server.OnScanChunk(c).ok();
+  }
+  CHECK(refused > 0);
+  CHECK(server.stats().chunks_over_budget > 0);
+  CHECK(server.scan_bytes_held() <= params.max_scan_bytes);
+  server.ClearScans();
+  CHECK(server.scans_received() == 0);
+  CHECK(server.scan_bytes_held() == 0);
+}
+
+TEST_CASE("Merge server plans per exchange mode: stage A's loops equal the brute-force threshold cells") {
+  std::mt19937 rng(7);
+  const int n = 40, shift = 5;
+  std::vector<std::array<float, kKeyframeDescriptorDim>> da, db;
+  std::vector<Eigen::Vector3d> pa, pb;
+  for (int i = 0; i < n; ++i) {
+    da.push_back(RandomDescriptor(&rng));
+    pa.emplace_back(i, 0.0, 0.0);
+  }
+  // Beta's keyframe j sees alpha's place j + shift (its own frame is shifted and rotated).
+  for (int j = 0; j < n; ++j) {
+    db.push_back(j + shift < n ? da[static_cast<std::size_t>(j + shift)] : RandomDescriptor(&rng));
+    pb.emplace_back(-static_cast<double>(j), 3.0, 0.0);
+  }
+  MergeServerParams params;
+  params.cascade.stage_a.tau_area = 100;
+  MergeServer server(2, 100, params);
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(0, da, pa, 2000)).ok());
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(1, db, pb, 3000)).ok());
+  REQUIRE(server.RunCascades().ok());
+  const ExchangeCascadeResult* cascade = server.cascade(0, 1);
+  REQUIRE(cascade != nullptr);
+  REQUIRE(cascade->stage_a.found);
+
+  // Brute force over the decoded descriptors: the cells within tau_inter.
+  std::vector<std::uint32_t> want_a, want_b;
+  const RobotKeyframeDb& A = server.robot(0);
+  const RobotKeyframeDb& B = server.robot(1);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      double s = 0.0;
+      for (std::size_t k = 0; k < kKeyframeDescriptorDim; ++k) {
+        const double diff = A.descriptors[static_cast<std::size_t>(i) * kKeyframeDescriptorDim + k] -
+                            B.descriptors[static_cast<std::size_t>(j) * kKeyframeDescriptorDim + k];
+        s += diff * diff;
+      }
+      if (std::sqrt(s) <= params.cascade.stage_a.tau_inter) {
+        want_a.push_back(static_cast<std::uint32_t>(i));
+        want_b.push_back(static_cast<std::uint32_t>(j));
+      }
+    }
+  }
+  REQUIRE(want_a.size() == static_cast<std::size_t>(n - shift));
+  for (std::size_t c = 0; c < want_a.size(); ++c) CHECK(want_a[c] == want_b[c] + shift);
+
+  auto plan_a = server.Plan(ExchangeMode::kStageA);
+  REQUIRE(plan_a.ok());
+  REQUIRE(plan_a->pairs.size() == 1);
+  CHECK(plan_a->pairs[0].alpha_keyframes == want_a);
+  CHECK(plan_a->pairs[0].beta_keyframes == want_b);
+  REQUIRE(plan_a->requests.size() == 2);
+  CHECK(plan_a->predicted_scan_bytes == want_a.size() * EncodedScanBytes(2000) + want_b.size() * EncodedScanBytes(3000));
+
+  auto plan_all = server.Plan(ExchangeMode::kSendAll);
+  REQUIRE(plan_all.ok());
+  REQUIRE(plan_all->requests.size() == 2);
+  CHECK(plan_all->requests[0].keyframes.size() == static_cast<std::size_t>(n));
+  CHECK(plan_all->requests[1].keyframes.size() == static_cast<std::size_t>(n));
+
+  // Stage B's cover and the full cascade select subsets of stage A's keyframes; the full policy is the
+  // cascade's.
+  auto plan_b = server.Plan(ExchangeMode::kStageAB);
+  auto plan_abc = server.Plan(ExchangeMode::kStageABC);
+  auto plan_ac = server.Plan(ExchangeMode::kStageAC);
+  REQUIRE(plan_b.ok());
+  REQUIRE(plan_abc.ok());
+  REQUIRE(plan_ac.ok());
+  auto subset = [](const std::vector<std::uint32_t>& s, const std::vector<std::uint32_t>& of) {
+    return std::includes(of.begin(), of.end(), s.begin(), s.end());
+  };
+  CHECK(subset(plan_b->pairs[0].alpha_keyframes, want_a));
+  CHECK(subset(plan_b->pairs[0].beta_keyframes, want_b));
+  CHECK(plan_b->pairs[0].alpha_keyframes.size() + plan_b->pairs[0].beta_keyframes.size() ==
+        static_cast<std::size_t>(cascade->stage_b.objective_scans));
+  CHECK(plan_abc->pairs[0].alpha_keyframes == cascade->policy.alpha.keyframes);
+  CHECK(plan_abc->pairs[0].beta_keyframes == cascade->policy.beta.keyframes);
+  CHECK(subset(plan_ac->pairs[0].alpha_keyframes, want_a));
+  CHECK_FALSE(plan_ac->pairs[0].alpha_keyframes.empty());
+  CHECK(ExchangeModeFromName("a+b+c").ok());
+  CHECK_FALSE(ExchangeModeFromName("B").ok());
+}
+
+TEST_CASE("Merge server builds a pair's submaps from received scans and registers them to the ground truth") {
+  SyntheticSubmapPair pair;
+  REQUIRE(MakeStreetSubmapPair(test::LightStreetSpec(41, test::YawOffset(70.0, 12.0, -6.0, 0.3)), &pair).ok());
+  // Alpha's keyframe 3 holds the target submap, seen from a pose T_a (so its scan is in that sensor frame);
+  // beta's keyframe 0 holds the source submap at the identity.
+  const Eigen::Isometry3d T_a = test::YawOffset(-25.0, 4.0, 2.0, 0.0);
+  MergeServer server(2, 100, MergeServerParams{});
+  std::mt19937 rng(3);
+  std::vector<std::array<float, kKeyframeDescriptorDim>> d4 = {RandomDescriptor(&rng), RandomDescriptor(&rng),
+                                                               RandomDescriptor(&rng), RandomDescriptor(&rng)};
+  std::vector<Eigen::Vector3d> p4(4, Eigen::Vector3d::Zero());
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(0, d4, p4, 0)).ok());
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(1, {d4[0]}, {Eigen::Vector3d::Zero()}, 0)).ok());
+  PoseUpdate update;
+  update.robot_id = 0;
+  update.keyframes = {3};
+  update.T_map_sensor = {T_a};
+  REQUIRE(server.OnPoseUpdate(update).ok());
+  for (const ScanChunk& c : Chunks(0, 3, Encode(test::Transformed(pair.target.points, T_a.inverse())), 1200)) {
+    REQUIRE(server.OnScanChunk(c).ok());
+  }
+  for (const ScanChunk& c : Chunks(1, 0, Encode(pair.source.points), 1200)) REQUIRE(server.OnScanChunk(c).ok());
+
+  PairSelection sel;
+  sel.alpha = 0;
+  sel.beta = 1;
+  sel.alpha_keyframes = {1, 3};  // keyframe 1 was never received: counted as missing
+  sel.beta_keyframes = {0};
+  auto merged = server.MergePair(sel);
+  REQUIRE(merged.ok());
+  REQUIRE(merged->attempted);
+  CHECK(merged->alpha_scans == 1);
+  CHECK(merged->alpha_missing == 1);
+  CHECK(merged->beta_scans == 1);
+  REQUIRE(merged->registration.success());
+  CHECK(test::TranslationErrorM(pair.T_target_source, merged->registration.T_target_source) < 0.2);
+  CHECK(test::RotationErrorDeg(pair.T_target_source, merged->registration.T_target_source) < 1.0);
+
+  auto frames = server.SolveFrames(Span<const PairMergeResult>(&*merged, 1));
+  REQUIRE(frames.ok());
+  REQUIRE(frames->robots.size() == 2);
+  CHECK(frames->robots[1].connected_to_robot0);
+  CHECK(test::TranslationErrorM(pair.T_target_source, frames->robots[1].T_world_robot) < 0.2);
+
+  PairSelection nothing = sel;
+  nothing.beta_keyframes.clear();
+  auto skipped = server.MergePair(nothing);
+  REQUIRE(skipped.ok());
+  CHECK_FALSE(skipped->attempted);
+  CHECK_FALSE(skipped->reason.empty());
+}

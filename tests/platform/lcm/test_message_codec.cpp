@@ -1,0 +1,971 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// platform/lcm/message_codec: the robot <-> server messages to and from LCM wire bytes. Expectations come from
+// the generated LCM types (their own encode/decode and fingerprints), hand-read big-endian byte offsets and the
+// keyframe record codec; hostile buffers (foreign types, truncations, trailing bytes, patched counts) are
+// refused with DataLoss naming what is wrong.
+#include <doctest/doctest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <commerge/exchange_policy_t.hpp>
+#include <commerge/keyframe_batch_t.hpp>
+#include <commerge/pose_update_t.hpp>
+#include <commerge/robot_status_t.hpp>
+#include <commerge/scan_chunk_t.hpp>
+
+#include "core/agent/messages.hpp"
+#include "core/descriptor/descriptor_codec.hpp"
+#include "platform/lcm/message_codec.hpp"
+
+namespace commerge::platform {
+namespace {
+
+using Buffer = std::vector<std::uint8_t>;
+
+// ---- independent byte helpers (LCM is big-endian) ----
+
+std::int64_t GetBe(const Buffer& b, std::size_t offset, int bytes) {
+  REQUIRE(offset + static_cast<std::size_t>(bytes) <= b.size());
+  std::uint64_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = (v << 8) | b[offset + static_cast<std::size_t>(i)];
+  if (bytes < 8 && (v >> (8 * bytes - 1)) != 0) v |= ~std::uint64_t{0} << (8 * bytes);  // sign-extend
+  return static_cast<std::int64_t>(v);
+}
+
+void PutBe32(Buffer* b, std::size_t offset, std::uint32_t v) {
+  REQUIRE(offset + 4 <= b->size());
+  for (int i = 0; i < 4; ++i) (*b)[offset + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(v >> (24 - 8 * i));
+}
+
+float GetBeFloat(const Buffer& b, std::size_t offset) {
+  const auto bits = static_cast<std::uint32_t>(GetBe(b, offset, 4));
+  float f = 0.0f;
+  std::memcpy(&f, &bits, 4);
+  return f;
+}
+
+Span<const std::uint8_t> S(const Buffer& b) { return Span<const std::uint8_t>(b.data(), b.size()); }
+
+bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+// The generated type's own encoding.
+template <typename LcmType>
+Buffer LcmEncode(const LcmType& msg) {
+  Buffer b(static_cast<std::size_t>(msg.getEncodedSize()));
+  REQUIRE(msg.encode(b.data(), 0, static_cast<int>(b.size())) == static_cast<int>(b.size()));
+  return b;
+}
+
+template <typename LcmType>
+LcmType LcmDecode(const Buffer& b) {
+  LcmType msg;
+  REQUIRE(msg.decode(b.data(), 0, static_cast<int>(b.size())) == static_cast<int>(b.size()));
+  return msg;
+}
+
+template <typename T>
+void CheckDataLoss(const Result<T>& r, const std::vector<std::string>& parts) {
+  REQUIRE_FALSE(r.ok());
+  CHECK(r.status().code() == StatusCode::kDataLoss);
+  for (const std::string& part : parts) {
+    INFO("message: ", r.status().message(), " expected to contain: ", part);
+    CHECK(Contains(r.status().message(), part));
+  }
+}
+
+void CheckInvalid(const Status& st, const std::vector<std::string>& parts) {
+  CHECK(st.code() == StatusCode::kInvalidArgument);
+  for (const std::string& part : parts) {
+    INFO("message: ", st.message(), " expected to contain: ", part);
+    CHECK(Contains(st.message(), part));
+  }
+}
+
+double RotationError(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::AngleAxisd(a.transpose() * b).angle();
+}
+
+// ---- message builders ----
+
+KeyframeRecord MakeRecord(std::uint32_t k) {
+  KeyframeRecord r;
+  r.keyframe_index = k;
+  r.T_world_sensor = Eigen::Isometry3d::Identity();
+  r.T_world_sensor.linear() =
+      Eigen::AngleAxisd(0.3 + 0.7 * k, Eigen::Vector3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
+  r.T_world_sensor.translation() = Eigen::Vector3d(1.5 * k, -2.25, 0.5 + k);
+  double norm2 = 0.0;
+  std::array<double, kKeyframeDescriptorDim> v{};
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    v[i] = 1.0 + static_cast<double>((i * 7 + k) % 5);
+    norm2 += v[i] * v[i];
+  }
+  for (std::size_t i = 0; i < v.size(); ++i) r.descriptor[i] = static_cast<float>(v[i] / std::sqrt(norm2));
+  r.descriptor_valid = true;
+  return r;
+}
+
+Buffer EncodeRecords(const std::vector<KeyframeRecord>& records) {
+  Buffer bytes(records.size() * kKeyframeRecordBytes);
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    REQUIRE(EncodeKeyframeRecord(records[i], Span<std::uint8_t>(bytes.data() + i * kKeyframeRecordBytes,
+                                                                kKeyframeRecordBytes))
+                .ok());
+  }
+  return bytes;
+}
+
+KeyframeBatch MakeBatch(std::size_t n) {
+  KeyframeBatch m;
+  m.utime_us = 1763800000123456;
+  m.robot_id = 7;
+  m.sequence = 41;
+  std::vector<KeyframeRecord> records;
+  for (std::size_t i = 0; i < n; ++i) records.push_back(MakeRecord(static_cast<std::uint32_t>(10 + 3 * i)));
+  m.records = EncodeRecords(records);
+  for (std::size_t i = 0; i < n; ++i) m.stored_points.push_back(static_cast<std::uint32_t>(i == 0 ? 0 : 1000 * i + 7));
+  return m;
+}
+
+commerge::keyframe_batch_t ToLcm(const KeyframeBatch& m) {
+  commerge::keyframe_batch_t msg;
+  msg.utime = m.utime_us;
+  msg.robot_id = static_cast<std::int16_t>(m.robot_id);
+  msg.sequence = m.sequence;
+  msg.num_records = static_cast<std::int32_t>(m.stored_points.size());
+  msg.num_record_bytes = static_cast<std::int32_t>(m.records.size());
+  msg.records = m.records;
+  for (std::uint32_t p : m.stored_points) msg.stored_points.push_back(static_cast<std::int32_t>(p));
+  return msg;
+}
+
+Eigen::Isometry3d Pose(double angle, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+  T.translation() = t;
+  return T;
+}
+
+PoseUpdate MakePoseUpdate(std::size_t n) {
+  PoseUpdate m;
+  m.utime_us = 1763800000654321;
+  m.robot_id = 3;
+  m.sequence = 9;
+  for (std::size_t i = 0; i < n; ++i) {
+    m.keyframes.push_back(static_cast<std::uint32_t>(5 * i + 2));
+    m.T_map_sensor.push_back(Pose(0.4 + 0.9 * static_cast<double>(i), Eigen::Vector3d(-1.0, 0.5, 2.0 + static_cast<double>(i)),
+                                  Eigen::Vector3d(12.345 * static_cast<double>(i), -3.5, 0.125)));
+  }
+  return m;
+}
+
+ScanRequest MakeRequest(std::vector<std::uint32_t> keyframes) {
+  ScanRequest m;
+  m.utime_us = 1763800000000777;
+  m.robot_id = 12;
+  m.request_id = 4242;
+  m.keyframes = std::move(keyframes);
+  return m;
+}
+
+commerge::exchange_policy_t ToLcm(const ScanRequest& m) {
+  commerge::exchange_policy_t msg;
+  msg.utime = m.utime_us;
+  msg.robot_id = static_cast<std::int16_t>(m.robot_id);
+  msg.request_id = m.request_id;
+  msg.num_keyframes = static_cast<std::int32_t>(m.keyframes.size());
+  for (std::uint32_t k : m.keyframes) msg.keyframe_index.push_back(static_cast<std::int32_t>(k));
+  return msg;
+}
+
+ScanChunk MakeChunk(std::size_t payload_bytes) {
+  ScanChunk m;
+  m.utime_us = 1763800000000999;
+  m.robot_id = 5;
+  m.request_id = -1;
+  m.keyframe = 123456;
+  m.total_bytes = 3000;
+  m.chunk_index = 2;
+  m.num_chunks = 3;
+  for (std::size_t i = 0; i < payload_bytes; ++i) m.payload.push_back(static_cast<std::uint8_t>((i * 31 + 7) & 0xff));
+  return m;
+}
+
+commerge::scan_chunk_t ToLcm(const ScanChunk& m) {
+  commerge::scan_chunk_t msg;
+  msg.utime = m.utime_us;
+  msg.robot_id = static_cast<std::int16_t>(m.robot_id);
+  msg.request_id = m.request_id;
+  msg.keyframe_index = static_cast<std::int32_t>(m.keyframe);
+  msg.total_bytes = static_cast<std::int32_t>(m.total_bytes);
+  msg.chunk_index = static_cast<std::int16_t>(m.chunk_index);
+  msg.num_chunks = static_cast<std::int16_t>(m.num_chunks);
+  msg.num_bytes = static_cast<std::int32_t>(m.payload.size());
+  msg.payload = m.payload;
+  return msg;
+}
+
+commerge::robot_status_t MakeStatus() {
+  commerge::robot_status_t s;
+  s.utime = 1763800000123456;
+  s.robot_id = 2;
+  s.peak_rss_bytes = 300LL << 20;
+  s.budget_total_bytes = 275LL << 20;
+  s.budget_limit_bytes = 2650LL << 20;
+  s.num_modules = 2;
+  s.module_name = {"scan_store", "descriptor_db"};
+  s.module_budget_bytes = {160LL << 20, 10LL << 20};
+  s.module_used_bytes = {12345678, 4096};
+  s.module_high_water_bytes = {23456789, 8192};
+  return s;
+}
+
+Buffer Encoded(const KeyframeBatch& m) {
+  Buffer b;
+  REQUIRE(EncodeKeyframeBatch(m, &b).ok());
+  return b;
+}
+Buffer Encoded(const PoseUpdate& m) {
+  Buffer b;
+  REQUIRE(EncodePoseUpdate(m, &b).ok());
+  return b;
+}
+Buffer Encoded(const ScanRequest& m) {
+  Buffer b;
+  REQUIRE(EncodeScanRequest(m, &b).ok());
+  return b;
+}
+Buffer Encoded(const ScanChunk& m) {
+  Buffer b;
+  REQUIRE(EncodeScanChunk(m, &b).ok());
+  return b;
+}
+
+// Codes of all four decoders for one buffer (ok or not, and the status).
+struct AllDecoders {
+  Result<KeyframeBatch> batch;
+  Result<PoseUpdate> poses;
+  Result<ScanRequest> request;
+  Result<ScanChunk> chunk;
+};
+AllDecoders DecodeWithAll(const Buffer& b) {
+  return {DecodeKeyframeBatch(S(b)), DecodePoseUpdate(S(b)), DecodeScanRequest(S(b)), DecodeScanChunk(S(b))};
+}
+
+// Offsets of the count fields (8-byte fingerprint first, then the fields in declaration order).
+constexpr std::size_t kBatchNumRecords = 8 + 8 + 2 + 4;             // 22
+constexpr std::size_t kBatchNumRecordBytes = kBatchNumRecords + 4;  // 26
+constexpr std::size_t kPoseNumPoses = 8 + 8 + 2 + 4;                // 22
+constexpr std::size_t kRequestNumKeyframes = 8 + 8 + 2 + 4;         // 22
+constexpr std::size_t kChunkNumBytes = 8 + 8 + 2 + 4 + 4 + 4 + 2 + 2;  // 34
+
+TEST_CASE("message codec: channel names are the documented ones") {
+  CHECK(std::string(kKeyframesChannel) == "COMMERGE_KEYFRAMES");
+  CHECK(std::string(kPosesChannel) == "COMMERGE_POSES");
+  CHECK(std::string(kPolicyChannel) == "COMMERGE_POLICY");
+  CHECK(std::string(kScansChannel) == "COMMERGE_SCANS");
+}
+
+TEST_CASE("message codec: keyframe batch round trip keeps every field and every record") {
+  KeyframeBatch m = MakeBatch(3);
+  m.robot_id = 63;
+  m.stored_points[2] = static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max());
+  const Buffer b = Encoded(m);
+
+  // Wire layout, read by hand: fingerprint, utime, robot_id, sequence, num_records, num_record_bytes, records,
+  // stored_points.
+  REQUIRE(b.size() == 8 + 22 + 3 * 92 + 3 * 4);
+  CHECK(GetBe(b, 0, 8) == commerge::keyframe_batch_t::getHash());
+  CHECK(GetBe(b, 8, 8) == 1763800000123456);
+  CHECK(GetBe(b, 16, 2) == 63);
+  CHECK(GetBe(b, 18, 4) == 41);
+  CHECK(GetBe(b, kBatchNumRecords, 4) == 3);
+  CHECK(GetBe(b, kBatchNumRecordBytes, 4) == 276);
+  CHECK(std::memcmp(b.data() + 30, m.records.data(), 276) == 0);
+  CHECK(GetBe(b, 30 + 276, 4) == 0);
+  CHECK(GetBe(b, 30 + 276 + 4, 4) == 1007);
+  CHECK(GetBe(b, 30 + 276 + 8, 4) == std::numeric_limits<std::int32_t>::max());
+
+  // The byte ledger counts the wire: the generated type encodes the same values to the same bytes.
+  const commerge::keyframe_batch_t lcm = ToLcm(m);
+  CHECK(static_cast<int>(b.size()) == lcm.getEncodedSize());
+  CHECK(b == LcmEncode(lcm));
+
+  auto d = DecodeKeyframeBatch(S(b));
+  REQUIRE(d.ok());
+  CHECK(d->utime_us == m.utime_us);
+  CHECK(d->robot_id == 63);
+  CHECK(d->sequence == 41);
+  CHECK(d->records == m.records);
+  CHECK(d->stored_points == m.stored_points);
+  REQUIRE(d->num_records() == 3);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const KeyframeRecord original = MakeRecord(static_cast<std::uint32_t>(10 + 3 * i));
+    auto r = DecodeKeyframeRecord(Span<const std::uint8_t>(d->records.data() + i * 92, 92));
+    REQUIRE(r.ok());
+    CHECK(r->keyframe_index == original.keyframe_index);
+    CHECK(r->descriptor_valid);
+    CHECK((r->T_world_sensor.translation() - original.T_world_sensor.translation()).norm() < 1e-5);
+    CHECK(RotationError(r->T_world_sensor.linear(), original.T_world_sensor.linear()) < 2e-4);
+    double dist2 = 0.0;
+    for (std::size_t k = 0; k < kKeyframeDescriptorDim; ++k) {
+      const double e = static_cast<double>(r->descriptor[k]) - static_cast<double>(original.descriptor[k]);
+      dist2 += e * e;
+    }
+    CHECK(std::sqrt(dist2) < 4e-4);
+  }
+}
+
+TEST_CASE("message codec: an empty keyframe batch is the 30-byte header and round-trips") {
+  KeyframeBatch m;
+  m.utime_us = -5;
+  m.robot_id = 0;
+  m.sequence = 0;
+  const Buffer b = Encoded(m);
+  CHECK(b.size() == 30);
+  CHECK(b == LcmEncode(ToLcm(m)));
+  auto d = DecodeKeyframeBatch(S(b));
+  REQUIRE(d.ok());
+  CHECK(d->utime_us == -5);
+  CHECK(d->records.empty());
+  CHECK(d->stored_points.empty());
+}
+
+TEST_CASE("message codec: pose update round trip keeps poses within float precision") {
+  PoseUpdate m = MakePoseUpdate(4);
+  m.keyframes[3] = static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max());
+  // Rotation near pi (quaternion w ~ 0) and a large translation.
+  m.T_map_sensor[1] = Pose(3.14159, Eigen::Vector3d(0.2, -1.0, 0.3), Eigen::Vector3d(-99.875, 63.3, -0.001));
+  m.T_map_sensor[2] = Eigen::Isometry3d::Identity();
+  const Buffer b = Encoded(m);
+
+  REQUIRE(b.size() == 8 + 18 + 4 * (4 + 12 + 16));
+  CHECK(GetBe(b, 0, 8) == commerge::pose_update_t::getHash());
+  CHECK(GetBe(b, 8, 8) == m.utime_us);
+  CHECK(GetBe(b, 16, 2) == 3);
+  CHECK(GetBe(b, 18, 4) == 9);
+  CHECK(GetBe(b, kPoseNumPoses, 4) == 4);
+  for (std::size_t i = 0; i < 4; ++i) CHECK(GetBe(b, 26 + 4 * i, 4) == static_cast<std::int64_t>(m.keyframes[i]));
+  // Translations (float, big-endian) follow the indices; then unit quaternions w, x, y, z of the rotation.
+  const std::size_t t0 = 26 + 16, q0 = t0 + 4 * 12;
+  for (std::size_t i = 0; i < 4; ++i) {
+    for (std::size_t a = 0; a < 3; ++a) {
+      CHECK(static_cast<double>(GetBeFloat(b, t0 + 12 * i + 4 * a)) ==
+            doctest::Approx(m.T_map_sensor[i].translation()[static_cast<Eigen::Index>(a)]).epsilon(1e-7).scale(1.0));
+    }
+    const Eigen::Quaterniond q(static_cast<double>(GetBeFloat(b, q0 + 16 * i)), static_cast<double>(GetBeFloat(b, q0 + 16 * i + 4)),
+                               static_cast<double>(GetBeFloat(b, q0 + 16 * i + 8)), static_cast<double>(GetBeFloat(b, q0 + 16 * i + 12)));
+    CHECK(std::abs(q.norm() - 1.0) < 1e-6);
+    CHECK(RotationError(q.normalized().toRotationMatrix(), m.T_map_sensor[i].linear()) < 1e-5);
+  }
+  const auto lcm = LcmDecode<commerge::pose_update_t>(b);
+  CHECK(lcm.getEncodedSize() == static_cast<int>(b.size()));
+  CHECK(LcmEncode(lcm) == b);
+
+  auto d = DecodePoseUpdate(S(b));
+  REQUIRE(d.ok());
+  CHECK(d->utime_us == m.utime_us);
+  CHECK(d->robot_id == 3);
+  CHECK(d->sequence == 9);
+  CHECK(d->keyframes == m.keyframes);
+  REQUIRE(d->T_map_sensor.size() == 4);
+  for (std::size_t i = 0; i < 4; ++i) {
+    INFO("pose ", i);
+    CHECK((d->T_map_sensor[i].translation() - m.T_map_sensor[i].translation()).cwiseAbs().maxCoeff() < 1e-5);
+    CHECK(RotationError(d->T_map_sensor[i].linear(), m.T_map_sensor[i].linear()) < 1e-5);
+    // A proper rotation (orthonormal, det 1) comes back.
+    CHECK((d->T_map_sensor[i].linear().transpose() * d->T_map_sensor[i].linear() - Eigen::Matrix3d::Identity())
+              .cwiseAbs()
+              .maxCoeff() < 1e-12);
+    CHECK(d->T_map_sensor[i].linear().determinant() == doctest::Approx(1.0));
+    CHECK((d->T_map_sensor[i].matrix().row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() == 0.0);
+  }
+
+  PoseUpdate empty;
+  empty.robot_id = 1;
+  const Buffer e = Encoded(empty);
+  CHECK(e.size() == 26);
+  auto de = DecodePoseUpdate(S(e));
+  REQUIRE(de.ok());
+  CHECK(de->keyframes.empty());
+  CHECK(de->T_map_sensor.empty());
+}
+
+TEST_CASE("message codec: scan request round trip keeps ids and ascending keyframes") {
+  const ScanRequest m = MakeRequest({0, 5, 6, 1000, static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max())});
+  const Buffer b = Encoded(m);
+  REQUIRE(b.size() == 8 + 18 + 5 * 4);
+  CHECK(GetBe(b, 0, 8) == commerge::exchange_policy_t::getHash());
+  CHECK(GetBe(b, 8, 8) == m.utime_us);
+  CHECK(GetBe(b, 16, 2) == 12);
+  CHECK(GetBe(b, 18, 4) == 4242);
+  CHECK(GetBe(b, kRequestNumKeyframes, 4) == 5);
+  CHECK(GetBe(b, 26 + 12, 4) == 1000);
+  const commerge::exchange_policy_t lcm = ToLcm(m);
+  CHECK(lcm.getEncodedSize() == static_cast<int>(b.size()));
+  CHECK(LcmEncode(lcm) == b);
+
+  auto d = DecodeScanRequest(S(b));
+  REQUIRE(d.ok());
+  CHECK(d->utime_us == m.utime_us);
+  CHECK(d->robot_id == 12);
+  CHECK(d->request_id == 4242);
+  CHECK(d->keyframes == m.keyframes);
+
+  const ScanRequest none = MakeRequest({});
+  const Buffer e = Encoded(none);
+  CHECK(e.size() == 26);
+  auto de = DecodeScanRequest(S(e));
+  REQUIRE(de.ok());
+  CHECK(de->keyframes.empty());
+  CHECK(de->request_id == 4242);
+}
+
+TEST_CASE("message codec: scan chunk round trip keeps the payload bytes identical") {
+  const ScanChunk m = MakeChunk(kMaxScanChunkPayloadBytes);
+  const Buffer b = Encoded(m);
+  REQUIRE(b.size() == 8 + 30 + 1200);
+  CHECK(GetBe(b, 0, 8) == commerge::scan_chunk_t::getHash());
+  CHECK(GetBe(b, 16, 2) == 5);
+  CHECK(GetBe(b, 18, 4) == -1);
+  CHECK(GetBe(b, 22, 4) == 123456);
+  CHECK(GetBe(b, 26, 4) == 3000);
+  CHECK(GetBe(b, 30, 2) == 2);
+  CHECK(GetBe(b, 32, 2) == 3);
+  CHECK(GetBe(b, kChunkNumBytes, 4) == 1200);
+  CHECK(std::memcmp(b.data() + 38, m.payload.data(), 1200) == 0);
+  const commerge::scan_chunk_t lcm = ToLcm(m);
+  CHECK(lcm.getEncodedSize() == static_cast<int>(b.size()));
+  CHECK(LcmEncode(lcm) == b);
+
+  auto d = DecodeScanChunk(S(b));
+  REQUIRE(d.ok());
+  CHECK(d->utime_us == m.utime_us);
+  CHECK(d->robot_id == 5);
+  CHECK(d->request_id == -1);
+  CHECK(d->keyframe == 123456);
+  CHECK(d->total_bytes == 3000);
+  CHECK(d->chunk_index == 2);
+  CHECK(d->num_chunks == 3);
+  CHECK(d->payload == m.payload);
+
+  ScanChunk empty;  // an empty scan: one chunk of no bytes
+  empty.total_bytes = 0;
+  const Buffer e = Encoded(empty);
+  CHECK(e.size() == 38);
+  auto de = DecodeScanChunk(S(e));
+  REQUIRE(de.ok());
+  CHECK(de->payload.empty());
+  CHECK(de->num_chunks == 1);
+  CHECK(de->chunk_index == 0);
+}
+
+// Raw subscription: keeps the bytes LCM delivered.
+void KeepBytes(const lcm::ReceiveBuffer* rbuf, const std::string& channel, std::vector<std::pair<std::string, Buffer>>* got) {
+  const auto* p = static_cast<const std::uint8_t*>(rbuf->data);
+  got->emplace_back(channel, Buffer(p, p + rbuf->data_size));
+}
+
+TEST_CASE("message codec: the encoded bytes are exactly what lcm publish of the generated type delivers") {
+  lcm::LCM lcm("memq://");
+  REQUIRE(lcm.good());
+  std::vector<std::pair<std::string, Buffer>> got;
+  for (const char* ch : {kKeyframesChannel, kPosesChannel, kPolicyChannel, kScansChannel}) {
+    lcm.subscribeFunction(ch, &KeepBytes, &got);
+  }
+  const KeyframeBatch batch = MakeBatch(2);
+  const ScanRequest request = MakeRequest({3, 9, 27});
+  const ScanChunk chunk = MakeChunk(17);
+  // Poses whose float quaternion and translation are exact, so the generated message can be built by hand:
+  // identity and the half turns about x and z (Eigen gives the quaternion its positive non-zero component).
+  PoseUpdate poses;
+  poses.robot_id = 4;
+  poses.sequence = 2;
+  poses.keyframes = {1, 4, 8};
+  poses.T_map_sensor.assign(3, Eigen::Isometry3d::Identity());
+  poses.T_map_sensor[0].translation() = Eigen::Vector3d(1.5, -2.25, 100.125);
+  poses.T_map_sensor[1].linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  poses.T_map_sensor[2].linear() = Eigen::Vector3d(-1, -1, 1).asDiagonal();
+  poses.T_map_sensor[2].translation() = Eigen::Vector3d(0.5, 0.25, -8.0);
+  commerge::pose_update_t pose_msg;
+  pose_msg.utime = 0;
+  pose_msg.robot_id = 4;
+  pose_msg.sequence = 2;
+  pose_msg.num_poses = 3;
+  pose_msg.keyframe_index = {1, 4, 8};
+  pose_msg.translation_m = {{1.5f, -2.25f, 100.125f}, {0.0f, 0.0f, 0.0f}, {0.5f, 0.25f, -8.0f}};
+  pose_msg.quaternion = {{1.0f, 0.0f, 0.0f, 0.0f}, {0.0f, 1.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f, 1.0f}};
+
+  const commerge::keyframe_batch_t batch_msg = ToLcm(batch);
+  const commerge::exchange_policy_t request_msg = ToLcm(request);
+  const commerge::scan_chunk_t chunk_msg = ToLcm(chunk);
+  REQUIRE(lcm.publish(kKeyframesChannel, &batch_msg) == 0);
+  REQUIRE(lcm.publish(kPosesChannel, &pose_msg) == 0);
+  REQUIRE(lcm.publish(kPolicyChannel, &request_msg) == 0);
+  REQUIRE(lcm.publish(kScansChannel, &chunk_msg) == 0);
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  REQUIRE(got.size() == 4);
+  CHECK(got[0].first == kKeyframesChannel);
+  CHECK(got[0].second == Encoded(batch));
+  CHECK(got[1].first == kPosesChannel);
+  CHECK(got[1].second == Encoded(poses));
+  CHECK(got[2].first == kPolicyChannel);
+  CHECK(got[2].second == Encoded(request));
+  CHECK(got[3].first == kScansChannel);
+  CHECK(got[3].second == Encoded(chunk));
+}
+
+TEST_CASE("message codec: every decoder refuses a foreign message type by its fingerprint") {
+  const Buffer batch = Encoded(MakeBatch(1));
+  const Buffer poses = Encoded(MakePoseUpdate(1));
+  const Buffer request = Encoded(MakeRequest({1, 2, 3, 4, 5}));
+  const Buffer chunk = Encoded(MakeChunk(10));
+  const Buffer status = LcmEncode(MakeStatus());
+  // Every buffer is at least as long as the longest header (38 bytes), so the fingerprint decides.
+  for (const Buffer* b : {&batch, &poses, &request, &chunk, &status}) REQUIRE(b->size() >= 38);
+
+  auto check = [](const Buffer& b, bool is_batch, bool is_poses, bool is_request, bool is_chunk) {
+    const AllDecoders all = DecodeWithAll(b);
+    if (is_batch) {
+      CHECK(all.batch.ok());
+    } else {
+      CheckDataLoss(all.batch, {"keyframe_batch_t", "fingerprint"});
+    }
+    if (is_poses) {
+      CHECK(all.poses.ok());
+    } else {
+      CheckDataLoss(all.poses, {"pose_update_t", "fingerprint"});
+    }
+    if (is_request) {
+      CHECK(all.request.ok());
+    } else {
+      CheckDataLoss(all.request, {"exchange_policy_t", "fingerprint"});
+    }
+    if (is_chunk) {
+      CHECK(all.chunk.ok());
+    } else {
+      CheckDataLoss(all.chunk, {"scan_chunk_t", "fingerprint"});
+    }
+  };
+  check(batch, true, false, false, false);
+  check(poses, false, true, false, false);
+  check(request, false, false, true, false);
+  check(chunk, false, false, false, true);
+  check(status, false, false, false, false);
+
+  // One flipped bit in the fingerprint of an otherwise valid buffer.
+  for (std::size_t byte : {std::size_t{0}, std::size_t{7}}) {
+    Buffer bad = chunk;
+    bad[byte] ^= 0x01;
+    CheckDataLoss(DecodeScanChunk(S(bad)), {"fingerprint"});
+  }
+  // A foreign message shorter than our header is refused too (whatever the reason given).
+  PoseUpdate empty_poses;
+  const Buffer short_foreign = Encoded(empty_poses);  // 26 bytes
+  CHECK(DecodeScanChunk(S(short_foreign)).status().code() == StatusCode::kDataLoss);
+  CHECK(DecodeKeyframeBatch(S(short_foreign)).status().code() == StatusCode::kDataLoss);
+}
+
+TEST_CASE("message codec: every truncation of a valid buffer is refused") {
+  const Buffer buffers[] = {Encoded(MakeBatch(1)), Encoded(MakePoseUpdate(2)), Encoded(MakeRequest({1, 2, 3, 4, 5})),
+                            Encoded(MakeChunk(10))};
+  for (std::size_t which = 0; which < 4; ++which) {
+    const Buffer& full = buffers[which];
+    for (std::size_t len = 0; len < full.size(); ++len) {
+      // An exact-size heap copy, so a read past the end is a real overread (sanitizers see it).
+      const Buffer cut(full.begin(), full.begin() + static_cast<std::ptrdiff_t>(len));
+      const Span<const std::uint8_t> s(cut.data(), cut.size());
+      StatusCode code = StatusCode::kOk;
+      bool ok = true;
+      switch (which) {
+        case 0: { auto r = DecodeKeyframeBatch(s); ok = r.ok(); code = r.status().code(); break; }
+        case 1: { auto r = DecodePoseUpdate(s); ok = r.ok(); code = r.status().code(); break; }
+        case 2: { auto r = DecodeScanRequest(s); ok = r.ok(); code = r.status().code(); break; }
+        default: { auto r = DecodeScanChunk(s); ok = r.ok(); code = r.status().code(); break; }
+      }
+      if (ok || code != StatusCode::kDataLoss) {
+        INFO("message type ", which, " truncated to ", len, " of ", full.size(), " bytes");
+        CHECK_FALSE(ok);
+        CHECK(code == StatusCode::kDataLoss);
+      }
+    }
+  }
+}
+
+TEST_CASE("message codec: trailing bytes after a valid message are refused") {
+  for (std::size_t extra : {std::size_t{1}, std::size_t{8}}) {
+    Buffer b = Encoded(MakeBatch(1));
+    b.insert(b.end(), extra, 0);
+    CheckDataLoss(DecodeKeyframeBatch(S(b)), {"keyframe_batch_t", "trailing"});
+    b = Encoded(MakePoseUpdate(1));
+    b.insert(b.end(), extra, 0);
+    CheckDataLoss(DecodePoseUpdate(S(b)), {"pose_update_t", "trailing"});
+    b = Encoded(MakeRequest({2, 4}));
+    b.insert(b.end(), extra, 0);
+    CheckDataLoss(DecodeScanRequest(S(b)), {"exchange_policy_t", "trailing"});
+    b = Encoded(MakeChunk(3));
+    b.insert(b.end(), extra, 0);
+    CheckDataLoss(DecodeScanChunk(S(b)), {"scan_chunk_t", "trailing"});
+  }
+}
+
+TEST_CASE("message codec: a count field patched to a huge or negative value is refused quickly, naming it") {
+  using Clock = std::chrono::steady_clock;
+  // A decoder that trusted the count would allocate up to 2^31 elements (seconds and gigabytes); a bounded one
+  // answers in microseconds. 100 ms leaves room for emulation and a loaded machine.
+  auto quick = [](Clock::time_point start) {
+    CHECK(std::chrono::duration<double>(Clock::now() - start).count() < 0.1);
+  };
+  const std::uint32_t bad_counts[] = {0x7fffffffu, 0x80000000u, 0xffffffffu, 0x10000000u};
+  for (std::uint32_t v : bad_counts) {
+    INFO("patched count ", v);
+    {
+      Buffer b = Encoded(MakeBatch(1));
+      PutBe32(&b, kBatchNumRecords, v);
+      const auto t = Clock::now();
+      const auto r = DecodeKeyframeBatch(S(b));
+      quick(t);
+      CheckDataLoss(r, {"num_records"});
+    }
+    {
+      Buffer b = Encoded(MakeBatch(1));
+      PutBe32(&b, kBatchNumRecordBytes, v);
+      const auto t = Clock::now();
+      const auto r = DecodeKeyframeBatch(S(b));
+      quick(t);
+      CheckDataLoss(r, {"num_record_bytes"});
+    }
+    {
+      Buffer b = Encoded(MakePoseUpdate(1));
+      PutBe32(&b, kPoseNumPoses, v);
+      const auto t = Clock::now();
+      const auto r = DecodePoseUpdate(S(b));
+      quick(t);
+      CheckDataLoss(r, {"num_poses"});
+    }
+    {
+      Buffer b = Encoded(MakeRequest({1, 2}));
+      PutBe32(&b, kRequestNumKeyframes, v);
+      const auto t = Clock::now();
+      const auto r = DecodeScanRequest(S(b));
+      quick(t);
+      CheckDataLoss(r, {"num_keyframes"});
+    }
+    {
+      Buffer b = Encoded(MakeChunk(4));
+      PutBe32(&b, kChunkNumBytes, v);
+      const auto t = Clock::now();
+      const auto r = DecodeScanChunk(S(b));
+      quick(t);
+      CheckDataLoss(r, {"num_bytes"});
+    }
+  }
+  // Counts within MAX but beyond what the buffer holds.
+  {
+    Buffer b = Encoded(MakePoseUpdate(2));
+    PutBe32(&b, kPoseNumPoses, 4096);
+    CheckDataLoss(DecodePoseUpdate(S(b)), {"4096 poses"});
+  }
+  {
+    Buffer b = Encoded(MakeBatch(1));
+    PutBe32(&b, kBatchNumRecords, 512);
+    PutBe32(&b, kBatchNumRecordBytes, 512 * 92);
+    CHECK(DecodeKeyframeBatch(S(b)).status().code() == StatusCode::kDataLoss);
+  }
+  {
+    Buffer b = Encoded(MakeRequest({1, 2}));
+    PutBe32(&b, kRequestNumKeyframes, 65536);
+    CHECK(DecodeScanRequest(S(b)).status().code() == StatusCode::kDataLoss);
+  }
+  {
+    Buffer b = Encoded(MakeChunk(4));
+    PutBe32(&b, kChunkNumBytes, 1200);
+    CHECK(DecodeScanChunk(S(b)).status().code() == StatusCode::kDataLoss);
+  }
+}
+
+TEST_CASE("message codec: encoders refuse arrays beyond MAX and inconsistent sizes, and accept exactly MAX") {
+  Buffer out;
+  {
+    KeyframeBatch m;
+    m.records.assign(513 * 92, 0);
+    m.stored_points.assign(513, 0);
+    CheckInvalid(EncodeKeyframeBatch(m, &out), {"keyframe_batch_t", "512"});
+    m.records.assign(512 * 92, 0);
+    m.stored_points.assign(512, 0);
+    REQUIRE(EncodeKeyframeBatch(m, &out).ok());
+    CHECK(out.size() == 30 + 512 * 96);
+    KeyframeBatch mismatch = MakeBatch(2);
+    mismatch.stored_points.push_back(1);
+    CheckInvalid(EncodeKeyframeBatch(mismatch, &out), {"keyframe_batch_t", "point counts"});
+    KeyframeBatch ragged = MakeBatch(1);
+    ragged.records.push_back(0);  // 93 bytes
+    CheckInvalid(EncodeKeyframeBatch(ragged, &out), {"keyframe_batch_t", "record bytes"});
+  }
+  {
+    PoseUpdate m;
+    m.keyframes.assign(4097, 0);
+    m.T_map_sensor.assign(4097, Eigen::Isometry3d::Identity());
+    CheckInvalid(EncodePoseUpdate(m, &out), {"pose_update_t", "4096"});
+    m.keyframes.assign(4096, 0);
+    m.T_map_sensor.assign(4096, Eigen::Isometry3d::Identity());
+    REQUIRE(EncodePoseUpdate(m, &out).ok());
+    CHECK(out.size() == 26 + 4096 * 32);
+    PoseUpdate mismatch = MakePoseUpdate(2);
+    mismatch.keyframes.push_back(99);
+    CheckInvalid(EncodePoseUpdate(mismatch, &out), {"pose_update_t", "3 keyframes and 2 poses"});
+    PoseUpdate nan = MakePoseUpdate(2);
+    nan.T_map_sensor[1].translation().y() = std::numeric_limits<double>::quiet_NaN();
+    CheckInvalid(EncodePoseUpdate(nan, &out), {"pose_update_t", "pose 1", "not finite"});
+    PoseUpdate inf = MakePoseUpdate(1);
+    inf.T_map_sensor[0].linear()(0, 0) = std::numeric_limits<double>::infinity();
+    CheckInvalid(EncodePoseUpdate(inf, &out), {"pose_update_t", "pose 0"});
+  }
+  {
+    ScanRequest m;
+    m.keyframes.resize(65537);
+    for (std::size_t i = 0; i < m.keyframes.size(); ++i) m.keyframes[i] = static_cast<std::uint32_t>(i);
+    CheckInvalid(EncodeScanRequest(m, &out), {"exchange_policy_t", "65537"});
+    m.keyframes.pop_back();
+    REQUIRE(EncodeScanRequest(m, &out).ok());
+    CHECK(out.size() == 26 + 65536 * 4);
+    auto d = DecodeScanRequest(S(out));
+    REQUIRE(d.ok());
+    CHECK(d->keyframes.size() == 65536);
+    CHECK(d->keyframes.back() == 65535);
+  }
+  {
+    ScanChunk m = MakeChunk(1201);
+    CheckInvalid(EncodeScanChunk(m, &out), {"scan_chunk_t", "1201 payload bytes"});
+    m = MakeChunk(10);
+    m.chunk_index = 3;  // == num_chunks
+    CheckInvalid(EncodeScanChunk(m, &out), {"scan_chunk_t", "chunk 3 of 3"});
+    m.chunk_index = 0;
+    m.num_chunks = 0;
+    CheckInvalid(EncodeScanChunk(m, &out), {"scan_chunk_t"});
+    m.num_chunks = 32768;  // beyond int16
+    CheckInvalid(EncodeScanChunk(m, &out), {"scan_chunk_t"});
+    m.num_chunks = 32767;
+    m.chunk_index = 32766;
+    REQUIRE(EncodeScanChunk(m, &out).ok());
+    auto d = DecodeScanChunk(S(out));
+    REQUIRE(d.ok());
+    CHECK(d->num_chunks == 32767);
+    CHECK(d->chunk_index == 32766);
+    m = MakeChunk(10);
+    m.keyframe = 0x80000000u;  // beyond int32
+    CheckInvalid(EncodeScanChunk(m, &out), {"scan_chunk_t"});
+  }
+}
+
+TEST_CASE("message codec: decoders refuse counts beyond MAX in otherwise well-formed LCM messages") {
+  {
+    commerge::keyframe_batch_t msg;
+    msg.num_records = 513;
+    msg.num_record_bytes = 513 * 92;
+    msg.records.assign(513 * 92, 0);
+    msg.stored_points.assign(513, 0);
+    const Buffer b = LcmEncode(msg);
+    LcmDecode<commerge::keyframe_batch_t>(b);  // the generated type itself accepts it
+    CheckDataLoss(DecodeKeyframeBatch(S(b)), {"keyframe_batch_t", "num_records = 513", "0..512"});
+  }
+  {
+    commerge::pose_update_t msg;
+    msg.num_poses = 4097;
+    msg.keyframe_index.assign(4097, 0);
+    msg.translation_m.assign(4097, std::vector<float>(3, 0.0f));
+    msg.quaternion.assign(4097, std::vector<float>{1.0f, 0.0f, 0.0f, 0.0f});
+    const Buffer b = LcmEncode(msg);
+    CheckDataLoss(DecodePoseUpdate(S(b)), {"pose_update_t", "num_poses = 4097", "0..4096"});
+  }
+  {
+    commerge::exchange_policy_t msg;
+    msg.num_keyframes = 65537;
+    msg.keyframe_index.resize(65537);
+    for (std::size_t i = 0; i < msg.keyframe_index.size(); ++i) msg.keyframe_index[i] = static_cast<std::int32_t>(i);
+    const Buffer b = LcmEncode(msg);
+    CheckDataLoss(DecodeScanRequest(S(b)), {"exchange_policy_t", "num_keyframes = 65537", "0..65536"});
+  }
+  {
+    commerge::scan_chunk_t msg;
+    msg.num_chunks = 1;
+    msg.num_bytes = 1201;
+    msg.payload.assign(1201, 0xAB);
+    const Buffer b = LcmEncode(msg);
+    CheckDataLoss(DecodeScanChunk(S(b)), {"scan_chunk_t", "num_bytes = 1201", "0..1200"});
+  }
+}
+
+TEST_CASE("message codec: robot_id outside 0..63 is refused by encoders and decoders") {
+  Buffer out;
+  for (int id : {-1, 64, 1000}) {
+    INFO("robot_id ", id);
+    KeyframeBatch b = MakeBatch(1);
+    b.robot_id = id;
+    CheckInvalid(EncodeKeyframeBatch(b, &out), {"keyframe_batch_t", "robot_id"});
+    PoseUpdate p = MakePoseUpdate(1);
+    p.robot_id = id;
+    CheckInvalid(EncodePoseUpdate(p, &out), {"pose_update_t", "robot_id"});
+    ScanRequest r = MakeRequest({1});
+    r.robot_id = id;
+    CheckInvalid(EncodeScanRequest(r, &out), {"exchange_policy_t", "robot_id"});
+    ScanChunk c = MakeChunk(2);
+    c.robot_id = id;
+    CheckInvalid(EncodeScanChunk(c, &out), {"scan_chunk_t", "robot_id"});
+  }
+  for (std::int16_t id : {std::int16_t{-1}, std::int16_t{64}, std::int16_t{32767}, std::int16_t{-32768}}) {
+    INFO("robot_id ", id);
+    commerge::keyframe_batch_t kb = ToLcm(MakeBatch(1));
+    kb.robot_id = id;
+    CheckDataLoss(DecodeKeyframeBatch(S(LcmEncode(kb))), {"keyframe_batch_t", "robot_id"});
+    commerge::pose_update_t pu = LcmDecode<commerge::pose_update_t>(Encoded(MakePoseUpdate(1)));
+    pu.robot_id = id;
+    CheckDataLoss(DecodePoseUpdate(S(LcmEncode(pu))), {"pose_update_t", "robot_id"});
+    commerge::exchange_policy_t ep = ToLcm(MakeRequest({1}));
+    ep.robot_id = id;
+    CheckDataLoss(DecodeScanRequest(S(LcmEncode(ep))), {"exchange_policy_t", "robot_id"});
+    commerge::scan_chunk_t sc = ToLcm(MakeChunk(2));
+    sc.robot_id = id;
+    CheckDataLoss(DecodeScanChunk(S(LcmEncode(sc))), {"scan_chunk_t", "robot_id"});
+  }
+  // The bounds themselves pass both ways.
+  for (int id : {0, 63}) {
+    ScanChunk c = MakeChunk(2);
+    c.robot_id = id;
+    auto d = DecodeScanChunk(S(Encoded(c)));
+    REQUIRE(d.ok());
+    CHECK(d->robot_id == id);
+    KeyframeBatch b = MakeBatch(1);
+    b.robot_id = id;
+    auto db = DecodeKeyframeBatch(S(Encoded(b)));
+    REQUIRE(db.ok());
+    CHECK(db->robot_id == id);
+  }
+}
+
+TEST_CASE("message codec: a scan request whose keyframes are not ascending and non-negative is refused") {
+  auto decode = [](const std::vector<std::int32_t>& keyframes) {
+    commerge::exchange_policy_t msg;
+    msg.robot_id = 1;
+    msg.num_keyframes = static_cast<std::int32_t>(keyframes.size());
+    msg.keyframe_index = keyframes;
+    return DecodeScanRequest(S(LcmEncode(msg)));
+  };
+  CheckDataLoss(decode({1, 3, 3}), {"keyframe_index[2] = 3", "not ascending"});
+  CheckDataLoss(decode({5, 2}), {"keyframe_index[1] = 2", "not ascending"});
+  CheckDataLoss(decode({-1, 2}), {"keyframe_index[0] = -1", "negative"});
+  CheckDataLoss(decode({0, 7, std::numeric_limits<std::int32_t>::min()}), {"keyframe_index[2]"});
+  auto ok = decode({0, 1, 9});
+  REQUIRE(ok.ok());
+  CHECK(ok->keyframes == std::vector<std::uint32_t>{0, 1, 9});
+}
+
+TEST_CASE("message codec: a keyframe batch whose byte count is not 92 per record is refused") {
+  auto decode = [](std::int32_t n, std::int32_t nb) {
+    commerge::keyframe_batch_t msg;
+    msg.num_records = n;
+    msg.num_record_bytes = nb;
+    msg.records.assign(static_cast<std::size_t>(nb), 0);
+    msg.stored_points.assign(static_cast<std::size_t>(n), 0);
+    return DecodeKeyframeBatch(S(LcmEncode(msg)));
+  };
+  CheckDataLoss(decode(2, 183), {"num_record_bytes = 183", "92 x num_records = 184"});
+  CheckDataLoss(decode(2, 185), {"num_record_bytes = 185"});
+  CheckDataLoss(decode(1, 0), {"num_record_bytes = 0"});
+  CheckDataLoss(decode(0, 92), {"num_record_bytes = 92"});
+  auto ok = decode(2, 184);
+  REQUIRE(ok.ok());
+  CHECK(ok->num_records() == 2);
+  // A negative stored point count is refused too.
+  commerge::keyframe_batch_t msg = ToLcm(MakeBatch(2));
+  msg.stored_points[1] = -4;
+  CheckDataLoss(DecodeKeyframeBatch(S(LcmEncode(msg))), {"stored_points[1] = -4", "negative"});
+}
+
+TEST_CASE("message codec: a pose update with a non-unit quaternion or bad values is refused") {
+  const commerge::pose_update_t good = LcmDecode<commerge::pose_update_t>(Encoded(MakePoseUpdate(3)));
+  auto decode_with = [&good](std::size_t i, const std::vector<float>& q, const std::vector<float>& t, std::int32_t k) {
+    commerge::pose_update_t msg = good;
+    msg.quaternion[i] = q;
+    msg.translation_m[i] = t;
+    msg.keyframe_index[i] = k;
+    return DecodePoseUpdate(S(LcmEncode(msg)));
+  };
+  const std::vector<float> unit{0.5f, 0.5f, 0.5f, 0.5f}, t123{1.0f, 2.0f, 3.0f};
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  CheckDataLoss(decode_with(1, {1.01f, 0.0f, 0.0f, 0.0f}, t123, 4), {"pose_update_t", "pose 1", "not unit"});
+  CheckDataLoss(decode_with(2, {0.0f, 0.0f, 0.0f, 0.0f}, t123, 4), {"pose 2", "not unit"});
+  CheckDataLoss(decode_with(0, {0.5f, 0.5f, 0.5f, 0.4f}, t123, 4), {"pose 0"});
+  CheckDataLoss(decode_with(0, {nan, 0.0f, 0.0f, 0.0f}, t123, 4), {"pose 0", "non-finite"});
+  CheckDataLoss(decode_with(1, unit, {1.0f, inf, 3.0f}, 4), {"pose 1", "non-finite"});
+  CheckDataLoss(decode_with(2, unit, t123, -3), {"pose 2", "negative keyframe index"});
+  // The same message with a unit quaternion decodes to that rotation (120 deg about (1,1,1)).
+  auto ok = decode_with(1, unit, t123, 4);
+  REQUIRE(ok.ok());
+  const Eigen::Matrix3d expected = Eigen::AngleAxisd(2.0 * 3.14159265358979323846 / 3.0,
+                                                     Eigen::Vector3d(1, 1, 1).normalized()).toRotationMatrix();
+  CHECK(RotationError(ok->T_map_sensor[1].linear(), expected) < 1e-6);
+  CHECK((ok->T_map_sensor[1].translation() - Eigen::Vector3d(1, 2, 3)).norm() == 0.0);
+  CHECK(ok->keyframes[1] == 4);
+}
+
+TEST_CASE("message codec: a scan chunk with chunk_index outside 0..num_chunks-1 or negative ids is refused") {
+  auto decode = [](std::int16_t index, std::int16_t count, std::int32_t keyframe, std::int32_t total) {
+    commerge::scan_chunk_t msg = ToLcm(MakeChunk(5));
+    msg.chunk_index = index;
+    msg.num_chunks = count;
+    msg.keyframe_index = keyframe;
+    msg.total_bytes = total;
+    return DecodeScanChunk(S(LcmEncode(msg)));
+  };
+  CheckDataLoss(decode(3, 3, 1, 100), {"scan_chunk_t", "chunk 3 of 3", "out of range"});
+  CheckDataLoss(decode(7, 3, 1, 100), {"chunk 7 of 3"});
+  CheckDataLoss(decode(0, 0, 1, 100), {"chunk 0 of 0"});
+  CheckDataLoss(decode(-1, 3, 1, 100), {"chunk -1 of 3"});
+  CheckDataLoss(decode(0, -2, 1, 100), {"of -2"});
+  CheckDataLoss(decode(0, 1, -1, 100), {"keyframe -1"});
+  CheckDataLoss(decode(0, 1, 1, -100), {"total -100 bytes"});
+  auto ok = decode(2, 3, 1, 100);
+  REQUIRE(ok.ok());
+  CHECK(ok->chunk_index == 2);
+  CHECK(ok->num_chunks == 3);
+}
+
+TEST_CASE("message codec: the encoder refuses a request whose keyframes are not ascending and unique") {
+  Buffer out;
+  ScanRequest r = MakeRequest({1, 5, 5});
+  CheckInvalid(EncodeScanRequest(r, &out), {"ascending", "keyframe_index[2]"});
+  r = MakeRequest({7, 3});
+  CHECK(EncodeScanRequest(r, &out).code() == StatusCode::kInvalidArgument);
+}
+
+TEST_CASE("message codec: a short buffer announcing large arrays is refused before decoding") {
+  // Headers only, counts patched to the largest legal values: the announced arrays are not there.
+  Buffer request = Encoded(MakeRequest({}));
+  PutBe32(&request, 8 + 14, 65536);
+  CheckDataLoss(DecodeScanRequest(S(request)), {"cannot hold"});
+  Buffer chunk = Encoded(MakeChunk(0));
+  PutBe32(&chunk, 8 + 26, 1200);
+  CheckDataLoss(DecodeScanChunk(S(chunk)), {"cannot hold"});
+  Buffer batch = Encoded(MakeBatch(0));
+  PutBe32(&batch, 8 + 14, 512);
+  PutBe32(&batch, 8 + 18, 512 * 92);
+  CheckDataLoss(DecodeKeyframeBatch(S(batch)), {"cannot hold"});
+}
+
+TEST_CASE("message codec: a short foreign message is refused by its fingerprint") {
+  const Buffer tiny = Encoded(MakeRequest({}));  // 30 bytes: shorter than a scan chunk's header
+  CheckDataLoss(DecodeScanChunk(S(tiny)), {"fingerprint"});
+}
+
+}  // namespace
+}  // namespace commerge::platform
