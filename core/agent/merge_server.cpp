@@ -72,6 +72,7 @@ Status ValidateMergeServerParams(const MergeServerParams& params) {
     return InvalidArgument("registration_hypotheses = " + std::to_string(params.registration_hypotheses) +
                            " is outside 1..8");
   }
+  if (params.max_scans_held < 1) return InvalidArgument("max_scans_held must be >= 1");
   if (params.max_scan_bytes < (1u << 16)) {
     return InvalidArgument("max_scan_bytes = " + std::to_string(params.max_scan_bytes) + " must be >= 65536");
   }
@@ -224,32 +225,34 @@ Status MergeServer::OnScanChunk(const ScanChunk& chunk) {
     ++stats_.duplicate_chunks;  // the scan is complete already: a retransmission
     return Status::Ok();
   }
-  auto it = partial_.find(key);
-  if (it == partial_.end()) {
-    if (held_bytes_ + total > params_.max_scan_bytes) {
-      ++stats_.chunks_over_budget;
-      return Reject(&stats_.rejected_chunks,
-                    ResourceExhausted(what + ": the server already holds " + std::to_string(held_bytes_) +
-                                      " scan bytes of max_scan_bytes = " + std::to_string(params_.max_scan_bytes)));
-    }
-    Partial p;
-    p.total_bytes = chunk.total_bytes;
-    p.num_chunks = chunk.num_chunks;
-    p.have.assign(chunk.num_chunks, 0);
-    p.bytes.assign(chunk.total_bytes, 0);
-    held_bytes_ += total;
-    it = partial_.emplace(key, std::move(p)).first;
-  }
-  Partial& p = it->second;
-  if (p.total_bytes != chunk.total_bytes || p.num_chunks != chunk.num_chunks) {
-    return Reject(&stats_.rejected_chunks, InvalidArgument(what + ": sizes differ from the scan's earlier chunks"));
-  }
-  // Chunk i covers [i x size, min(total, (i + 1) x size)) with size = ceil(total / num_chunks) (ScanChunkSpan).
-  const ChunkRange range = ScanChunkRange(total, p.num_chunks, chunk.chunk_index);
+  // Chunk i covers [i x size, min(total, (i + 1) x size)) with size = ceil(total / num_chunks) (ScanChunkRange).
+  const ChunkRange range = ScanChunkRange(total, chunk.num_chunks, chunk.chunk_index);
   if (chunk.payload.size() != range.size) {
     return Reject(&stats_.rejected_chunks, InvalidArgument(what + ": payload of " + std::to_string(chunk.payload.size()) +
                                                            " bytes where the protocol puts " +
                                                            std::to_string(range.size)));
+  }
+  auto it = partial_.find(key);
+  if (it == partial_.end()) {
+    if (held_bytes_ + total > params_.max_scan_bytes || partial_.size() + scans_.size() >= params_.max_scans_held) {
+      ++stats_.chunks_over_budget;
+      return Reject(&stats_.rejected_chunks,
+                    ResourceExhausted(what + ": the server already holds " + std::to_string(partial_.size() + scans_.size()) +
+                                      " scans, " + std::to_string(held_bytes_) + " bytes (max_scans_held = " +
+                                      std::to_string(params_.max_scans_held) + ", max_scan_bytes = " +
+                                      std::to_string(params_.max_scan_bytes) + ")"));
+    }
+    Partial fresh;
+    fresh.total_bytes = chunk.total_bytes;
+    fresh.num_chunks = chunk.num_chunks;
+    fresh.have.assign(chunk.num_chunks, 0);
+    fresh.bytes.assign(chunk.total_bytes, 0);
+    held_bytes_ += total;
+    it = partial_.emplace(key, std::move(fresh)).first;
+  }
+  Partial& p = it->second;
+  if (p.total_bytes != chunk.total_bytes || p.num_chunks != chunk.num_chunks) {
+    return Reject(&stats_.rejected_chunks, InvalidArgument(what + ": sizes differ from the scan's earlier chunks"));
   }
   const std::uint64_t offset = range.offset;
   if (p.have[chunk.chunk_index]) {

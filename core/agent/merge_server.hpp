@@ -52,6 +52,8 @@ struct MergeServerParams {
   FrameSolverParams frames;
   /// Bytes of scans (complete and partial) the server holds at once; chunks beyond are refused and counted.
   std::uint64_t max_scan_bytes = 512ull << 20;
+  /// Scans (complete and partial) held at once: bounds the bookkeeping whatever the scans' sizes.
+  std::size_t max_scans_held = 200000;
 };
 
 Status ValidateMergeServerParams(const MergeServerParams& params);

@@ -161,10 +161,11 @@ TEST_CASE("Merge server reassembles scan chunks in any order, ignores duplicates
   CHECK(server.stats().corrupt_scans == 1);
   CHECK(server.scan_bytes_held() == scan.size());
 
-  // A payload of the wrong size for its index, and an index beyond the count.
+  // A payload of the wrong size for its index, and an index beyond the count: refused, nothing held for them.
   std::vector<ScanChunk> odd = Chunks(0, 3, scan, 700);
   odd[1].payload.pop_back();
   CHECK(server.OnScanChunk(odd[1]).code() == StatusCode::kInvalidArgument);
+  CHECK(server.scan_bytes_held() == scan.size());
   odd[2].chunk_index = odd[2].num_chunks;
   CHECK_FALSE(server.OnScanChunk(odd[2]).ok());
 
@@ -179,6 +180,20 @@ TEST_CASE("Merge server reassembles scan chunks in any order, ignores duplicates
   server.ClearScans();
   CHECK(server.scans_received() == 0);
   CHECK(server.scan_bytes_held() == 0);
+}
+
+TEST_CASE("Merge server bounds the number of scans it holds, whatever their size") {
+  MergeServerParams params;
+  params.max_scans_held = 3;
+  MergeServer server(2, 100, params);
+  const std::vector<std::uint8_t> tiny = Encode(SomePoints(2));
+  std::size_t accepted = 0;
+  for (std::uint32_t k = 0; k < 6; ++k) {
+    for (const ScanChunk& c : Chunks(0, k, tiny, 1200)) accepted += server.OnScanChunk(c).ok();
+  }
+  CHECK(accepted == 3);
+  CHECK(server.scans_received() == 3);
+  CHECK(server.stats().chunks_over_budget == 3);
 }
 
 TEST_CASE("Merge server plans per exchange mode: stage A's loops equal the brute-force threshold cells") {
