@@ -588,10 +588,23 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
         delivered = std::move(*rx);
       }
       chunks.clear();
-      auto answer = r.agent->AnswerRequest(delivered, 0, &chunks);
+      PoseUpdate fresh_poses;
+      auto answer = r.agent->AnswerRequest(delivered, 0, &chunks, &fresh_poses, /*remember_poses=*/false);
       if (!answer.ok()) {
         std::fprintf(stderr, "%s: robot %d: %s\n", tag, req.robot_id, answer.status().message().c_str());
         return kExitFailure;
+      }
+      if (!fresh_poses.keyframes.empty()) {  // current poses of the requested keyframes, before their scans
+        auto rx = wire.Send(fresh_poses, req.robot_id, MessageKind::kPoseUpdates, Direction::kRobotToServer,
+                            platform::EncodePoseUpdate, platform::DecodePoseUpdate);
+        if (!rx.ok()) {
+          std::fprintf(stderr, "%s: pose update: %s\n", tag, rx.status().message().c_str());
+          return kExitFailure;
+        }
+        if (Status st = server.OnPoseUpdate(*rx); !st.ok()) {
+          std::fprintf(stderr, "%s: server refused a pose update: %s\n", tag, st.message().c_str());
+          return kExitFailure;
+        }
       }
       out.scans_missing += answer->missing.size();
       for (const ScanChunk& c : chunks) {
@@ -657,8 +670,8 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     summary += s + "\n";
   };
   line("");
-  line("| mode | scans sent | scan bytes | policies | total exchanged | vs send-all | pairs merged | e_rmse (robots vs robot 0) | merge s |");
-  line("|---|---|---|---|---|---|---|---|---|");
+  line("| mode | scans sent | scan bytes | policies | pose refresh | total exchanged | vs send-all | pairs merged | e_rmse (robots vs robot 0) | merge s |");
+  line("|---|---|---|---|---|---|---|---|---|---|");
   for (const ModeOutcome& m : outcomes) {
     std::size_t scans = 0, merged = 0;
     for (const ScanRequest& q : m.plan.requests) scans += q.keyframes.size();
@@ -675,13 +688,14 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
       rmse += m.robot_eval[r].has_gt ? Fmt("%.3f m", m.robot_eval[r].rmse_m) : std::string("-");
     }
     line("| " + std::string(ExchangeModeName(m.mode)) + " | " + std::to_string(scans) + " | " + Bytes(m.scan_bytes()) +
-         " | " + Bytes(m.ledger->KindTotal(MessageKind::kPolicies).bytes) + " | " + Bytes(total) + " | " + vs + " | " +
+         " | " + Bytes(m.ledger->KindTotal(MessageKind::kPolicies).bytes) + " | " +
+         Bytes(m.ledger->KindTotal(MessageKind::kPoseUpdates).bytes) + " | " + Bytes(total) + " | " + vs + " | " +
          std::to_string(merged) + "/" + std::to_string(m.pairs.size()) + " | " + (rmse.empty() ? "-" : rmse) + " | " +
          Fmt("%.2f", m.merge_s) + " |");
   }
-  line("(total exchanged = keyframe records " + Bytes(stream_ledger.KindTotal(MessageKind::kKeyframes).bytes) +
-       " + pose updates " + Bytes(stream_ledger.KindTotal(MessageKind::kPoseUpdates).bytes) +
-       ", the same in every mode, + policies + scans; LCM-encoded sizes)");
+  line("(total exchanged = streamed keyframe records " + Bytes(stream_ledger.KindTotal(MessageKind::kKeyframes).bytes) +
+       " + streamed pose updates " + Bytes(stream_ledger.KindTotal(MessageKind::kPoseUpdates).bytes) +
+       ", the same in every mode, + policies + the requested keyframes' current poses + scans; LCM-encoded sizes)");
 
   const ModeOutcome& final_mode = outcomes.back();
   line("");
@@ -866,7 +880,8 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     for (const ModeOutcome& m : outcomes) {
       bars.groups.push_back(ExchangeModeName(m.mode));
       bars.values.push_back(static_cast<double>(stream_ledger.KindTotal(MessageKind::kKeyframes).bytes));
-      bars.values.push_back(static_cast<double>(stream_ledger.KindTotal(MessageKind::kPoseUpdates).bytes));
+      bars.values.push_back(static_cast<double>(stream_ledger.KindTotal(MessageKind::kPoseUpdates).bytes +
+                                                m.ledger->KindTotal(MessageKind::kPoseUpdates).bytes));
       bars.values.push_back(static_cast<double>(m.ledger->KindTotal(MessageKind::kPolicies).bytes));
       bars.values.push_back(static_cast<double>(m.scan_bytes()));
     }

@@ -1,22 +1,28 @@
 #!/usr/bin/env bash
 # Usage: profiling/bench_scenarios.sh [--commerge BUILD/commerge] [--keyframes N] [--work DIR] [--quick]
+#                                     [--direction alternate|same] [--wobble-deg D]
 # The generated-scenario table of the README: for each world (urban, campus, indoor, cave), 2 and 3 robots,
 # complete and partial overlap, `commerge sim` writes the dataset and `commerge run` (every exchange mode)
 # merges it on the jetson-nano memory profile. Prints one markdown row per scenario: robots merged, worst
 # alignment RMSE, bytes exchanged with the full cascade against sending every scan, server time (cascade +
 # registration), and the process's peak RSS after the robots and at the end. --quick: urban only.
+# --direction/--wobble-deg are passed to `commerge sim` (defaults: alternate, 0.5).
 set -euo pipefail
 bin=build/commerge
 keyframes=800
 work=${TMPDIR:-/tmp}/commerge-scenarios
 worlds="urban campus indoor cave"
+direction=alternate
+wobble=0.5
 while [ $# -gt 0 ]; do
   case "$1" in
     --commerge) bin=$2; shift 2 ;;
     --keyframes) keyframes=$2; shift 2 ;;
     --work) work=$2; shift 2 ;;
     --quick) worlds="urban"; shift ;;
-    -h|--help) sed -n '2,7p' "$0"; exit 0 ;;
+    --direction) direction=$2; shift 2 ;;
+    --wobble-deg) wobble=$2; shift 2 ;;
+    -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
     *) echo "bench_scenarios.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -24,7 +30,7 @@ done
 mkdir -p "$work"
 get() { awk -F'\t' -v k="$1" '$1 == k { print $2 }' "$2"; }
 mib() { awk -v b="$1" 'BEGIN { printf "%.2f MiB", b / 1048576 }'; }
-echo "keyframes per robot: $keyframes, lidar VLP-16, default drift, robots drive alternate directions; board profile jetson-nano"
+echo "keyframes per robot: $keyframes, lidar VLP-16, default drift, direction $direction, roll/pitch wobble $wobble deg; board profile jetson-nano"
 echo
 echo "| world | robots | overlap | robots merged | worst e_rmse | A+B+C bytes | send-all bytes | reduction | server s (cascade + merge) | peak RSS after robots / end |"
 echo "|---|---|---|---|---|---|---|---|---|---|"
@@ -35,7 +41,7 @@ for world in $worlds; do
       data="$work/$name/data"
       out="$work/$name/run"
       "$bin" sim --world "$world" --robots "$robots" --overlap "$overlap" --keyframes "$keyframes" --lidar vlp16 \
-          --seed 11 --threads 2 --out "$data" --force > "$work/$name.sim.log" 2>&1
+          --seed 11 --threads 2 --direction "$direction" --wobble-deg "$wobble" --out "$data" --force > "$work/$name.sim.log" 2>&1
       dirs=()
       for ((r = 0; r < robots; r++)); do dirs+=("$data/robot_$r"); done
       set +e

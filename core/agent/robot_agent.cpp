@@ -21,8 +21,9 @@ Status ValidateRobotAgentParams(const RobotAgentParams& params) {
     return InvalidArgument("chunk_payload_bytes = " + std::to_string(params.chunk_payload_bytes) +
                            " is outside 1.." + std::to_string(kMaxScanChunkPayloadBytes));
   }
-  if (!(params.pose_update_min_translation_m >= 0.0) || !(params.pose_update_min_rotation_deg >= 0.0)) {
-    return InvalidArgument("pose_update_min_translation_m and pose_update_min_rotation_deg must be >= 0");
+  if (!(params.pose_update_min_translation_m >= 0.0) || !(params.pose_update_min_rotation_deg >= 0.0) ||
+      !(params.request_pose_min_translation_m >= 0.0) || !(params.request_pose_min_rotation_deg >= 0.0)) {
+    return InvalidArgument("pose_update_min_* and request_pose_min_* must be >= 0");
   }
   return ValidateRobotMapperParams(params.mapper);
 }
@@ -57,14 +58,14 @@ void RobotAgent::RememberSent(std::size_t k) {
                    static_cast<float>(q.y()), static_cast<float>(q.z())};
 }
 
-bool RobotAgent::MovedSinceSent(std::size_t k) const {
+bool RobotAgent::MovedSinceSent(std::size_t k, double min_translation_m, double min_rotation_deg) const {
   const Eigen::Isometry3d& T = mapper_.pose(k);
   const std::array<float, 7>& s = sent_pose_[k];
   const Eigen::Vector3d t(s[0], s[1], s[2]);
-  if ((T.translation() - t).norm() > params_.pose_update_min_translation_m) return true;
+  if ((T.translation() - t).norm() > min_translation_m) return true;
   const Eigen::Quaterniond q_sent(s[3], s[4], s[5], s[6]);
   const double angle_rad = Eigen::Quaterniond(T.linear()).angularDistance(q_sent.normalized());
-  return angle_rad * 180.0 / 3.14159265358979323846 > params_.pose_update_min_rotation_deg;
+  return angle_rad * 180.0 / 3.14159265358979323846 > min_rotation_deg;
 }
 
 void RobotAgent::QueuePoses(Span<const std::uint32_t> keyframes) {
@@ -72,7 +73,7 @@ void RobotAgent::QueuePoses(Span<const std::uint32_t> keyframes) {
     // Keyframes not yet sent go out with their current pose anyway.
     if (k >= sent_upto_ || k >= pose_dirty_.size() || pose_dirty_[k]) continue;
     // Keyframes without a valid descriptor are queued when passed; the others only when they moved enough.
-    if (!MovedSinceSent(k)) continue;
+    if (!MovedSinceSent(k, params_.pose_update_min_translation_m, params_.pose_update_min_rotation_deg)) continue;
     pose_dirty_[k] = 1;
     ++dirty_count_;
     dirty_scan_from_ = std::min<std::size_t>(dirty_scan_from_, k);
@@ -93,7 +94,8 @@ Status RobotAgent::Finish() {
   QueuePoses(Span<const std::uint32_t>(*moved));
   // Poses that crept away in steps below the threshold: the server ends within it of the final poses.
   for (std::size_t k = 0; k < sent_upto_; ++k) {
-    if (!pose_dirty_[k] && MovedSinceSent(k)) {
+    if (!pose_dirty_[k] &&
+        MovedSinceSent(k, params_.pose_update_min_translation_m, params_.pose_update_min_rotation_deg)) {
       pose_dirty_[k] = 1;
       ++dirty_count_;
       dirty_scan_from_ = std::min(dirty_scan_from_, k);
@@ -170,13 +172,31 @@ bool RobotAgent::TakePoseUpdate(std::int64_t utime_us, PoseUpdate* update) {
 }
 
 Result<ScanAnswer> RobotAgent::AnswerRequest(const ScanRequest& request, std::int64_t utime_us,
-                                             std::vector<ScanChunk>* chunks) {
+                                             std::vector<ScanChunk>* chunks, PoseUpdate* poses,
+                                             bool remember_poses) {
   if (!params_status_.ok()) return params_status_;
   if (request.robot_id != robot_id_) {
     return InvalidArgument("scan request for robot " + std::to_string(request.robot_id) + " reached robot " +
                            std::to_string(robot_id_));
   }
   ScanAnswer answer;
+  poses->utime_us = utime_us;
+  poses->robot_id = robot_id_;
+  poses->keyframes.clear();
+  poses->T_map_sensor.clear();
+  for (std::uint32_t k : request.keyframes) {
+    if (k >= sent_upto_ || poses->keyframes.size() >= kMaxPosesPerUpdate) continue;
+    if (!MovedSinceSent(k, params_.request_pose_min_translation_m, params_.request_pose_min_rotation_deg)) continue;
+    poses->keyframes.push_back(k);
+    poses->T_map_sensor.push_back(mapper_.pose(k));
+    if (!remember_poses) continue;
+    RememberSent(k);
+    if (pose_dirty_[k]) {  // sent now: no longer pending for the stream
+      pose_dirty_[k] = 0;
+      --dirty_count_;
+    }
+  }
+  if (!poses->keyframes.empty()) poses->sequence = pose_sequence_++;
   const std::size_t payload = params_.chunk_payload_bytes;
   for (std::uint32_t k : request.keyframes) {
     if (Status st = store_->CopyEncoded(k, &encoded_); !st.ok()) {

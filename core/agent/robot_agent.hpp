@@ -27,10 +27,15 @@ struct RobotAgentParams {
   std::size_t max_poses_per_update = 1024;
   /// Payload bytes per scan chunk (1..kMaxScanChunkPayloadBytes): a chunk stays inside one UDP datagram.
   std::size_t chunk_payload_bytes = kMaxScanChunkPayloadBytes;
-  /// A keyframe the optimisation moved is re-sent only when its pose differs from the one the server has by
-  /// more than this (loop closures move every pose a little; the server's submaps use 1 m voxels).
-  double pose_update_min_translation_m = 0.05;
-  double pose_update_min_rotation_deg = 0.2;
+  /// A keyframe the optimisation moved is streamed again only when its pose differs from the one the server
+  /// has by more than this. The server's positions feed stage C (tau_con = 5 m), which this error cannot
+  /// change; loop closures move every pose a little, and streaming each move would cost more than the scans.
+  double pose_update_min_translation_m = 0.5;
+  double pose_update_min_rotation_deg = 1.0;
+  /// The scans the server requests are preceded by a pose update of those keyframes whose pose differs from
+  /// the server's by more than this: the submaps are built with current poses.
+  double request_pose_min_translation_m = 0.01;
+  double request_pose_min_rotation_deg = 0.05;
 };
 
 Status ValidateRobotAgentParams(const RobotAgentParams& params);
@@ -63,9 +68,14 @@ class RobotAgent {
   /// Fills `*update` with queued poses (ascending keyframes). False when none is queued.
   bool TakePoseUpdate(std::int64_t utime_us, PoseUpdate* update);
 
-  /// Appends the chunks of every requested scan to `*chunks`. Requests for another robot are an error
-  /// (InvalidArgument); keyframes the store no longer has are listed in ScanAnswer::missing.
-  Result<ScanAnswer> AnswerRequest(const ScanRequest& request, std::int64_t utime_us, std::vector<ScanChunk>* chunks);
+  /// Appends the chunks of every requested scan to `*chunks`, and fills `*poses` with the requested keyframes
+  /// whose pose moved since the server got it (request_pose_min_...; send it before the chunks; empty when
+  /// none moved). Requests for another robot are an error (InvalidArgument); keyframes the store no longer has
+  /// are listed in ScanAnswer::missing.
+  /// `remember_poses` = false leaves the record of what the server has unchanged (offline comparisons answer
+  /// the same data once per exchange mode, each as if it were the only one).
+  Result<ScanAnswer> AnswerRequest(const ScanRequest& request, std::int64_t utime_us, std::vector<ScanChunk>* chunks,
+                                   PoseUpdate* poses, bool remember_poses = true);
 
   int robot_id() const noexcept { return robot_id_; }
   const RobotMapper& mapper() const noexcept { return mapper_; }
@@ -76,7 +86,7 @@ class RobotAgent {
  private:
   void QueuePoses(Span<const std::uint32_t> keyframes);
   void RememberSent(std::size_t keyframe);
-  bool MovedSinceSent(std::size_t keyframe) const;
+  bool MovedSinceSent(std::size_t keyframe, double min_translation_m, double min_rotation_deg) const;
 
   int robot_id_;
   RobotAgentParams params_;

@@ -157,7 +157,8 @@ TEST_CASE("Robot agent answers a scan request with chunks that reassemble into t
   request.request_id = 7;
   request.keyframes = {0, 5, 7, 100};
   std::vector<ScanChunk> chunks;
-  auto answer = rig.agent->AnswerRequest(request, 9, &chunks);
+  PoseUpdate poses;
+  auto answer = rig.agent->AnswerRequest(request, 9, &chunks, &poses);
   REQUIRE(answer.ok());
   CHECK(answer->scans_sent == 3);
   REQUIRE(answer->missing.size() == 1);
@@ -189,7 +190,7 @@ TEST_CASE("Robot agent answers a scan request with chunks that reassemble into t
 
   ScanRequest foreign = request;
   foreign.robot_id = 2;
-  auto refused = rig.agent->AnswerRequest(foreign, 0, &chunks);
+  auto refused = rig.agent->AnswerRequest(foreign, 0, &chunks, &poses);
   CHECK_FALSE(refused.ok());
   CHECK(refused.status().code() == StatusCode::kInvalidArgument);
 }
