@@ -112,7 +112,7 @@ Status EncodeKeyframeBatch(const KeyframeBatch& m, std::vector<std::uint8_t>* ou
                            std::to_string(m.stored_points.size()) + " point counts are not n x 92 and n with n <= " +
                            std::to_string(kMaxRecordsPerBatch));
   }
-  commerge::keyframe_batch_t msg;
+  commerge::keyframe_batch_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
   msg.sequence = m.sequence;
@@ -140,7 +140,7 @@ Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes) {
                     std::to_string(n * 92));
   }
   if (Status st = CheckRoom(bytes, 8 + 22 + nb + 4 * n, type); !st.ok()) return st;
-  commerge::keyframe_batch_t msg;
+  commerge::keyframe_batch_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
   KeyframeBatch m;
@@ -168,7 +168,7 @@ Status EncodePoseUpdate(const PoseUpdate& m, std::vector<std::uint8_t>* out) {
                            std::to_string(m.T_map_sensor.size()) + " poses (equal and at most " +
                            std::to_string(kMaxPosesPerUpdate) + ")");
   }
-  commerge::pose_update_t msg;
+  commerge::pose_update_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
   msg.sequence = m.sequence;
@@ -202,7 +202,7 @@ Result<PoseUpdate> DecodePoseUpdate(Span<const std::uint8_t> bytes) {
     return DataLoss("pose_update_t: " + std::to_string(bytes.size()) + " bytes cannot hold " + std::to_string(n) +
                     " poses");
   }
-  commerge::pose_update_t msg;
+  commerge::pose_update_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
   PoseUpdate m;
@@ -236,7 +236,7 @@ Status EncodeScanRequest(const ScanRequest& m, std::vector<std::uint8_t>* out) {
     return InvalidArgument("exchange_policy_t: " + std::to_string(m.keyframes.size()) + " keyframes (at most " +
                            std::to_string(kMaxKeyframesPerRequest) + ")");
   }
-  commerge::exchange_policy_t msg;
+  commerge::exchange_policy_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
   msg.request_id = m.request_id;
@@ -263,7 +263,7 @@ Result<ScanRequest> DecodeScanRequest(Span<const std::uint8_t> bytes) {
     return st;
   }
   if (Status st = CheckRoom(bytes, 8 + 18 + 4 * n, type); !st.ok()) return st;
-  commerge::exchange_policy_t msg;
+  commerge::exchange_policy_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
   ScanRequest m;
@@ -291,7 +291,7 @@ Status EncodeScanChunk(const ScanChunk& m, std::vector<std::uint8_t>* out) {
                            std::to_string(m.num_chunks) + " with " + std::to_string(m.payload.size()) +
                            " payload bytes is outside the message's limits");
   }
-  commerge::scan_chunk_t msg;
+  commerge::scan_chunk_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
   msg.request_id = m.request_id;
@@ -314,7 +314,7 @@ Result<ScanChunk> DecodeScanChunk(Span<const std::uint8_t> bytes) {
     return st;
   }
   if (Status st = CheckRoom(bytes, 8 + 30 + n, type); !st.ok()) return st;
-  commerge::scan_chunk_t msg;
+  commerge::scan_chunk_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
   if (msg.keyframe_index < 0 || msg.total_bytes < 0 || msg.num_chunks < 1 || msg.chunk_index < 0 ||

@@ -136,7 +136,7 @@ KeyframeBatch MakeBatch(std::size_t n) {
 }
 
 commerge::keyframe_batch_t ToLcm(const KeyframeBatch& m) {
-  commerge::keyframe_batch_t msg;
+  commerge::keyframe_batch_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
   msg.sequence = m.sequence;
@@ -177,7 +177,7 @@ ScanRequest MakeRequest(std::vector<std::uint32_t> keyframes) {
 }
 
 commerge::exchange_policy_t ToLcm(const ScanRequest& m) {
-  commerge::exchange_policy_t msg;
+  commerge::exchange_policy_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
   msg.request_id = m.request_id;
@@ -200,7 +200,7 @@ ScanChunk MakeChunk(std::size_t payload_bytes) {
 }
 
 commerge::scan_chunk_t ToLcm(const ScanChunk& m) {
-  commerge::scan_chunk_t msg;
+  commerge::scan_chunk_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
   msg.request_id = m.request_id;
@@ -214,7 +214,7 @@ commerge::scan_chunk_t ToLcm(const ScanChunk& m) {
 }
 
 commerge::robot_status_t MakeStatus() {
-  commerge::robot_status_t s;
+  commerge::robot_status_t s{};
   s.utime = 1763800000123456;
   s.robot_id = 2;
   s.peak_rss_bytes = 300LL << 20;
@@ -769,7 +769,7 @@ TEST_CASE("message codec: encoders refuse arrays beyond MAX and inconsistent siz
 
 TEST_CASE("message codec: decoders refuse counts beyond MAX in otherwise well-formed LCM messages") {
   {
-    commerge::keyframe_batch_t msg;
+    commerge::keyframe_batch_t msg{};
     msg.num_records = 513;
     msg.num_record_bytes = 513 * 92;
     msg.records.assign(513 * 92, 0);
@@ -779,7 +779,7 @@ TEST_CASE("message codec: decoders refuse counts beyond MAX in otherwise well-fo
     CheckDataLoss(DecodeKeyframeBatch(S(b)), {"keyframe_batch_t", "num_records = 513", "0..512"});
   }
   {
-    commerge::pose_update_t msg;
+    commerge::pose_update_t msg{};
     msg.num_poses = 4097;
     msg.keyframe_index.assign(4097, 0);
     msg.translation_m.assign(4097, std::vector<float>(3, 0.0f));
@@ -788,7 +788,7 @@ TEST_CASE("message codec: decoders refuse counts beyond MAX in otherwise well-fo
     CheckDataLoss(DecodePoseUpdate(S(b)), {"pose_update_t", "num_poses = 4097", "0..4096"});
   }
   {
-    commerge::exchange_policy_t msg;
+    commerge::exchange_policy_t msg{};
     msg.num_keyframes = 65537;
     msg.keyframe_index.resize(65537);
     for (std::size_t i = 0; i < msg.keyframe_index.size(); ++i) msg.keyframe_index[i] = static_cast<std::int32_t>(i);
@@ -796,7 +796,7 @@ TEST_CASE("message codec: decoders refuse counts beyond MAX in otherwise well-fo
     CheckDataLoss(DecodeScanRequest(S(b)), {"exchange_policy_t", "num_keyframes = 65537", "0..65536"});
   }
   {
-    commerge::scan_chunk_t msg;
+    commerge::scan_chunk_t msg{};
     msg.num_chunks = 1;
     msg.num_bytes = 1201;
     msg.payload.assign(1201, 0xAB);
@@ -854,7 +854,7 @@ TEST_CASE("message codec: robot_id outside 0..63 is refused by encoders and deco
 
 TEST_CASE("message codec: a scan request whose keyframes are not ascending and non-negative is refused") {
   auto decode = [](const std::vector<std::int32_t>& keyframes) {
-    commerge::exchange_policy_t msg;
+    commerge::exchange_policy_t msg{};
     msg.robot_id = 1;
     msg.num_keyframes = static_cast<std::int32_t>(keyframes.size());
     msg.keyframe_index = keyframes;
@@ -871,7 +871,7 @@ TEST_CASE("message codec: a scan request whose keyframes are not ascending and n
 
 TEST_CASE("message codec: a keyframe batch whose byte count is not 92 per record is refused") {
   auto decode = [](std::int32_t n, std::int32_t nb) {
-    commerge::keyframe_batch_t msg;
+    commerge::keyframe_batch_t msg{};
     msg.num_records = n;
     msg.num_record_bytes = nb;
     msg.records.assign(static_cast<std::size_t>(nb), 0);
