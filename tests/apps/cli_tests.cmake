@@ -76,7 +76,7 @@ set_tests_properties("cli: sim: the same seed again, on two threads" PROPERTIES 
 foreach(file robot_1/velodyne/000003.bin robot_0/poses.txt robot_1/poses_gt.txt start_transforms.txt)
   add_test(NAME "cli: sim: same seed, identical ${file}"
            COMMAND "${CMAKE_COMMAND}" -E compare_files "${CM_CLI_OUT}/sim-a/${file}" "${CM_CLI_OUT}/sim-b/${file}")
-  set_tests_properties("cli: sim: same seed, identical ${file}" PROPERTIES FIXTURES_REQUIRED "sim_a\;sim_b")
+  set_tests_properties("cli: sim: same seed, identical ${file}" PROPERTIES FIXTURES_REQUIRED "sim_a;sim_b")
 endforeach()
 cm_cli_test(NAME "sim: refuses a non-empty output directory without --force" RC 2
             REGEX "sim-a: already exists and is not empty \\(use --force"
