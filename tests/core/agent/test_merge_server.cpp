@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "../registration/registration_test_support.hpp"
+#include "tests/core/registration/registration_test_support.hpp"
 #include "core/agent/merge_server.hpp"
 #include "core/cloud/scan_codec.hpp"
 #include "core/descriptor/descriptor_codec.hpp"

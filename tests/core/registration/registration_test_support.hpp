@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,7 @@
 #include "core/registration/submap_registration.hpp"
 #include "core/registration/synthetic_submaps.hpp"
 #include "platform/io/kitti_bin.hpp"
+#include "tests/support/test_data.hpp"
 
 namespace commerge::test {
 
@@ -70,6 +72,15 @@ inline std::vector<PointXYZI> Transformed(const std::vector<PointXYZI>& in, cons
     out.push_back({static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), p.intensity});
   }
   return out;
+}
+
+/// A 4 x 4 row-major transform from a text file (e.g. small_gicp_pair/T_target_source.txt).
+inline Eigen::Isometry3d ReadTransform4x4(const std::string& path) {
+  Eigen::Matrix4d m;
+  std::istringstream is(ReadTextFile(path));
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) is >> m(r, c);
+  return Eigen::Isometry3d(m);
 }
 
 /// A KITTI-layout cloud moved by T and voxelised; empty when the file cannot be read.

@@ -70,11 +70,7 @@ TEST_CASE("GICP and plane ICP converge to the ground truth of a generated pair f
 
 TEST_CASE("GICP on small_gicp's pair: 4 initial poses, forward and inverse, within 2.5 deg and 0.2 m") {
   CM_SHARED_DATA_OR_SKIP(dir, "kitti/small_gicp_pair");
-  Eigen::Matrix4d m;
-  std::istringstream is(test::ReadTextFile(dir + "/T_target_source.txt"));
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) is >> m(r, c);
-  const Eigen::Isometry3d truth(m);
+  const Eigen::Isometry3d truth = test::ReadTransform4x4(dir + "/T_target_source.txt");
   const std::vector<PointXYZI> source = test::LoadVoxelised(dir + "/source.bin", Eigen::Isometry3d::Identity(), 0.5);
   const std::vector<PointXYZI> target = test::LoadVoxelised(dir + "/target.bin", Eigen::Isometry3d::Identity(), 0.5);
   REQUIRE(source.size() > 1000);

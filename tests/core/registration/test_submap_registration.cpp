@@ -241,11 +241,7 @@ TEST_CASE("Parameters scale with the voxel size and are validated") {
 
 TEST_CASE("Real pair small_gicp, 1 m pre-voxelised: coarse-to-fine within 0.5 deg and 0.05 m, also yawed 180 deg") {
   CM_SHARED_DATA_OR_SKIP(dir, "kitti/small_gicp_pair");
-  Eigen::Matrix4d m;
-  std::istringstream is(test::ReadTextFile(dir + "/T_target_source.txt"));
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) is >> m(r, c);
-  const Eigen::Isometry3d truth(m);
+  const Eigen::Isometry3d truth = test::ReadTransform4x4(dir + "/T_target_source.txt");
   const std::vector<PointXYZI> target = test::LoadVoxelised(dir + "/target.bin", Eigen::Isometry3d::Identity(), 1.0);
   const SubmapRegistrationParams params = MakeSubmapRegistrationParams(1.0);
   // The reference is itself a registration result (agreement ~0.3-0.4 deg between methods, REGISTRATION.md §4.3).
