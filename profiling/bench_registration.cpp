@@ -67,7 +67,7 @@ class StageTimer : public RegistrationStageObserver {
     t = std::max(t, 0.0) + ThreadCpuMs() - start_;
   }
   void Reset() { std::fill(std::begin(ms), std::end(ms), -1.0); }
-  double ms[kNumRegistrationStages] = {-1, -1, -1, -1, -1, -1};
+  double ms[kNumRegistrationStages] = {-1, -1, -1, -1, -1, -1, -1};
 
  private:
   double start_ = 0.0;
@@ -173,7 +173,7 @@ struct PairOutcome {
   bool has_reference = false;  // real pairs: errors are measured against GICP started at the ground truth
   std::size_t points = 0;  // mean of source and target
   RegistrationResult result;
-  double stage_ms[kNumRegistrationStages] = {-1, -1, -1, -1, -1, -1};
+  double stage_ms[kNumRegistrationStages] = {-1, -1, -1, -1, -1, -1, -1};
   double rot_err_deg = 0.0, trans_err_m = 0.0;
   double coarse_rot_err_deg = 0.0, coarse_trans_err_m = 0.0;
   double gt_rot_err_deg = 0.0, gt_trans_err_m = 0.0;  // real pairs: against the ground truth itself
@@ -218,15 +218,26 @@ PairOutcome Run(SubmapRegistration* reg, const SubmapView& source, const SubmapV
   return o;
 }
 
+// " G+r" / " G-r": the global search ran with peak ratio r and its candidate succeeded / failed; " g r": it ran
+// but the ratio was below the gate (nothing verified).
+std::string GlobalTag(const RegistrationResult& r) {
+  if (r.global_peak_ratio == 0.0) return "";
+  char text[32];
+  std::snprintf(text, sizeof(text), " %s%.2f", r.global_candidates == 0 ? "g" : (r.from_global_search ? "G+" : "G-"),
+                std::min(r.global_peak_ratio, 99.0));
+  return text;
+}
+
 void PrintPairLine(const std::string& label, const PairOutcome& o) {
   const RegistrationResult& r = o.result;
   char gt[64] = "";
   if (o.has_reference) std::snprintf(gt, sizeof(gt), " [vs GT %5.2f deg %5.2f m]", o.gt_rot_err_deg, o.gt_trans_err_m);
-  std::printf("  %-28s %6zu pts  %-26s corr %4zu prune %3zu rot %3zu coarse %3zu  ovl %.2f dir %.2f info %.3f h%d"
+  std::printf("  %-28s %6zu pts  %-26s corr %4zu prune %3zu rot %3zu coarse %3zu  ovl %.2f dir %.2f info %.3f h%d%s"
               "  err %6.2f deg %6.2f m (coarse %6.2f deg %6.2f m)%s  %s\n",
               label.c_str(), o.points, RegistrationVerdictName(r.verdict), r.num_correspondences, r.num_pruned_inliers,
               r.num_rotation_inliers, r.num_coarse_inliers, r.overlap_ratio, r.directional_overlap,
-              r.information_ratio, r.hypotheses, o.rot_err_deg, o.trans_err_m, o.coarse_rot_err_deg, o.coarse_trans_err_m, gt,
+              r.information_ratio, r.hypotheses,
+              GlobalTag(r).c_str(), o.rot_err_deg, o.trans_err_m, o.coarse_rot_err_deg, o.coarse_trans_err_m, gt,
               !o.overlapping ? (r.success() ? "FALSE SUCCESS" : "rejected ok")
                              : (r.success() ? (o.correct() ? "ok" : "WRONG SUCCESS") : "missed"));
 }
@@ -245,9 +256,9 @@ double MedianOf(const std::vector<PairOutcome>& v, int stage) {
 }
 
 void PrintSummaryTable(const std::vector<Summary>& rows) {
-  std::printf("\n%-16s %5s %7s | %8s %8s %8s %8s %6s %6s | %7s %6s | %10s %8s %8s | %13s %7s\n", "set", "pairs",
-              "points", "normals", "features", "matching", "pruning", "gnc", "gicp", "coarse", "fine", "success",
-              "correct", "wrong", "rejected(no-ov)", "false");
+  std::printf("\n%-16s %5s %7s | %8s %8s %8s %8s %6s %6s | %7s %6s | %10s %8s %8s | %13s %7s | %s\n", "set",
+              "pairs", "points", "normals", "features", "matching", "pruning", "gnc", "gicp", "coarse", "fine", "success",
+              "correct", "wrong", "rejected(no-ov)", "false", "global search: runs, median ms, successes");
   for (const Summary& s : rows) {
     std::vector<PairOutcome> over, none;
     for (const PairOutcome& o : s.outcomes) (o.overlapping ? over : none).push_back(o);
@@ -271,11 +282,20 @@ void PrintSummaryTable(const std::vector<Summary>& rows) {
     std::snprintf(success_text, sizeof(success_text), "%zu/%zu %3.0f%%", succ, over.size(),
                   over.empty() ? 0.0 : 100.0 * static_cast<double>(succ) / static_cast<double>(over.size()));
     std::snprintf(rejected_text, sizeof(rejected_text), "%zu/%zu", rejected, none.size());
-    std::printf("%-16s %5zu %7.0f | %8.1f %8.1f %8.1f %8.2f %6.2f %6.1f | %7.1f %6.1f | %10s %8zu %8zu | %13s %7zu\n",
+    // The fallback search runs on the failures only: its own median over every pair where it ran.
+    std::size_t global_runs = 0, global_succ = 0;
+    for (const PairOutcome& o : s.outcomes) {
+      global_runs += o.stage_ms[static_cast<int>(RegistrationStage::kGlobalSearch)] >= 0.0;
+      global_succ += o.result.success() && o.result.from_global_search;
+    }
+    char global_text[64];
+    std::snprintf(global_text, sizeof(global_text), "%zu, %.1f, %zu", global_runs,
+                  MedianOf(s.outcomes, static_cast<int>(RegistrationStage::kGlobalSearch)), global_succ);
+    std::printf("%-16s %5zu %7.0f | %8.1f %8.1f %8.1f %8.2f %6.2f %6.1f | %7.1f %6.1f | %10s %8zu %8zu | %13s %7zu | %s\n",
                 s.name.c_str(), s.outcomes.size(), s.outcomes.empty() ? 0.0 : points / static_cast<double>(s.outcomes.size()),
                 MedianOf(timed, 0), MedianOf(timed, 1), MedianOf(timed, 2), MedianOf(timed, 3), MedianOf(timed, 4),
                 MedianOf(timed, 5), coarse, MedianOf(timed, 5), success_text, correct, wrong, rejected_text,
-                false_succ + wrong);
+                false_succ + wrong, global_text);
   }
 }
 

@@ -100,6 +100,14 @@ bool ComputePairFeature(const Eigen::Vector3f& p1, const Eigen::Vector3f& n1, co
   return true;
 }
 
+const KdTree3& SubmapFeatures::tree() const {
+  if (!tree_built_) {
+    tree_.Build(points_);
+    tree_built_ = true;
+  }
+  return tree_;
+}
+
 void SubmapFeatures::ComputeGeometry(Span<const PointXYZI> points, Span<const Eigen::Vector3d> sensor_origins_m,
                                      const SubmapFeatureParams& params) {
   points_ = points;
@@ -108,7 +116,7 @@ void SubmapFeatures::ComputeGeometry(Span<const PointXYZI> points, Span<const Ei
   stats_.num_points = n;
   keypoints_.clear();
   descriptors_.clear();
-  tree_.Build(points);
+  tree_built_ = false;  // built on first use by tree(): only the fine stage's target needs it
 
   const auto normal_r2 = static_cast<float>(params.normal_radius_m * params.normal_radius_m);
   neighbors_.Compute(points, static_cast<float>(params.fpfh_radius_m), static_cast<std::size_t>(params.max_neighbors));

@@ -75,7 +75,7 @@ struct SubmapFeatureStats {
 /// Reusable: buffers keep their capacity between calls. Not thread-safe.
 class SubmapFeatures {
  public:
-  /// Stage 1 (spec §1.2 steps 2-3, §2.1): k-d tree (for GICP), the neighbours of every point (capped at
+  /// Stage 1 (spec §1.2 steps 2-3, §2.1): the neighbours of every point (capped at
   /// max_neighbors, radius fpfh_radius_m; core/cloud/radius_neighbors), normals, covariances. Each normal is flipped to point towards the
   /// nearest of `sensor_origins_m` (same frame as the points; empty = the frame origin).
   /// Preconditions (the caller checks, see RegisterSubmaps): every point finite, params valid,
@@ -88,7 +88,9 @@ class SubmapFeatures {
   void ComputeDescriptors(const SubmapFeatureParams& params);
 
   Span<const PointXYZI> points() const noexcept { return points_; }
-  const KdTree3& tree() const noexcept { return tree_; }
+  /// k-d tree of points(), built on the first call after ComputeGeometry (GICP needs it for the target only,
+  /// so the coarse stage does not pay for it). Not thread-safe, like the rest of the class.
+  const KdTree3& tree() const;
   /// Unit normal per point; zero when invalid.
   const std::vector<Eigen::Vector3f>& normals() const noexcept { return normals_; }
   const std::vector<std::uint8_t>& normal_valid() const noexcept { return normal_valid_; }
@@ -106,7 +108,8 @@ class SubmapFeatures {
 
  private:
   Span<const PointXYZI> points_;
-  KdTree3 tree_;
+  mutable KdTree3 tree_;
+  mutable bool tree_built_ = false;
   RadiusNeighbors neighbors_;
   std::vector<Eigen::Vector3f> normals_;
   std::vector<std::uint8_t> normal_valid_;

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 namespace commerge {
@@ -66,6 +67,7 @@ const char* RegistrationStageName(RegistrationStage stage) noexcept {
     case RegistrationStage::kPruning: return "pruning";
     case RegistrationStage::kSolver: return "gnc";
     case RegistrationStage::kFine: return "gicp";
+    case RegistrationStage::kGlobalSearch: return "global";
   }
   return "unknown";
 }
@@ -82,6 +84,9 @@ SubmapRegistrationParams MakeSubmapRegistrationParams(double v) {
   p.fine.inlier_distance_m = 1.0 * v;
   p.fine.inlier_plane_distance_m = 0.3 * v;
   p.gates.max_fine_correction_m = 3.0 * v;
+  p.global_search.cell_size_m = v;
+  p.global_search.min_vertical_extent_m = 0.5 * v;
+  p.global_search.min_separation_m = 4.0 * v;
   return p;
 }
 
@@ -97,6 +102,7 @@ Status ValidateSubmapRegistrationParams(const SubmapRegistrationParams& p) {
   if (s.ok()) s = ValidatePruningParams(p.pruning);
   if (s.ok()) s = ValidateRobustSolverParams(p.solver);
   if (s.ok()) s = ValidateGicpParams(p.fine);
+  if (s.ok()) s = ValidateBevSearchParams(p.global_search);
   if (!s.ok()) return s;
   if (p.pruning.noise_bound_m < p.solver.noise_bound_m) {
     return InvalidArgument("registration: pruning.noise_bound_m (epsilon_R) must be >= solver.noise_bound_m (epsilon_S)");
@@ -164,6 +170,8 @@ Result<RegistrationResult> SubmapRegistration::Register(const SubmapView& source
   r.num_target_keypoints = target_.keypoints().size();
   if (r.num_source_keypoints < gates.min_keypoints || r.num_target_keypoints < gates.min_keypoints) {
     r.verdict = RegistrationVerdict::kTooFewKeypoints;
+    const Status s = RunGlobalSearch(source, target, params, observer, &r);
+    if (!s.ok()) return s;
     return r;
   }
 
@@ -175,6 +183,8 @@ Result<RegistrationResult> SubmapRegistration::Register(const SubmapView& source
   r.num_correspondences = correspondences_.size();
   if (r.num_correspondences < gates.min_correspondences) {
     r.verdict = RegistrationVerdict::kTooFewCorrespondences;
+    const Status s = RunGlobalSearch(source, target, params, observer, &r);
+    if (!s.ok()) return s;
     return r;
   }
 
@@ -205,7 +215,37 @@ Result<RegistrationResult> SubmapRegistration::Register(const SubmapView& source
     if (attempt.verdict < RegistrationVerdict::kNotConverged) break;
     for (std::uint32_t k : pruned_) excluded_[k] = 1;
   }
+  const Status s = RunGlobalSearch(source, target, params, observer, &first);
+  if (!s.ok()) return s;
   return first;
+}
+
+Status SubmapRegistration::RunGlobalSearch(const SubmapView& source, const SubmapView& target,
+                                           const SubmapRegistrationParams& params, RegistrationStageObserver* observer,
+                                           RegistrationResult* inout) {
+  if (!params.global_search.enabled) return Status::Ok();
+  {
+    StageScope scope(observer, RegistrationStage::kGlobalSearch);
+    const Status s = bev_.Search(source.points, target.points, params.global_search, &bev_candidates_);
+    if (!s.ok()) return s;
+  }
+  if (bev_candidates_.empty()) return Status::Ok();
+  const BevCandidate& best = bev_candidates_.front();
+  inout->global_peak_ratio = bev_candidates_.size() < 2 || !(bev_candidates_[1].score > 0.0)
+                                 ? std::numeric_limits<double>::infinity()
+                                 : best.score / bev_candidates_[1].score;
+  if (!(inout->global_peak_ratio >= params.global_search.min_peak_ratio)) return Status::Ok();
+  RegistrationResult attempt = *inout;
+  attempt.global_candidates = 1;
+  attempt.from_global_search = true;
+  attempt.T_target_source_coarse = best.T_target_source;
+  RunFine(params, best.T_target_source, observer, &attempt);
+  if (attempt.success()) {
+    *inout = attempt;
+  } else {
+    inout->global_candidates = 1;
+  }
+  return Status::Ok();
 }
 
 Status SubmapRegistration::RunHypothesis(const SubmapRegistrationParams& params, RegistrationStageObserver* observer,
@@ -261,11 +301,19 @@ Status SubmapRegistration::RunHypothesis(const SubmapRegistrationParams& params,
     return Status::Ok();
   }
 
+  RunFine(params, coarse.T_target_source, observer, out);
+  return Status::Ok();
+}
+
+void SubmapRegistration::RunFine(const SubmapRegistrationParams& params, const Eigen::Isometry3d& T_coarse,
+                                 RegistrationStageObserver* observer, RegistrationResult* out) {
+  const RegistrationGates& gates = params.gates;
+  RegistrationResult& r = *out;
   // 6. GICP from the coarse estimate (spec §2.2, §2.4), then the acceptance gates (§1.3, §3).
   GicpResult fine;
   {
     StageScope scope(observer, RegistrationStage::kFine);
-    fine = gicp_.Align(source_, target_, coarse.T_target_source, params.fine);
+    fine = gicp_.Align(source_, target_, T_coarse, params.fine);
   }
   r.T_target_source = fine.T_target_source;
   r.gicp_iterations = fine.iterations;
@@ -279,9 +327,9 @@ Status SubmapRegistration::RunHypothesis(const SubmapRegistrationParams& params,
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> info(fine.H.bottomRightCorner<3, 3>(), Eigen::EigenvaluesOnly);
   const double info_max = info.eigenvalues()(2);
   r.information_ratio = info_max > 0.0 ? std::max(0.0, info.eigenvalues()(0)) / info_max : 0.0;
-  const Eigen::Isometry3d correction = fine.T_target_source * coarse.T_target_source.inverse();
+  const Eigen::Isometry3d correction = fine.T_target_source * T_coarse.inverse();
   r.fine_correction_rad = RotationAngleRad(correction.linear());
-  r.fine_correction_m = (fine.T_target_source.translation() - coarse.T_target_source.translation()).norm();
+  r.fine_correction_m = (fine.T_target_source.translation() - T_coarse.translation()).norm();
 
   if (!fine.converged || !fine.T_target_source.matrix().allFinite()) {
     r.verdict = RegistrationVerdict::kNotConverged;
@@ -295,7 +343,6 @@ Status SubmapRegistration::RunHypothesis(const SubmapRegistrationParams& params,
   } else {
     r.verdict = RegistrationVerdict::kSuccess;
   }
-  return Status::Ok();
 }
 
 Result<RegistrationResult> RegisterSubmaps(const SubmapView& source, const SubmapView& target,

@@ -18,6 +18,7 @@
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 #include "core/geometry/se3.hpp"
+#include "core/registration/bev_search.hpp"
 #include "core/registration/correspondence_pruning.hpp"
 #include "core/registration/feature_matching.hpp"
 #include "core/registration/gicp.hpp"
@@ -60,6 +61,9 @@ struct SubmapRegistrationParams {
   /// Coarse hypotheses tried: when the first one reaches the fine stage but fails verification, its pruned
   /// correspondences are removed and pruning + solver + GICP run again on the rest (1 = reference behaviour).
   int max_hypotheses = 2;
+  /// Fallback coarse stage for gravity-aligned submaps (bev_search.hpp): when every feature hypothesis fails,
+  /// the best bird's-eye-view (yaw, shift) candidates go through the same fine stage and gates.
+  BevSearchParams global_search;
   SubmapFeatureParams features;
   FeatureMatchingParams matching;
   PruningParams pruning;
@@ -70,7 +74,7 @@ struct SubmapRegistrationParams {
 
 /// Defaults of REGISTRATION.md §1.1 and §2.4 scaled by the voxel size v (>= 5e-3 m): normal radius 3v, FPFH
 /// radius 5v, graph bound min(v, 1 m), solver bound min(0.75 v, 1 m), GICP gate 5v, overlap inlier distance v,
-/// fine correction 3v.
+/// fine correction 3v; global search cell v, vertical extent 0.5v, candidate separation 4v.
 SubmapRegistrationParams MakeSubmapRegistrationParams(double voxel_size_m);
 
 /// InvalidArgument naming the first field out of range (every component validated, plus the spec's
@@ -125,7 +129,14 @@ struct RegistrationResult {
   double overlap_ratio = 0.0;             ///< num_fine_inliers / num_source_points
   double directional_overlap = 0.0;       ///< GicpResult::directional_overlap
   double fitness_rmse_m = 0.0;            ///< RMS distance of the fine inliers [m]
-  int hypotheses = 0;                     ///< coarse hypotheses tried (see SubmapRegistrationParams)
+  int hypotheses = 0;                     ///< feature hypotheses tried (see SubmapRegistrationParams)
+  int global_candidates = 0;              ///< bird's-eye-view candidates verified by GICP and the gates
+  /// Best global-search score / best distinct runner-up (0: the search did not run or found nothing; a single
+  /// candidate counts as infinitely distinct). Below BevSearchParams::min_peak_ratio nothing is verified.
+  double global_peak_ratio = 0.0;
+  /// The success came from a global search candidate (the feature-stage counts above then describe the failed
+  /// feature attempt). A failure always reports the feature attempt's verdict and estimate.
+  bool from_global_search = false;
   int gnc_iterations = 0;
   int gicp_iterations = 0;
   bool gicp_converged = false;
@@ -137,14 +148,15 @@ struct RegistrationResult {
 
 /// Pipeline stages, reported to a RegistrationStageObserver (the benchmark times them; core has no clock).
 enum class RegistrationStage : std::uint8_t {
-  kNormals,   ///< k-d trees, neighbour lists, normals, covariances (both submaps)
+  kNormals,   ///< neighbour lists, normals, covariances (both submaps)
   kFeatures,  ///< keypoints and descriptors (both submaps)
   kMatching,
   kPruning,
   kSolver,    ///< GNC-TLS rotation + translation
-  kFine,      ///< GICP and the final evaluation
+  kFine,      ///< the target's k-d tree (first run only), GICP and the final evaluation
+  kGlobalSearch,  ///< the bird's-eye-view fallback search (its candidates' GICP runs are timed as kFine)
 };
-inline constexpr int kNumRegistrationStages = 6;
+inline constexpr int kNumRegistrationStages = 7;
 const char* RegistrationStageName(RegistrationStage stage) noexcept;
 
 /// Optional hook called around every stage that runs.
@@ -181,11 +193,19 @@ class SubmapRegistration {
   // Stages 4-6 (pruning, robust solver, GICP and gates) for one hypothesis; fills *out.
   Status RunHypothesis(const SubmapRegistrationParams& params, RegistrationStageObserver* observer,
                        RegistrationResult* out);
+  // Stage 6 (GICP from T_coarse and the gates); fills the fine-stage fields and the verdict of *out.
+  void RunFine(const SubmapRegistrationParams& params, const Eigen::Isometry3d& T_coarse,
+               RegistrationStageObserver* observer, RegistrationResult* out);
+  // The fallback: global search candidates through RunFine; returns the first success or the last failure.
+  Status RunGlobalSearch(const SubmapView& source, const SubmapView& target, const SubmapRegistrationParams& params,
+                         RegistrationStageObserver* observer, RegistrationResult* inout);
 
   SubmapFeatures source_;
   SubmapFeatures target_;
   FeatureMatcher matcher_;
   Gicp gicp_;
+  BevSearch bev_;
+  std::vector<BevCandidate> bev_candidates_;
   std::vector<Correspondence> correspondences_;
   std::vector<std::uint32_t> pruned_;
   std::vector<std::uint8_t> excluded_;

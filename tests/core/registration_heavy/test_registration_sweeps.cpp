@@ -207,8 +207,11 @@ TEST_CASE("Heavy: KITTI 07 submap pairs with 3 source frames - every success wit
     }
   }
   MESSAGE("KITTI 07: " << successes << " successes of " << runs);
-  // Pairs 0-1, 1-2, 2-3 and 1-3 (>= 59 % overlap) succeed in every frame; 0-2 / 3-4 sometimes; 2-4 (37 %) not.
-  CHECK(successes >= 12);
+  // Pairs 0-1, 1-2, 2-3, 1-3 and 0-2 succeed in every frame through the features; 3-4 turned by 90 deg only
+  // through the global search (its features give 7 consistent matches), so 18 of 21 need it. 2-4 never: its
+  // true alignment scores below the overlap gates (overlap 0.38 x directional 0.11 even when GICP starts at the
+  // ground truth), i.e. below wrong street alignments.
+  CHECK(successes >= 18);
 }
 
 TEST_CASE("Heavy: KITTI 00 scans and Newer College plane clouds register close to their references") {
