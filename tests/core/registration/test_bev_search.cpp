@@ -171,29 +171,20 @@ TEST_CASE("Global search: ground-only or empty input gives no candidate and no r
 TEST_CASE("Global search parameters are validated with the field's name") {
   BevSearch bev;
   std::vector<BevCandidate> c;
-  auto check = [&](BevSearchParams p, const char* field) {
+  // Each case breaks one field of the defaults; the error must name it.
+  auto check = [&](const char* field, void (*breaks)(BevSearchParams*)) {
+    BevSearchParams p;
+    breaks(&p);
     const Status s = bev.Search({}, {}, p, &c);
     CHECK_FALSE(s.ok());
     CHECK(s.message().find(field) != std::string::npos);
   };
-  BevSearchParams p;
-  p.grid_cells = 100;
-  check(p, "grid_cells");
-  p = BevSearchParams();
-  p.yaw_steps = 7;
-  check(p, "yaw_steps");
-  p = BevSearchParams();
-  p.cell_size_m = 0.0;
-  check(p, "cell_size_m");
-  p = BevSearchParams();
-  p.free_cell_weight = 2.0;
-  check(p, "free_cell_weight");
-  p = BevSearchParams();
-  p.max_candidates = 0;
-  check(p, "max_candidates");
-  p = BevSearchParams();
-  p.min_peak_ratio = 0.5;
-  check(p, "min_peak_ratio");
+  check("grid_cells", [](BevSearchParams* p) { p->grid_cells = 100; });
+  check("yaw_steps", [](BevSearchParams* p) { p->yaw_steps = 7; });
+  check("cell_size_m", [](BevSearchParams* p) { p->cell_size_m = 0.0; });
+  check("free_cell_weight", [](BevSearchParams* p) { p->free_cell_weight = 2.0; });
+  check("max_candidates", [](BevSearchParams* p) { p->max_candidates = 0; });
+  check("min_peak_ratio", [](BevSearchParams* p) { p->min_peak_ratio = 0.5; });
   SubmapRegistrationParams rp = MakeSubmapRegistrationParams(1.0);
   rp.global_search.grid_cells = 3;
   CHECK_FALSE(ValidateSubmapRegistrationParams(rp).ok());
