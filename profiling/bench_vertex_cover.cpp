@@ -70,28 +70,15 @@ ExchangeGraph Make(std::vector<int> counts, std::vector<ExchangeEdge> edges) {
   return std::move(g).value();
 }
 
-// Checkerboard grid graph: black cells = robot 0, white cells = robot 1, 4-neighbour edges.
+// Checkerboard grid graph (core/solvers): black cells = robot 0, white cells = robot 1, 4-neighbour edges.
 ExchangeGraph Grid(int rows, int cols) {
-  std::vector<int> id(static_cast<std::size_t>(rows * cols));
-  int nb = 0;
-  int nw = 0;
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c) id[static_cast<std::size_t>(r * cols + c)] = (r + c) % 2 == 0 ? nb++ : nw++;
-  std::vector<ExchangeEdge> e;
-  for (int r = 0; r < rows; ++r) {
-    for (int c = 0; c < cols; ++c) {
-      if ((r + c) % 2 != 0) continue;
-      const int a = id[static_cast<std::size_t>(r * cols + c)];
-      const int dr[4] = {-1, 1, 0, 0};
-      const int dc[4] = {0, 0, -1, 1};
-      for (int k = 0; k < 4; ++k) {
-        const int r2 = r + dr[k];
-        const int c2 = c + dc[k];
-        if (r2 >= 0 && r2 < rows && c2 >= 0 && c2 < cols) e.push_back({a, nb + id[static_cast<std::size_t>(r2 * cols + c2)]});
-      }
-    }
+  auto grid = MakeCheckerboardGridGraph(rows, cols);
+  auto g = grid.ok() ? ExchangeGraph::FromBipartite(*grid) : Result<ExchangeGraph>(grid.status());
+  if (!g.ok()) {
+    std::fprintf(stderr, "bad grid graph: %s\n", g.status().ToString().c_str());
+    std::exit(1);
   }
-  return Make({nb, nw}, e);
+  return std::move(g).value();
 }
 
 // `blocks` complete-ish bipartite blocks K_{k,l} (each edge kept with probability keep), chained by one edge.

@@ -198,4 +198,29 @@ Result<VertexCover> KonigVertexCover(const BipartiteGraph& graph, const Matching
   return cover;
 }
 
+Result<BipartiteGraph> MakeCheckerboardGridGraph(int rows, int cols) {
+  if (rows < 1 || cols < 1 || static_cast<long long>(rows) * cols > (1LL << 24)) {
+    return InvalidArgument("checkerboard grid graph: need rows, cols >= 1 and rows * cols <= 2^24, got " +
+                           std::to_string(rows) + " x " + std::to_string(cols));
+  }
+  const auto cell = [cols](int r, int c) { return static_cast<std::size_t>(r) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(c); };
+  std::vector<int> id(static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols));
+  int black = 0, white = 0;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) id[cell(r, c)] = (r + c) % 2 == 0 ? black++ : white++;
+  std::vector<BipartiteEdge> edges;
+  const int dr[4] = {-1, 1, 0, 0};
+  const int dc[4] = {0, 0, -1, 1};
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      if ((r + c) % 2 != 0) continue;
+      for (int k = 0; k < 4; ++k) {
+        const int r2 = r + dr[k], c2 = c + dc[k];
+        if (r2 >= 0 && r2 < rows && c2 >= 0 && c2 < cols) edges.push_back({id[cell(r, c)], id[cell(r2, c2)]});
+      }
+    }
+  }
+  return BipartiteGraph::Create(black, white, std::move(edges));
+}
+
 }  // namespace commerge

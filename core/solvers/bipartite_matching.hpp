@@ -40,6 +40,12 @@ class BipartiteGraph {
   std::vector<std::vector<int>> right_adjacency_;
 };
 
+/// Checkerboard grid graph, a benchmark family of known structure: the cells of a rows x cols grid, black cells
+/// ((r + c) even) on the left and white cells on the right, each side numbered row-major; one edge per pair of
+/// 4-neighbours, listed by black cell in row-major order (up, down, left, right). InvalidArgument unless
+/// rows, cols >= 1 and rows * cols <= 2^24.
+Result<BipartiteGraph> MakeCheckerboardGridGraph(int rows, int cols);
+
 /// A matching: mate_of_left[i] is the right vertex matched to left i (or -1), mate_of_right likewise.
 struct Matching {
   std::vector<int> mate_of_left;

@@ -229,26 +229,9 @@ BipartiteGraph Chain(int n) {  // path l0-r0-l1-r1-...
 }
 
 BipartiteGraph Grid(int rows, int cols) {  // checkerboard colouring: black cells left, white cells right
-  std::vector<int> id(static_cast<std::size_t>(rows * cols));
-  int nl = 0;
-  int nr = 0;
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c) id[static_cast<std::size_t>(r * cols + c)] = (r + c) % 2 == 0 ? nl++ : nr++;
-  std::vector<BipartiteEdge> e;
-  for (int r = 0; r < rows; ++r) {
-    for (int c = 0; c < cols; ++c) {
-      if ((r + c) % 2 != 0) continue;
-      const int a = id[static_cast<std::size_t>(r * cols + c)];
-      const int dr[4] = {-1, 1, 0, 0};
-      const int dc[4] = {0, 0, -1, 1};
-      for (int k = 0; k < 4; ++k) {
-        const int r2 = r + dr[k];
-        const int c2 = c + dc[k];
-        if (r2 >= 0 && r2 < rows && c2 >= 0 && c2 < cols) e.push_back({a, id[static_cast<std::size_t>(r2 * cols + c2)]});
-      }
-    }
-  }
-  return MakeGraph(nl, nr, e);
+  Result<BipartiteGraph> g = MakeCheckerboardGridGraph(rows, cols);
+  REQUIRE(g.ok());
+  return *g;
 }
 
 BipartiteGraph Complete(int n, int m) {

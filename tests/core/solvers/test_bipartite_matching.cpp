@@ -4,6 +4,8 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cstdlib>
+#include <utility>
 #include <random>
 #include <vector>
 
@@ -187,4 +189,39 @@ TEST_CASE("BipartiteGraph and König reject bad input") {
 }
 
 }  // namespace
+TEST_CASE("Checkerboard grid graph: cell counts, exactly the 4-neighbour pairs, perfect matching when cells are even") {
+  for (int rows = 1; rows <= 5; ++rows) {
+    for (int cols = 1; cols <= 6; ++cols) {
+      CAPTURE(rows);
+      CAPTURE(cols);
+      auto g = MakeCheckerboardGridGraph(rows, cols);
+      REQUIRE(g.ok());
+      CHECK(g->left_count() == (rows * cols + 1) / 2);
+      CHECK(g->right_count() == rows * cols / 2);
+      CHECK(g->edges().size() == static_cast<std::size_t>(rows * (cols - 1) + cols * (rows - 1)));
+      // Independent check: map every edge back to its cells and require grid adjacency, each pair once.
+      std::vector<std::pair<int, int>> black, white;  // (row, col) by side index
+      for (int r = 0; r < rows; ++r)
+        for (int c = 0; c < cols; ++c) ((r + c) % 2 == 0 ? black : white).emplace_back(r, c);
+      std::vector<std::pair<int, int>> seen;
+      for (const BipartiteEdge& e : g->edges()) {
+        const auto [r1, c1] = black[static_cast<std::size_t>(e.left)];
+        const auto [r2, c2] = white[static_cast<std::size_t>(e.right)];
+        CHECK(std::abs(r1 - r2) + std::abs(c1 - c2) == 1);
+        seen.emplace_back(e.left, e.right);
+      }
+      std::sort(seen.begin(), seen.end());
+      CHECK(std::adjacent_find(seen.begin(), seen.end()) == seen.end());
+      // A grid with an even number of cells and a side of even length has a perfect matching (dominoes).
+      if (rows % 2 == 0 || cols % 2 == 0) {
+        auto m = HopcroftKarp(*g);
+        REQUIRE(m.ok());
+        CHECK(m->size == rows * cols / 2);
+      }
+    }
+  }
+  CHECK_FALSE(MakeCheckerboardGridGraph(0, 3).ok());
+  CHECK_FALSE(MakeCheckerboardGridGraph(5000, 5000).ok());
+}
+
 }  // namespace commerge
