@@ -37,6 +37,8 @@ using commerge::BalancedCoverParams;
 using commerge::BalancedCoverStatus;
 using commerge::ExchangeEdge;
 using commerge::ExchangeGraph;
+using commerge::MakeCheckerboardGridGraph;
+using commerge::Result;
 
 struct Options {
   std::vector<std::string> families;
