@@ -115,6 +115,7 @@ Status MergeServer::EnsureKeyframe(int robot, std::uint32_t keyframe) {
   db.descriptors.resize(n * kKeyframeDescriptorDim, 0.0f);
   db.valid.resize(n, 0);
   db.pose_known.resize(n, 0);
+  db.no_descriptor.resize(n, 0);
   db.T_map_sensor.resize(n, Eigen::Isometry3d::Identity());
   db.stored_points.resize(n, 0);
   return Status::Ok();
@@ -169,11 +170,13 @@ Status MergeServer::OnPoseUpdate(const PoseUpdate& update) {
                   InvalidArgument("pose update: robot_id " + std::to_string(update.robot_id) + " is outside 0.." +
                                   std::to_string(max_robots() - 1)));
   }
-  if (update.keyframes.size() != update.T_map_sensor.size() || update.keyframes.size() > kMaxPosesPerUpdate) {
+  if (update.keyframes.size() != update.T_map_sensor.size() || update.keyframes.size() > kMaxPosesPerUpdate ||
+      (!update.no_descriptor.empty() && update.no_descriptor.size() != update.keyframes.size())) {
     return Reject(&stats_.rejected_pose_updates,
                   InvalidArgument("pose update of " + RobotText(update.robot_id) + ": " +
                                   std::to_string(update.keyframes.size()) + " keyframes but " +
-                                  std::to_string(update.T_map_sensor.size()) + " poses (at most " +
+                                  std::to_string(update.T_map_sensor.size()) + " poses and " +
+                                  std::to_string(update.no_descriptor.size()) + " descriptor flags (at most " +
                                   std::to_string(kMaxPosesPerUpdate) + ")"));
   }
   // Validate everything first: a refused update changes nothing.
@@ -194,6 +197,7 @@ Status MergeServer::OnPoseUpdate(const PoseUpdate& update) {
     RobotKeyframeDb& db = robots_[static_cast<std::size_t>(update.robot_id)];
     db.T_map_sensor[k] = update.T_map_sensor[i];
     db.pose_known[k] = 1;
+    if (!update.no_descriptor.empty() && update.no_descriptor[i]) db.no_descriptor[k] = 1;
   }
   ++stats_.pose_updates;
   return Status::Ok();
@@ -201,6 +205,11 @@ Status MergeServer::OnPoseUpdate(const PoseUpdate& update) {
 
 bool MergeServer::has_scan(int robot, std::uint32_t keyframe) const {
   return scans_.count(Key(robot, keyframe)) != 0;
+}
+
+const std::vector<std::uint8_t>* MergeServer::scan_bytes(int robot, std::uint32_t keyframe) const {
+  auto it = scans_.find(Key(robot, keyframe));
+  return it == scans_.end() ? nullptr : &it->second;
 }
 
 Status MergeServer::OnScanChunk(const ScanChunk& chunk) {
@@ -286,6 +295,32 @@ void MergeServer::ClearScans() {
   partial_.clear();
   scans_.clear();
   held_bytes_ = 0;
+}
+
+void MergeServer::ResetRobot(int robot) {
+  if (robot < 0 || robot >= max_robots()) return;
+  robots_[static_cast<std::size_t>(robot)] = RobotKeyframeDb();
+  const std::uint64_t begin = Key(robot, 0), end = Key(robot + 1, 0);
+  for (auto it = partial_.lower_bound(begin); it != partial_.end() && it->first < end;) {
+    held_bytes_ -= it->second.total_bytes;
+    it = partial_.erase(it);
+  }
+  for (auto it = scans_.lower_bound(begin); it != scans_.end() && it->first < end;) {
+    held_bytes_ -= it->second.size();
+    it = scans_.erase(it);
+  }
+  pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
+                              [robot](const PairState& p) { return p.alpha == robot || p.beta == robot; }),
+               pairs_.end());
+}
+
+bool MergeServer::PartialScan(int robot, std::uint32_t keyframe, std::uint16_t* num_chunks,
+                              const std::vector<std::uint8_t>** have) const {
+  auto it = partial_.find(Key(robot, keyframe));
+  if (it == partial_.end()) return false;
+  *num_chunks = it->second.num_chunks;
+  *have = &it->second.have;
+  return true;
 }
 
 const MergeServer::PairState* MergeServer::FindPair(int alpha, int beta) const {

@@ -63,9 +63,13 @@ struct RobotKeyframeDb {
   std::vector<float> descriptors;          ///< keyframe x kKeyframeDescriptorDim (zeros where invalid)
   std::vector<std::uint8_t> valid;         ///< descriptor received
   std::vector<std::uint8_t> pose_known;    ///< pose received (record or pose update)
+  std::vector<std::uint8_t> no_descriptor; ///< the robot said the keyframe has no valid descriptor (pose only)
   std::vector<Eigen::Isometry3d> T_map_sensor;
   std::vector<std::uint32_t> stored_points;
   std::size_t size() const noexcept { return valid.size(); }
+  /// Everything the robot will ever send of keyframe k has arrived: its record, or its pose when it has no
+  /// valid descriptor.
+  bool delivered(std::size_t k) const { return k < size() && (valid[k] || (no_descriptor[k] && pose_known[k])); }
 };
 
 /// Scans one pair asks for in one mode.
@@ -128,6 +132,13 @@ class MergeServer {
 
   /// Drops every received and partial scan (between modes of a comparison run).
   void ClearScans();
+  /// Forgets one robot: its keyframes, and its received and partial scans (a new session of that robot).
+  void ResetRobot(int robot);
+
+  /// Chunks of keyframe k's scan received so far: false when no chunk arrived (or the scan is complete; see
+  /// has_scan); otherwise `*num_chunks` and `*have` (one flag per chunk).
+  bool PartialScan(int robot, std::uint32_t keyframe, std::uint16_t* num_chunks,
+                   const std::vector<std::uint8_t>** have) const;
 
   /// Builds the two submaps of `pair` from the received scans and registers beta's onto alpha's.
   Result<PairMergeResult> MergePair(const PairSelection& pair, RegistrationStageObserver* observer = nullptr);
@@ -148,6 +159,8 @@ class MergeServer {
   std::size_t scans_received() const noexcept { return scans_.size(); }
   std::uint64_t scan_bytes_held() const noexcept { return held_bytes_; }
   bool has_scan(int robot, std::uint32_t keyframe) const;
+  /// The complete, verified encoded scan of keyframe k (nullptr when not held).
+  const std::vector<std::uint8_t>* scan_bytes(int robot, std::uint32_t keyframe) const;
 
  private:
   struct Partial {

@@ -1,11 +1,18 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: the robot <-> server messages as plain structs (the agents' input and output). platform/lcm encodes
-// them as the LCM types of lcmtypes/ (keyframe_batch_t, pose_update_t, exchange_policy_t, scan_chunk_t), field
-// for field; the limits below are the types' MAX_... constants, enforced on both sides.
+// them as the LCM types of lcmtypes/ (keyframe_batch_t, pose_update_t, exchange_policy_t, scan_chunk_t,
+// transfer_status_t, merge_result_t, robot_status_t, server_status_t), field for field; the limits below are the
+// types' MAX_... constants, enforced on both sides.
+//
+// Sessions: a robot process picks a session id when it starts (its start time in microseconds), and so does the
+// server. A keyframe database belongs to one robot session; a newer session of the same robot id (the robot
+// restarted and maps from scratch) replaces it, an older one is stale and refused. A robot that sees a new server
+// session learns that the server lost everything and announces its keyframes again.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -21,6 +28,16 @@ inline constexpr std::size_t kMaxKeyframesPerRequest = 65536;
 inline constexpr std::size_t kMaxScanChunkPayloadBytes = 1200;
 /// A scan is cut into at most this many chunks (int16 on the wire): 39 MB, far above any 1 m scan.
 inline constexpr std::size_t kMaxChunksPerScan = 32767;
+/// transfer_status_t limits: keyframe gaps, recently received pose-update sequences, missing chunk ranges.
+inline constexpr std::size_t kMaxStatusGaps = 256;
+inline constexpr std::size_t kMaxStatusPoseAcks = 64;
+inline constexpr std::size_t kMaxStatusMissingRanges = 1024;
+/// merge_result_t limits: robots and robot pairs (64 robots: 64 x 63 / 2 pairs).
+inline constexpr std::size_t kMaxMergeRobots = kMaxRobotId + 1;
+inline constexpr std::size_t kMaxMergePairs = kMaxMergeRobots * (kMaxMergeRobots - 1) / 2;
+/// robot_status_t / server_status_t: budget modules, and the length of every string field.
+inline constexpr std::size_t kMaxStatusModules = 32;
+inline constexpr std::size_t kMaxStatusTextBytes = 256;
 
 /// Bytes [offset, offset + size) of a scan of `total_bytes` that chunk `index` of `num_chunks` carries: every
 /// chunk holds ceil(total / num_chunks) bytes except the last, which holds the rest. Sender and receiver both
@@ -45,6 +62,7 @@ inline std::uint64_t ScanChunkCount(std::uint64_t total_bytes, std::uint64_t max
 struct KeyframeBatch {
   std::int64_t utime_us = 0;
   int robot_id = 0;
+  std::int64_t session = 0;  ///< the robot process's session id (> 0)
   std::int32_t sequence = 0;
   /// num_records x kKeyframeRecordBytes bytes of descriptor_codec records.
   std::vector<std::uint8_t> records;
@@ -57,15 +75,20 @@ struct KeyframeBatch {
 struct PoseUpdate {
   std::int64_t utime_us = 0;
   int robot_id = 0;
+  std::int64_t session = 0;  ///< the robot process's session id (> 0)
   std::int32_t sequence = 0;
   std::vector<std::uint32_t> keyframes;
   std::vector<Eigen::Isometry3d> T_map_sensor;  ///< one per keyframe, the robot's own map frame
+  /// One per keyframe: 1 = the keyframe has no valid descriptor, so this pose is all the server gets of it (it
+  /// counts as delivered); 0 = a moved pose of a keyframe whose record the server should have. Empty = all 0.
+  std::vector<std::uint8_t> no_descriptor;
 };
 
 /// The exchange policy for one robot (server -> robot).
 struct ScanRequest {
   std::int64_t utime_us = 0;
   int robot_id = 0;
+  std::int64_t server_session = 0;  ///< the server process's session id
   std::int32_t request_id = 0;
   std::vector<std::uint32_t> keyframes;  ///< ascending, unique
 };
@@ -80,6 +103,106 @@ struct ScanChunk {
   std::uint16_t chunk_index = 0;
   std::uint16_t num_chunks = 1;
   std::vector<std::uint8_t> payload;  ///< at most kMaxScanChunkPayloadBytes
+};
+
+/// Keyframes [begin, end) the server lacks.
+struct KeyframeGap {
+  std::uint32_t begin = 0, end = 0;
+};
+
+/// Chunks [first_chunk, first_chunk + count) of one requested scan the server lacks; count 0 = nothing of this
+/// scan has arrived (the server does not know its chunk count yet): the whole scan.
+struct MissingChunkRange {
+  std::uint32_t keyframe = 0;
+  std::uint16_t first_chunk = 0;
+  std::uint16_t count = 0;
+};
+
+/// What the server holds of one robot (server -> robot, periodically): the acknowledgement that drives the
+/// robot's re-announcements and selective retransmission.
+struct TransferStatus {
+  std::int64_t utime_us = 0;
+  int robot_id = 0;
+  std::int64_t server_session = 0;
+  std::int64_t robot_session = 0;         ///< the session whose keyframes the server holds (0: none)
+  std::uint32_t keyframes_contiguous = 0; ///< the server holds every keyframe below this
+  std::uint32_t keyframes_seen = 0;       ///< 1 + the highest keyframe it holds (0: none)
+  /// Keyframes in [keyframes_contiguous, keyframes_seen) it lacks: ascending, disjoint, at most kMaxStatusGaps
+  /// (the lowest ones; gaps_truncated says there are more).
+  std::vector<KeyframeGap> gaps;
+  bool gaps_truncated = false;
+  /// The most recent pose-update sequences received from robot_session (at most kMaxStatusPoseAcks).
+  std::vector<std::int32_t> pose_sequences;
+  std::int32_t request_id = -1;           ///< the robot's active scan request (-1: none)
+  bool request_complete = false;          ///< every scan of it arrived (or the robot reported it missing)
+  /// Of the active request, ascending by keyframe, at most kMaxStatusMissingRanges (the lowest ones).
+  std::vector<MissingChunkRange> missing;
+};
+
+/// One robot pair of a merge result.
+struct MergePairOutcome {
+  int alpha = 0, beta = 0;
+  bool success = false;
+  std::string verdict;                    ///< "success" or the failed gate / the reason it was not tried
+  Eigen::Isometry3d T_alpha_beta = Eigen::Isometry3d::Identity();  ///< p_alpha = T p_beta (map frames)
+  std::uint32_t loops_stage_a = 0, loops_stage_c = 0;  ///< |L_seq|, |L_K|
+  std::uint32_t alpha_scans = 0, beta_scans = 0;       ///< received scans registered
+  float overlap = 0.0f;                   ///< registration overlap ratio
+  std::uint32_t inliers = 0;              ///< fine-stage inliers
+  bool consistent = false;                ///< kept by the frame solver
+};
+
+/// The server's answer after a merge round (server -> everyone).
+struct MergeResultMessage {
+  std::int64_t utime_us = 0;
+  std::int64_t server_session = 0;
+  std::int32_t round = 0;                 ///< 1, 2, ... per server session
+  std::vector<int> robot_ids;             ///< robots with keyframes at the server, ascending
+  std::vector<std::uint8_t> in_world;     ///< per robot: 1 = connected to the world frame (robot 0's map)
+  std::vector<Eigen::Isometry3d> T_world_map;  ///< per robot (identity when not in_world)
+  std::vector<MergePairOutcome> pairs;
+};
+
+/// Memory of one budget module (robot_status_t / server_status_t).
+struct ModuleMemory {
+  std::string name;
+  std::int64_t budget_bytes = 0, used_bytes = 0, high_water_bytes = 0;
+};
+
+/// Health of one robot process (robot -> everyone, about once per second; for lcm-spy).
+struct RobotStatus {
+  std::int64_t utime_us = 0;
+  int robot_id = 0;
+  std::int64_t session = 0;
+  std::int64_t peak_rss_bytes = 0, budget_total_bytes = 0, budget_limit_bytes = 0;
+  std::vector<ModuleMemory> modules;      ///< at most kMaxStatusModules
+  std::uint32_t keyframes = 0;            ///< keyframes made so far
+  std::uint32_t keyframes_acked = 0;      ///< of them, held by the server (its last status)
+  std::uint32_t queued_keyframes = 0;     ///< waiting to be (re-)announced
+  std::uint32_t queued_poses = 0;         ///< poses waiting to be sent
+  std::uint32_t queued_chunks = 0;        ///< scan chunks waiting to be sent
+  std::int64_t bytes_sent = 0;            ///< every message this robot published, encoded
+  std::int64_t bytes_resent = 0;          ///< of them, re-announcements and retransmissions
+  std::int32_t request_id = -1;           ///< the scan request it is answering (-1: none)
+  std::string state;                      ///< e.g. "mapping", "sending scans", "done"
+};
+
+/// Health of the server process (server -> everyone, about once per second; for lcm-spy).
+struct ServerStatus {
+  std::int64_t utime_us = 0;
+  std::int64_t session = 0;
+  std::int64_t peak_rss_bytes = 0, budget_total_bytes = 0, budget_limit_bytes = 0;
+  std::vector<ModuleMemory> modules;      ///< at most kMaxStatusModules
+  std::int32_t round = 0;                 ///< merge rounds finished
+  std::string state;                      ///< e.g. "collecting", "waiting for scans", "merged 3/3"
+  std::int64_t bytes_received = 0;        ///< every accepted message, encoded
+  std::int64_t messages_rejected = 0;     ///< malformed, foreign, stale or from unknown robots
+  std::string last_rejection;             ///< the latest reason, in words (at most kMaxStatusTextBytes)
+  /// Per robot with a session at the server (at most kMaxMergeRobots).
+  std::vector<int> robot_ids;
+  std::vector<std::uint32_t> keyframes;   ///< keyframes held
+  std::vector<std::uint32_t> scans;       ///< complete scans held
+  std::vector<std::uint32_t> chunks_missing;  ///< of the active request
 };
 
 }  // namespace commerge

@@ -45,6 +45,9 @@ RobotAgent::RobotAgent(int robot_id, const RobotAgentParams& params, const Robot
                                      std::to_string(kKeyframeDescriptorDim) + " (R-SOLiD)");
   }
   pose_dirty_.assign(capacity.max_keyframes, 0);
+  resend_.assign(capacity.max_keyframes, 0);
+  resend_from_ = resend_.size();
+  last_sent_us_.assign(capacity.max_keyframes, -1);
   sent_pose_.assign(capacity.max_keyframes, std::array<float, 7>{});
   dirty_scan_from_ = pose_dirty_.size();
   encoded_.reserve(EncodedScanBytes(capacity.max_points_per_stored_scan));
@@ -68,15 +71,42 @@ bool RobotAgent::MovedSinceSent(std::size_t k, double min_translation_m, double 
   return angle_rad * 180.0 / 3.14159265358979323846 > min_rotation_deg;
 }
 
+void RobotAgent::MarkPoseDirty(std::size_t k) {
+  if (k >= pose_dirty_.size() || pose_dirty_[k]) return;
+  pose_dirty_[k] = 1;
+  ++dirty_count_;
+  dirty_scan_from_ = std::min(dirty_scan_from_, k);
+}
+
+void RobotAgent::RequeueKeyframe(std::size_t k) {
+  if (k >= sent_upto_ || k >= resend_.size()) return;
+  if (!mapper_.descriptor_valid(k)) {
+    MarkPoseDirty(k);
+    return;
+  }
+  if (resend_[k]) return;
+  resend_[k] = 1;
+  ++resend_count_;
+  resend_from_ = std::min(resend_from_, k);
+}
+
+void RobotAgent::RequeueAllSent() {
+  for (std::size_t k = 0; k < sent_upto_; ++k) RequeueKeyframe(k);
+}
+
+void RobotAgent::RequeuePoses(Span<const std::uint32_t> keyframes) {
+  for (std::uint32_t k : keyframes) {
+    if (k < sent_upto_) MarkPoseDirty(k);
+  }
+}
+
 void RobotAgent::QueuePoses(Span<const std::uint32_t> keyframes) {
   for (std::uint32_t k : keyframes) {
     // Keyframes not yet sent go out with their current pose anyway.
     if (k >= sent_upto_ || k >= pose_dirty_.size() || pose_dirty_[k]) continue;
     // Keyframes without a valid descriptor are queued when passed; the others only when they moved enough.
     if (!MovedSinceSent(k, params_.pose_update_min_translation_m, params_.pose_update_min_rotation_deg)) continue;
-    pose_dirty_[k] = 1;
-    ++dirty_count_;
-    dirty_scan_from_ = std::min<std::size_t>(dirty_scan_from_, k);
+    MarkPoseDirty(k);
   }
 }
 
@@ -96,9 +126,7 @@ Status RobotAgent::Finish() {
   for (std::size_t k = 0; k < sent_upto_; ++k) {
     if (!pose_dirty_[k] &&
         MovedSinceSent(k, params_.pose_update_min_translation_m, params_.pose_update_min_rotation_deg)) {
-      pose_dirty_[k] = 1;
-      ++dirty_count_;
-      dirty_scan_from_ = std::min(dirty_scan_from_, k);
+      MarkPoseDirty(k);
     }
   }
   return Status::Ok();
@@ -108,21 +136,44 @@ Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch*
   if (!params_status_.ok()) return params_status_;
   batch->utime_us = utime_us;
   batch->robot_id = robot_id_;
+  batch->session = session_;
   batch->records.clear();
   batch->stored_points.clear();
-  const std::size_t n = mapper_.num_keyframes();
   std::size_t records = 0;
+  // Re-announcements first, in a batch of their own (the caller counts its bytes as resent).
+  if (resend_count_ > 0) {
+    for (std::size_t k = resend_from_; k < sent_upto_ && records < params_.max_records_per_batch; ++k) {
+      if (!resend_[k]) continue;
+      resend_[k] = 0;
+      --resend_count_;
+      resend_from_ = k + 1;
+      if (Status st = AppendRecord(k, utime_us, batch); !st.ok()) return st;
+      ++records;
+    }
+    if (resend_count_ == 0) resend_from_ = resend_.size();
+    if (records > 0) {
+      batch->sequence = batch_sequence_++;
+      return true;
+    }
+  }
+  const std::size_t n = mapper_.num_keyframes();
   while (sent_upto_ < n && records < params_.max_records_per_batch) {
     const std::size_t k = sent_upto_++;
     if (!mapper_.descriptor_valid(k)) {
       // Its pose still matters (submaps, trajectories): it travels in the next pose update.
-      if (k < pose_dirty_.size() && !pose_dirty_[k]) {
-        pose_dirty_[k] = 1;
-        ++dirty_count_;
-        dirty_scan_from_ = std::min(dirty_scan_from_, k);
-      }
+      MarkPoseDirty(k);
       continue;
     }
+    if (Status st = AppendRecord(k, utime_us, batch); !st.ok()) return st;
+    ++records;
+  }
+  if (records == 0) return false;
+  batch->sequence = batch_sequence_++;
+  return true;
+}
+
+Status RobotAgent::AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBatch* batch) {
+  {
     KeyframeRecord record;
     record.keyframe_index = static_cast<std::uint32_t>(k);
     record.T_world_sensor = mapper_.pose(k);
@@ -143,18 +194,18 @@ Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch*
     }
     batch->stored_points.push_back(points);
     RememberSent(k);
-    ++records;
+    last_sent_us_[k] = utime_us;
   }
-  if (records == 0) return false;
-  batch->sequence = batch_sequence_++;
-  return true;
+  return Status::Ok();
 }
 
 bool RobotAgent::TakePoseUpdate(std::int64_t utime_us, PoseUpdate* update) {
   update->utime_us = utime_us;
   update->robot_id = robot_id_;
+  update->session = session_;
   update->keyframes.clear();
   update->T_map_sensor.clear();
+  update->no_descriptor.clear();
   if (dirty_count_ == 0) return false;
   for (std::size_t k = dirty_scan_from_; k < sent_upto_ && update->keyframes.size() < params_.max_poses_per_update;
        ++k) {
@@ -163,12 +214,73 @@ bool RobotAgent::TakePoseUpdate(std::int64_t utime_us, PoseUpdate* update) {
     --dirty_count_;
     update->keyframes.push_back(static_cast<std::uint32_t>(k));
     update->T_map_sensor.push_back(mapper_.pose(k));
+    update->no_descriptor.push_back(mapper_.descriptor_valid(k) ? 0 : 1);
     RememberSent(k);
+    last_sent_us_[k] = utime_us;
     dirty_scan_from_ = k + 1;
   }
   if (dirty_count_ == 0) dirty_scan_from_ = pose_dirty_.size();
   update->sequence = pose_sequence_++;
   return true;
+}
+
+bool RobotAgent::TakeRequestPoses(const ScanRequest& request, std::int64_t utime_us, PoseUpdate* poses,
+                                  bool remember_poses) {
+  poses->utime_us = utime_us;
+  poses->robot_id = robot_id_;
+  poses->session = session_;
+  poses->keyframes.clear();
+  poses->T_map_sensor.clear();
+  poses->no_descriptor.clear();
+  for (std::uint32_t k : request.keyframes) {
+    if (k >= sent_upto_ || poses->keyframes.size() >= kMaxPosesPerUpdate) continue;
+    if (!MovedSinceSent(k, params_.request_pose_min_translation_m, params_.request_pose_min_rotation_deg)) continue;
+    poses->keyframes.push_back(k);
+    poses->T_map_sensor.push_back(mapper_.pose(k));
+    poses->no_descriptor.push_back(mapper_.descriptor_valid(k) ? 0 : 1);
+    if (!remember_poses) continue;
+    RememberSent(k);
+    last_sent_us_[k] = utime_us;
+    if (pose_dirty_[k]) {  // sent now: no longer pending for the stream
+      pose_dirty_[k] = 0;
+      --dirty_count_;
+    }
+  }
+  if (poses->keyframes.empty()) return false;
+  poses->sequence = pose_sequence_++;
+  return true;
+}
+
+Status RobotAgent::MakeScanChunk(std::uint32_t k, std::uint16_t chunk_index, std::int32_t request_id,
+                                 std::int64_t utime_us, ScanChunk* chunk, std::uint16_t* num_chunks) {
+  if (!params_status_.ok()) return params_status_;
+  if (encoded_keyframe_ != static_cast<std::int64_t>(k)) {
+    encoded_keyframe_ = -1;
+    if (Status st = store_->CopyEncoded(k, &encoded_); !st.ok()) return st;
+    encoded_keyframe_ = k;
+  }
+  const std::size_t total = encoded_.size();
+  const std::uint64_t count = ScanChunkCount(total, params_.chunk_payload_bytes);
+  if (count > kMaxChunksPerScan) {
+    return ResourceExhausted("keyframe " + std::to_string(k) + ": " + std::to_string(total) +
+                             " encoded bytes need more than " + std::to_string(kMaxChunksPerScan) + " chunks");
+  }
+  *num_chunks = static_cast<std::uint16_t>(count);
+  if (chunk_index >= count) {
+    return InvalidArgument("keyframe " + std::to_string(k) + " has " + std::to_string(count) + " chunks, not chunk " +
+                      std::to_string(chunk_index));
+  }
+  chunk->utime_us = utime_us;
+  chunk->robot_id = robot_id_;
+  chunk->request_id = request_id;
+  chunk->keyframe = k;
+  chunk->total_bytes = static_cast<std::uint32_t>(total);
+  chunk->chunk_index = chunk_index;
+  chunk->num_chunks = static_cast<std::uint16_t>(count);
+  const ChunkRange range = ScanChunkRange(total, count, chunk_index);
+  chunk->payload.assign(encoded_.begin() + static_cast<std::ptrdiff_t>(range.offset),
+                        encoded_.begin() + static_cast<std::ptrdiff_t>(range.offset + range.size));
+  return Status::Ok();
 }
 
 Result<ScanAnswer> RobotAgent::AnswerRequest(const ScanRequest& request, std::int64_t utime_us,
@@ -180,52 +292,22 @@ Result<ScanAnswer> RobotAgent::AnswerRequest(const ScanRequest& request, std::in
                            std::to_string(robot_id_));
   }
   ScanAnswer answer;
-  poses->utime_us = utime_us;
-  poses->robot_id = robot_id_;
-  poses->keyframes.clear();
-  poses->T_map_sensor.clear();
+  TakeRequestPoses(request, utime_us, poses, remember_poses);
   for (std::uint32_t k : request.keyframes) {
-    if (k >= sent_upto_ || poses->keyframes.size() >= kMaxPosesPerUpdate) continue;
-    if (!MovedSinceSent(k, params_.request_pose_min_translation_m, params_.request_pose_min_rotation_deg)) continue;
-    poses->keyframes.push_back(k);
-    poses->T_map_sensor.push_back(mapper_.pose(k));
-    if (!remember_poses) continue;
-    RememberSent(k);
-    if (pose_dirty_[k]) {  // sent now: no longer pending for the stream
-      pose_dirty_[k] = 0;
-      --dirty_count_;
-    }
-  }
-  if (!poses->keyframes.empty()) poses->sequence = pose_sequence_++;
-  const std::size_t payload = params_.chunk_payload_bytes;
-  for (std::uint32_t k : request.keyframes) {
-    if (Status st = store_->CopyEncoded(k, &encoded_); !st.ok()) {
+    ScanChunk chunk;
+    std::uint16_t num_chunks = 0;
+    if (Status st = MakeScanChunk(k, 0, request.request_id, utime_us, &chunk, &num_chunks); !st.ok()) {
       answer.missing.push_back(k);
       continue;
     }
-    const std::size_t total = encoded_.size();
-    const std::size_t num_chunks = static_cast<std::size_t>(ScanChunkCount(total, payload));
-    if (num_chunks > kMaxChunksPerScan) {
-      answer.missing.push_back(k);
-      continue;
+    answer.scan_bytes += chunk.total_bytes;
+    chunks->push_back(std::move(chunk));
+    for (std::uint16_t c = 1; c < num_chunks; ++c) {
+      chunks->emplace_back();
+      (void)MakeScanChunk(k, c, request.request_id, utime_us, &chunks->back(), &num_chunks);
     }
-    for (std::size_t c = 0; c < num_chunks; ++c) {
-      ScanChunk chunk;
-      chunk.utime_us = utime_us;
-      chunk.robot_id = robot_id_;
-      chunk.request_id = request.request_id;
-      chunk.keyframe = k;
-      chunk.total_bytes = static_cast<std::uint32_t>(total);
-      chunk.chunk_index = static_cast<std::uint16_t>(c);
-      chunk.num_chunks = static_cast<std::uint16_t>(num_chunks);
-      const ChunkRange range = ScanChunkRange(total, num_chunks, c);
-      chunk.payload.assign(encoded_.begin() + static_cast<std::ptrdiff_t>(range.offset),
-                           encoded_.begin() + static_cast<std::ptrdiff_t>(range.offset + range.size));
-      chunks->push_back(std::move(chunk));
-      ++answer.chunks;
-    }
+    answer.chunks += num_chunks;
     ++answer.scans_sent;
-    answer.scan_bytes += total;
   }
   return answer;
 }

@@ -68,6 +68,31 @@ class RobotAgent {
   /// Fills `*update` with queued poses (ascending keyframes). False when none is queued.
   bool TakePoseUpdate(std::int64_t utime_us, PoseUpdate* update);
 
+  // ---- Reliable delivery (driven by RobotLink from the server's transfer status) ----
+  /// Session id put into every batch and pose update (default 1; a robot process uses its start time [us]).
+  void set_session(std::int64_t session) noexcept { session_ = session; }
+  std::int64_t session() const noexcept { return session_; }
+  /// Announces keyframe `k` again: its record (current pose) in the next batches, or its pose when it has no valid
+  /// descriptor. Keyframes not yet sent, or already queued, are left alone.
+  void RequeueKeyframe(std::size_t k);
+  /// Announces every keyframe sent so far again (the server lost its state).
+  void RequeueAllSent();
+  /// Sends the current poses of these sent keyframes again (a pose update was lost).
+  void RequeuePoses(Span<const std::uint32_t> keyframes);
+  /// utime_us of the last batch or pose update that carried keyframe k (-1: never).
+  std::int64_t last_sent_us(std::size_t k) const { return k < last_sent_us_.size() ? last_sent_us_[k] : -1; }
+  std::size_t queued_resends() const noexcept { return resend_count_; }
+  std::size_t queued_poses() const noexcept { return dirty_count_; }
+  /// Keyframes waiting for their first batch.
+  std::size_t unsent_keyframes() const noexcept { return mapper_.num_keyframes() - sent_upto_; }
+
+  /// The pose update that precedes a scan request's chunks (see AnswerRequest); false when no requested pose moved.
+  bool TakeRequestPoses(const ScanRequest& request, std::int64_t utime_us, PoseUpdate* poses, bool remember_poses);
+  /// Chunk `chunk_index` of keyframe k's stored scan for `request_id`; `*num_chunks` = the scan's chunk count.
+  /// NotFound when the store no longer has the scan, InvalidArgument when chunk_index >= the count.
+  Status MakeScanChunk(std::uint32_t k, std::uint16_t chunk_index, std::int32_t request_id, std::int64_t utime_us,
+                       ScanChunk* chunk, std::uint16_t* num_chunks);
+
   /// Appends the chunks of every requested scan to `*chunks`, and fills `*poses` with the requested keyframes
   /// whose pose moved since the server got it (request_pose_min_...; send it before the chunks; empty when
   /// none moved). Requests for another robot are an error (InvalidArgument); keyframes the store no longer has
@@ -85,6 +110,8 @@ class RobotAgent {
 
  private:
   void QueuePoses(Span<const std::uint32_t> keyframes);
+  void MarkPoseDirty(std::size_t k);
+  Status AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBatch* batch);
   void RememberSent(std::size_t keyframe);
   bool MovedSinceSent(std::size_t keyframe, double min_translation_m, double min_rotation_deg) const;
 
@@ -95,6 +122,12 @@ class RobotAgent {
   RobotMapper mapper_;
   std::size_t sent_upto_ = 0;
   std::int32_t batch_sequence_ = 0, pose_sequence_ = 0;
+  std::int64_t session_ = 1;
+  std::vector<std::uint8_t> resend_;      ///< per keyframe: its record is queued again
+  std::size_t resend_count_ = 0;
+  std::size_t resend_from_ = 0;           ///< no resend flag below this keyframe
+  std::vector<std::int64_t> last_sent_us_;
+  std::int64_t encoded_keyframe_ = -1;    ///< the keyframe whose scan encoded_ holds (MakeScanChunk)
   std::vector<std::uint8_t> pose_dirty_;  ///< per keyframe (capacity max_keyframes)
   /// The pose the server has of each sent keyframe: translation [m] and quaternion (w, x, y, z).
   std::vector<std::array<float, 7>> sent_pose_;

@@ -1,0 +1,385 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "core/agent/server_link.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace commerge {
+
+namespace {
+
+bool Elapsed(std::int64_t since_us, std::int64_t now_us, double seconds) {
+  return since_us < 0 || static_cast<double>(now_us - since_us) >= seconds * 1e6;
+}
+
+}  // namespace
+
+Status ValidateServerLinkParams(const ServerLinkParams& params) {
+  const std::pair<const char*, double> positive[] = {{"status_interval_s", params.status_interval_s},
+                                                     {"policy_repeat_s", params.policy_repeat_s},
+                                                     {"request_timeout_s", params.request_timeout_s}};
+  for (const auto& [name, value] : positive) {
+    if (!(value > 0.0) || !std::isfinite(value)) {
+      return InvalidArgument(std::string(name) + " = " + std::to_string(value) + " must be finite and > 0");
+    }
+  }
+  const std::pair<const char*, double> non_negative[] = {{"round_interval_s", params.round_interval_s},
+                                                         {"round_quiet_s", params.round_quiet_s}};
+  for (const auto& [name, value] : non_negative) {
+    if (!(value >= 0.0) || !std::isfinite(value)) {
+      return InvalidArgument(std::string(name) + " = " + std::to_string(value) + " must be finite and >= 0");
+    }
+  }
+  return Status::Ok();
+}
+
+ServerLink::ServerLink(std::int64_t session, const ServerLinkParams& params, MergeServer* server)
+    : session_(session), params_(params), params_status_(ValidateServerLinkParams(params)), server_(server) {
+  if (params_status_.ok() && session <= 0) {
+    params_status_ = InvalidArgument("session id " + std::to_string(session) + " must be > 0");
+  }
+  robots_.resize(static_cast<std::size_t>(std::max(0, server->max_robots())));
+  for (RobotState& r : robots_) r.request.request_id = -1;
+  last_result_.server_session = session;
+}
+
+Status ServerLink::Refuse(Status status) {
+  ++stats_.stale_messages;
+  stats_.last_rejection = status.message();
+  return status;
+}
+
+std::int64_t ServerLink::robot_session(int robot) const {
+  return robot >= 0 && robot < static_cast<int>(robots_.size()) ? robots_[static_cast<std::size_t>(robot)].session : 0;
+}
+
+Status ServerLink::CheckSession(int robot_id, std::int64_t session, const char* what) {
+  if (robot_id < 0 || robot_id >= static_cast<int>(robots_.size())) return Status::Ok();  // MergeServer refuses it
+  if (session <= 0) {
+    return Refuse(InvalidArgument(std::string(what) + " of robot " + std::to_string(robot_id) + ": session " +
+                                  std::to_string(session) + " must be > 0"));
+  }
+  RobotState& r = robots_[static_cast<std::size_t>(robot_id)];
+  if (session < r.session) {
+    return Refuse(InvalidArgument(std::string(what) + " of robot " + std::to_string(robot_id) + ": session " +
+                                  std::to_string(session) + " is older than the current " +
+                                  std::to_string(r.session) + " (a message from before the robot restarted)"));
+  }
+  if (session > r.session) {
+    if (r.session != 0) {
+      ++stats_.robot_restarts;
+      server_->ResetRobot(robot_id);
+    }
+    r = RobotState();
+    r.session = session;
+    r.request.request_id = -1;
+  }
+  return Status::Ok();
+}
+
+Status ServerLink::OnKeyframeBatch(const KeyframeBatch& batch, std::int64_t now_us) {
+  if (!params_status_.ok()) return params_status_;
+  if (batch.robot_id >= 0 && batch.robot_id < static_cast<int>(robots_.size()) && batch.session > 0 &&
+      batch.session > robot_session(batch.robot_id)) {
+    // Validate before a new session resets anything: a malformed batch must not wipe a robot's keyframes.
+    if (batch.records.size() != batch.num_records() * kKeyframeRecordBytes ||
+        batch.stored_points.size() != batch.num_records() || batch.num_records() > kMaxRecordsPerBatch) {
+      return server_->OnKeyframeBatch(batch);  // refused and counted there
+    }
+  }
+  if (Status st = CheckSession(batch.robot_id, batch.session, "keyframe batch"); !st.ok()) return st;
+  last_message_us_ = now_us;
+  return server_->OnKeyframeBatch(batch);
+}
+
+Status ServerLink::OnPoseUpdate(const PoseUpdate& update, std::int64_t now_us) {
+  if (!params_status_.ok()) return params_status_;
+  if (Status st = CheckSession(update.robot_id, update.session, "pose update"); !st.ok()) return st;
+  last_message_us_ = now_us;
+  Status st = server_->OnPoseUpdate(update);
+  if (st.ok()) {
+    std::deque<std::int32_t>& acks = robots_[static_cast<std::size_t>(update.robot_id)].pose_acks;
+    acks.push_back(update.sequence);
+    while (acks.size() > kMaxStatusPoseAcks) acks.pop_front();
+  }
+  return st;
+}
+
+Status ServerLink::OnScanChunk(const ScanChunk& chunk, std::int64_t now_us) {
+  if (!params_status_.ok()) return params_status_;
+  if (chunk.robot_id < 0 || chunk.robot_id >= static_cast<int>(robots_.size())) return server_->OnScanChunk(chunk);
+  const RobotState& r = robots_[static_cast<std::size_t>(chunk.robot_id)];
+  if (r.request.request_id < 0 || chunk.request_id != r.request.request_id ||
+      !std::binary_search(r.request.keyframes.begin(), r.request.keyframes.end(), chunk.keyframe)) {
+    return Refuse(InvalidArgument("scan chunk of robot " + std::to_string(chunk.robot_id) + " keyframe " +
+                                  std::to_string(chunk.keyframe) + " for request " +
+                                  std::to_string(chunk.request_id) + ": not part of the active request " +
+                                  std::to_string(r.request.request_id)));
+  }
+  last_message_us_ = now_us;
+  return server_->OnScanChunk(chunk);
+}
+
+bool ServerLink::RequestComplete(int robot) const {
+  const RobotState& r = robots_[static_cast<std::size_t>(robot)];
+  for (std::uint32_t k : r.request.keyframes) {
+    if (!server_->has_scan(robot, k)) return false;
+  }
+  return true;
+}
+
+std::size_t ServerLink::chunks_missing(int robot) const {
+  if (robot < 0 || robot >= static_cast<int>(robots_.size())) return 0;
+  const RobotState& r = robots_[static_cast<std::size_t>(robot)];
+  if (r.request.request_id < 0) return 0;
+  std::size_t missing = 0;
+  for (std::uint32_t k : r.request.keyframes) {
+    if (server_->has_scan(robot, k)) continue;
+    std::uint16_t n = 0;
+    const std::vector<std::uint8_t>* have = nullptr;
+    if (server_->PartialScan(robot, k, &n, &have)) {
+      missing += static_cast<std::size_t>(std::count(have->begin(), have->end(), 0));
+    } else {
+      ++missing;  // its chunk count is unknown until one arrives: counted as one
+    }
+  }
+  return missing;
+}
+
+TransferStatus ServerLink::MakeStatus(int robot, std::int64_t now_us) const {
+  TransferStatus s;
+  s.utime_us = now_us;
+  s.robot_id = robot;
+  s.server_session = session_;
+  if (robot < 0 || robot >= static_cast<int>(robots_.size())) return s;
+  const RobotState& r = robots_[static_cast<std::size_t>(robot)];
+  s.robot_session = r.session;
+  const RobotKeyframeDb& db = server_->robot(robot);
+  const std::size_t n = db.size();
+  s.keyframes_seen = static_cast<std::uint32_t>(n);
+  std::size_t k = 0;
+  while (k < n && db.delivered(k)) ++k;
+  s.keyframes_contiguous = static_cast<std::uint32_t>(k);
+  while (k < n) {
+    const std::size_t begin = k;
+    while (k < n && !db.delivered(k)) ++k;
+    if (s.gaps.size() == kMaxStatusGaps) {
+      s.gaps_truncated = true;
+      break;
+    }
+    s.gaps.push_back(KeyframeGap{static_cast<std::uint32_t>(begin), static_cast<std::uint32_t>(k)});
+    while (k < n && db.delivered(k)) ++k;
+  }
+  s.pose_sequences.assign(r.pose_acks.begin(), r.pose_acks.end());
+  s.request_id = r.request.request_id;
+  if (r.request.request_id < 0) return s;
+  s.request_complete = true;
+  for (std::uint32_t kf : r.request.keyframes) {
+    if (server_->has_scan(robot, kf)) continue;
+    s.request_complete = false;
+    std::uint16_t num_chunks = 0;
+    const std::vector<std::uint8_t>* have = nullptr;
+    if (!server_->PartialScan(robot, kf, &num_chunks, &have)) {
+      if (s.missing.size() == kMaxStatusMissingRanges) break;
+      s.missing.push_back(MissingChunkRange{kf, 0, 0});
+      continue;
+    }
+    for (std::size_t c = 0; c < num_chunks;) {
+      if ((*have)[c]) {
+        ++c;
+        continue;
+      }
+      const std::size_t first = c;
+      while (c < num_chunks && !(*have)[c]) ++c;
+      if (s.missing.size() == kMaxStatusMissingRanges) break;
+      s.missing.push_back(MissingChunkRange{kf, static_cast<std::uint16_t>(first), static_cast<std::uint16_t>(c - first)});
+    }
+    if (s.missing.size() == kMaxStatusMissingRanges) break;
+  }
+  return s;
+}
+
+std::size_t ServerLink::DeliveredKeyframes() const {
+  std::size_t n = 0;
+  for (int r = 0; r < server_->max_robots(); ++r) {
+    const RobotKeyframeDb& db = server_->robot(r);
+    for (std::size_t k = 0; k < db.size(); ++k) n += db.delivered(k) ? 1 : 0;
+  }
+  return n;
+}
+
+Status ServerLink::StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
+  ++stats_.rounds_started;
+  round_requested_ = false;
+  last_round_us_ = now_us;
+  delivered_at_last_round_ = DeliveredKeyframes();
+  if (Status st = server_->RunCascades(); !st.ok()) return st;
+  auto plan = server_->Plan(params_.mode);
+  if (!plan.ok()) return plan.status();
+  round_pairs_ = plan->pairs;
+  round_active_ = true;
+  round_start_us_ = now_us;
+  for (const ScanRequest& planned : plan->requests) {
+    RobotState& r = robots_[static_cast<std::size_t>(planned.robot_id)];
+    ScanRequest request;
+    request.utime_us = now_us;
+    request.robot_id = planned.robot_id;
+    request.server_session = session_;
+    for (std::uint32_t k : planned.keyframes) {  // scans held from earlier rounds are not asked again
+      if (!server_->has_scan(planned.robot_id, k)) request.keyframes.push_back(k);
+    }
+    if (request.keyframes.empty()) continue;
+    request.request_id = next_request_id_++;
+    r.request = std::move(request);
+    r.request_complete = false;
+    r.last_policy_us = now_us;
+    ServerOutgoing o;
+    o.kind = ServerOutgoing::Kind::kScanRequest;
+    o.request = r.request;
+    out->push_back(std::move(o));
+    ++stats_.policies;
+  }
+  return Status::Ok();
+}
+
+Status ServerLink::FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
+  round_active_ = false;
+  for (RobotState& r : robots_) {
+    // A complete request stays (the status keeps saying so); an incomplete one is withdrawn, so the robot stops
+    // sending once its status shows no request.
+    if (r.request.request_id >= 0 && !r.request_complete) {
+      r.request = ScanRequest();
+      r.request.request_id = -1;
+    }
+  }
+  std::vector<PairMergeResult> results;
+  for (const PairSelection& pair : round_pairs_) {
+    auto merged = server_->MergePair(pair);
+    if (!merged.ok()) return merged.status();
+    results.push_back(std::move(*merged));
+  }
+  auto frames = server_->SolveFrames(Span<const PairMergeResult>(results));
+  if (!frames.ok()) return frames.status();
+  ++round_;
+  ++stats_.rounds_merged;
+  MergeResultMessage m;
+  m.utime_us = now_us;
+  m.server_session = session_;
+  m.round = round_;
+  for (int r = 0; r < server_->max_robots(); ++r) {
+    if (robots_[static_cast<std::size_t>(r)].session == 0 || static_cast<std::size_t>(r) >= frames->robots.size()) {
+      continue;
+    }
+    const RobotFrame& f = frames->robots[static_cast<std::size_t>(r)];
+    m.robot_ids.push_back(r);
+    m.in_world.push_back(f.connected_to_robot0 ? 1 : 0);
+    m.T_world_map.push_back(f.connected_to_robot0 ? f.T_world_robot : Eigen::Isometry3d::Identity());
+  }
+  std::size_t measurement = 0;  // SolveFrames numbers the successful pairs in order
+  for (const PairMergeResult& p : results) {
+    MergePairOutcome o;
+    o.alpha = p.alpha;
+    o.beta = p.beta;
+    o.success = p.attempted && p.registration.success();
+    o.verdict = !p.attempted ? p.reason : RegistrationVerdictName(p.registration.verdict);
+    o.T_alpha_beta = o.success ? p.registration.T_target_source : Eigen::Isometry3d::Identity();
+    o.alpha_scans = static_cast<std::uint32_t>(p.alpha_scans);
+    o.beta_scans = static_cast<std::uint32_t>(p.beta_scans);
+    o.overlap = static_cast<float>(p.registration.overlap_ratio);
+    o.inliers = static_cast<std::uint32_t>(p.registration.num_fine_inliers);
+    if (const ExchangeCascadeResult* c = server_->cascade(p.alpha, p.beta)) {
+      o.loops_stage_a = static_cast<std::uint32_t>(c->stage_a.cells.size());
+      o.loops_stage_c = static_cast<std::uint32_t>(c->stage_c.selected_loops.size());
+    }
+    if (o.success && measurement < frames->measurements.size()) {
+      o.consistent = frames->measurements[measurement].verdict != MeasurementVerdict::kRejected;
+      ++measurement;
+    }
+    m.pairs.push_back(std::move(o));
+  }
+  last_result_ = m;
+  last_pairs_ = std::move(results);
+  last_frames_ = std::move(*frames);
+  ServerOutgoing o;
+  o.kind = ServerOutgoing::Kind::kMergeResult;
+  o.result = std::move(m);
+  out->push_back(std::move(o));
+  return Status::Ok();
+}
+
+Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
+  if (!params_status_.ok()) return params_status_;
+  // Round bookkeeping first, so the statuses below already show a new or finished request.
+  if (round_active_) {
+    bool complete = true;
+    for (int r = 0; r < static_cast<int>(robots_.size()); ++r) {
+      RobotState& state = robots_[static_cast<std::size_t>(r)];
+      if (state.request.request_id < 0 || state.request_complete) continue;
+      state.request_complete = RequestComplete(r);
+      complete = complete && state.request_complete;
+    }
+    const bool timed_out = Elapsed(round_start_us_, now_us, params_.request_timeout_s);
+    if (complete || timed_out) {
+      if (!complete) ++stats_.rounds_timed_out;
+      if (Status st = FinishRound(now_us, out); !st.ok()) return st;
+    }
+  } else {
+    // Counting the delivered keyframes walks every database: only when a round could start.
+    bool start = false;
+    if (round_requested_ || (Elapsed(last_round_us_, now_us, params_.round_interval_s) &&
+                             Elapsed(last_round_check_us_, now_us, params_.status_interval_s))) {
+      last_round_check_us_ = now_us;
+      const std::size_t delivered = DeliveredKeyframes();
+      const std::size_t fresh = delivered > delivered_at_last_round_ ? delivered - delivered_at_last_round_ : 0;
+      start = (round_requested_ && delivered > 0) ||
+              (fresh > 0 && (fresh >= params_.round_min_new_keyframes ||
+                             Elapsed(last_message_us_, now_us, params_.round_quiet_s)));
+    }
+    if (start) {
+      Status st = StartRound(now_us, out);
+      if (!st.ok()) {
+        round_active_ = false;
+        return st;
+      }
+    }
+  }
+  for (int r = 0; r < static_cast<int>(robots_.size()); ++r) {
+    RobotState& state = robots_[static_cast<std::size_t>(r)];
+    if (state.session == 0) continue;
+    if (state.request.request_id >= 0 && !state.request_complete &&
+        Elapsed(state.last_policy_us, now_us, params_.policy_repeat_s)) {
+      state.last_policy_us = now_us;
+      ServerOutgoing o;
+      o.kind = ServerOutgoing::Kind::kScanRequest;
+      o.request = state.request;
+      o.request.utime_us = now_us;
+      out->push_back(std::move(o));
+      ++stats_.policies;
+    }
+    if (Elapsed(state.last_status_us, now_us, params_.status_interval_s)) {
+      state.last_status_us = now_us;
+      ServerOutgoing o;
+      o.kind = ServerOutgoing::Kind::kTransferStatus;
+      o.status = MakeStatus(r, now_us);
+      out->push_back(std::move(o));
+      ++stats_.statuses;
+    }
+  }
+  return Status::Ok();
+}
+
+std::string ServerLink::state() const {
+  if (round_active_) {
+    std::size_t missing = 0;
+    for (int r = 0; r < static_cast<int>(robots_.size()); ++r) missing += chunks_missing(r);
+    return "round " + std::to_string(round_ + 1) + ": waiting for scans (" + std::to_string(missing) + " chunks)";
+  }
+  if (round_ == 0) return "collecting keyframes";
+  std::size_t in_world = 0;
+  for (std::uint8_t w : last_result_.in_world) in_world += w;
+  return "merged " + std::to_string(in_world) + "/" + std::to_string(last_result_.robot_ids.size()) +
+         " robots (round " + std::to_string(round_) + ")";
+}
+
+}  // namespace commerge

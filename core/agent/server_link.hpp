@@ -1,0 +1,130 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: the server's side of reliable delivery and its merge rounds, on a MergeServer. Transport-free: the
+// caller decodes messages into the On...() handlers, calls Poll() regularly, and encodes and publishes what it
+// returns.
+//   * Sessions: each robot process has a session id; a newer session of a robot id replaces that robot's
+//     keyframes and scans (the robot restarted), an older one is stale and refused (counted).
+//   * Every status_interval_s each robot with a session gets a TransferStatus: which keyframes the server holds
+//     (contiguous prefix + gaps), the pose-update sequences it received, and for the robot's active scan request
+//     the chunks it still misses. The robot re-announces and retransmits from it (RobotLink).
+//   * Rounds: when enough keyframes arrived (or the robots went quiet with new data), the server runs the
+//     cascade for every pair, asks each robot for the scans it does not hold yet (its exchange policy,
+//     repeated every policy_repeat_s until the scans are complete), and when every request is complete, or after
+//     request_timeout_s, registers every pair, solves the robot frames and emits a MergeResultMessage.
+//   * Chunks must belong to the robot's active request; others (stale retransmissions, a previous server's
+//     requests) are refused and counted.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "core/agent/merge_server.hpp"
+#include "core/agent/messages.hpp"
+#include "core/common/status.hpp"
+
+namespace commerge {
+
+struct ServerLinkParams {
+  ExchangeMode mode = ExchangeMode::kStageABC;
+  double status_interval_s = 0.5;
+  double policy_repeat_s = 1.0;
+  /// Rounds start at most this often [s] ...
+  double round_interval_s = 10.0;
+  /// ... when this many keyframes were delivered since the last round,
+  std::size_t round_min_new_keyframes = 200;
+  /// ... or when some were and no robot message arrived for this long [s] (the robots finished or paused).
+  double round_quiet_s = 3.0;
+  /// A round merges with the scans that arrived when its requests are still incomplete after this [s].
+  double request_timeout_s = 60.0;
+};
+
+Status ValidateServerLinkParams(const ServerLinkParams& params);
+
+struct ServerOutgoing {
+  enum class Kind : std::uint8_t { kTransferStatus, kScanRequest, kMergeResult };
+  Kind kind = Kind::kTransferStatus;
+  TransferStatus status;
+  ScanRequest request;
+  MergeResultMessage result;
+};
+
+struct ServerLinkStats {
+  std::uint64_t stale_messages = 0;     ///< older sessions, chunks outside the active request
+  std::uint64_t robot_restarts = 0;     ///< newer sessions that replaced a robot's keyframes
+  std::uint64_t rounds_started = 0, rounds_merged = 0, rounds_timed_out = 0;
+  std::uint64_t statuses = 0, policies = 0;
+  std::string last_rejection;
+};
+
+class ServerLink {
+ public:
+  /// `server` is not owned. `session` > 0 (e.g. the process start time in us).
+  ServerLink(std::int64_t session, const ServerLinkParams& params, MergeServer* server);
+
+  /// Message handlers: refused messages (malformed, unknown robot, stale session) return an error and are
+  /// counted; they never change the state.
+  Status OnKeyframeBatch(const KeyframeBatch& batch, std::int64_t now_us);
+  Status OnPoseUpdate(const PoseUpdate& update, std::int64_t now_us);
+  Status OnScanChunk(const ScanChunk& chunk, std::int64_t now_us);
+
+  /// Appends what is due now: transfer statuses, (repeated) scan requests, and a merge result when a round
+  /// finished. Errors come from the cascade or the registration (bad parameters); the round is then abandoned.
+  Status Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out);
+
+  /// Starts a round at the next Poll() whatever the triggers say (when any robot has keyframes).
+  void RequestRound() noexcept { round_requested_ = true; }
+
+  /// The status of one robot now (also what Poll() sends).
+  TransferStatus MakeStatus(int robot, std::int64_t now_us) const;
+
+  std::int64_t session() const noexcept { return session_; }
+  int rounds_merged() const noexcept { return round_; }
+  bool round_active() const noexcept { return round_active_; }
+  /// Chunks of robot r's active request still missing (0 when none is active).
+  std::size_t chunks_missing(int robot) const;
+  std::int64_t robot_session(int robot) const;
+  /// The last merge result (round 0 = none yet).
+  const MergeResultMessage& last_result() const noexcept { return last_result_; }
+  /// The pairwise results and frames behind last_result().
+  const std::vector<PairMergeResult>& last_pairs() const noexcept { return last_pairs_; }
+  const FrameSolution& last_frames() const noexcept { return last_frames_; }
+  const ServerLinkStats& stats() const noexcept { return stats_; }
+  /// "collecting", "waiting for scans (n chunks)", "merged k/n robots".
+  std::string state() const;
+
+ private:
+  struct RobotState {
+    std::int64_t session = 0;            ///< 0: never heard of
+    std::deque<std::int32_t> pose_acks;  ///< most recent pose-update sequences
+    ScanRequest request;                 ///< active (request_id -1: none)
+    bool request_complete = false;
+    std::int64_t last_policy_us = -1, last_status_us = -1;
+  };
+  Status CheckSession(int robot_id, std::int64_t session, const char* what);
+  Status Refuse(Status status);
+  bool RequestComplete(int robot) const;
+  Status StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
+  Status FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
+  std::size_t DeliveredKeyframes() const;
+
+  std::int64_t session_;
+  ServerLinkParams params_;
+  Status params_status_;
+  MergeServer* server_;
+  std::vector<RobotState> robots_;
+  std::int32_t next_request_id_ = 1;
+  bool round_active_ = false, round_requested_ = false;
+  std::int64_t round_start_us_ = -1, last_round_us_ = -1, last_message_us_ = -1, last_round_check_us_ = -1;
+  std::size_t delivered_at_last_round_ = 0;
+  std::vector<PairSelection> round_pairs_;
+  int round_ = 0;
+  MergeResultMessage last_result_;
+  std::vector<PairMergeResult> last_pairs_;
+  FrameSolution last_frames_;
+  ServerLinkStats stats_;
+};
+
+}  // namespace commerge

@@ -1,0 +1,394 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Reliable delivery between RobotLink and ServerLink over a simulated link that drops, duplicates, delays and
+// reorders messages (seeded). The reference is the robots' own state: after the mission every keyframe's record
+// at the server decodes to exactly what the robot's record encoder produces from its final descriptor, every
+// requested scan at the server is byte-identical to the robot's stored encoded scan, and poses agree within the
+// agent's pose-update thresholds. Also: no retransmission on a perfect link, restarts of either side, stale and
+// foreign messages, and the token bucket's long-run rate.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "core/agent/merge_server.hpp"
+#include "core/agent/robot_link.hpp"
+#include "core/agent/server_link.hpp"
+#include "core/descriptor/descriptor_codec.hpp"
+#include "core/descriptor/sensor_presets.hpp"
+#include "core/descriptor/solid.hpp"
+#include "core/sim/synthetic_scan.hpp"
+
+using namespace commerge;
+
+namespace {
+
+constexpr std::int64_t kTickUs = 10000;  // 10 ms
+
+struct Robot {
+  std::unique_ptr<SolidDescriptor> solid;
+  std::unique_ptr<ScanStore> store;
+  std::unique_ptr<RobotAgent> agent;
+  std::unique_ptr<RobotLink> link;
+  int scans_fed = 0;
+  bool finished = false;
+};
+
+std::unique_ptr<Robot> MakeRobot(int id, std::int64_t session) {
+  auto r = std::make_unique<Robot>();
+  auto solid = SolidDescriptor::Create(SolidPreset(LidarSensor::kVelodyneHdl64e));
+  REQUIRE(solid.ok());
+  r->solid = std::make_unique<SolidDescriptor>(std::move(*solid));
+  ScanStoreParams sp;
+  sp.capacity_bytes = 4u << 20;
+  sp.max_scans = 256;
+  auto store = ScanStore::Create(sp);
+  REQUIRE(store.ok());
+  r->store = std::move(*store);
+  RobotMapperCapacity cap;
+  cap.max_keyframes = 64;
+  cap.max_points_per_raw_scan = 16 * 360;
+  cap.max_points_per_stored_scan = 4096;
+  RobotAgentParams params;
+  params.max_records_per_batch = 4;  // several batches per robot, so losses hit some and not others
+  r->agent = std::make_unique<RobotAgent>(id, params, cap, r->solid.get(), r->store.get());
+  r->link = std::make_unique<RobotLink>(session, RobotLinkParams{}, r->agent.get());
+  return r;
+}
+
+// A message in flight, of either direction.
+struct Packet {
+  std::int64_t deliver_us = 0;
+  std::uint64_t order = 0;
+  int to_robot = -1;  // -1: to the server
+  RobotOutgoing up;
+  ServerOutgoing down;
+};
+
+struct LinkModel {
+  double loss = 0.0, duplicate = 0.0;
+  std::int64_t delay_us = 20000, jitter_us = 0;  // jitter reorders
+};
+
+std::size_t WireBytes(const RobotOutgoing& m) {  // close to the LCM sizes; only the bandwidth cap uses it
+  switch (m.kind) {
+    case RobotOutgoing::Kind::kKeyframeBatch: return 40 + m.batch.records.size() + 4 * m.batch.stored_points.size();
+    case RobotOutgoing::Kind::kPoseUpdate: return 40 + 33 * m.poses.keyframes.size();
+    case RobotOutgoing::Kind::kScanChunk: return 50 + m.chunk.payload.size();
+  }
+  return 0;
+}
+
+class Mission {
+ public:
+  Mission(int robots, int scans_per_robot, LinkModel link, std::uint32_t seed, ServerLinkParams server_params = {})
+      : scans_(scans_per_robot), model_(link), rng_(seed), server_params_(server_params) {
+    for (int i = 0; i < robots; ++i) robots_.push_back(MakeRobot(i, 1000 + i));
+    StartServer(500);
+    scene_ = MakeStreetScene(5, 120.0f);
+    lidar_.beams = 16;
+    lidar_.azimuth_steps = 360;
+    lidar_.max_range_m = 80.0f;
+  }
+
+  void StartServer(std::int64_t session) {
+    MergeServerParams mp;
+    mp.cascade.stage_a.tau_area = 4;  // short test missions
+    merge_ = std::make_unique<MergeServer>(static_cast<int>(std::max<std::size_t>(2, robots_.size())), 64, mp);
+    server_ = std::make_unique<ServerLink>(session, server_params_, merge_.get());
+  }
+
+  void RestartRobot(int id, std::int64_t session) {
+    robots_[static_cast<std::size_t>(id)] = MakeRobot(id, session);
+  }
+
+  // Runs until `until_us`, feeding one scan per robot every 100 ms.
+  void RunUntil(std::int64_t until_us) {
+    for (; now_us_ < until_us; now_us_ += kTickUs) Tick();
+  }
+
+  void Tick() {
+    if (now_us_ % 100000 == 0) {
+      for (auto& r : robots_) Feed(r.get());
+    }
+    // Deliver what is due (ordered by delivery time, then send order).
+    std::sort(in_flight_.begin(), in_flight_.end(), [](const Packet& a, const Packet& b) {
+      return a.deliver_us != b.deliver_us ? a.deliver_us < b.deliver_us : a.order < b.order;
+    });
+    while (!in_flight_.empty() && in_flight_.front().deliver_us <= now_us_) {
+      Packet p = std::move(in_flight_.front());
+      in_flight_.pop_front();
+      Deliver(p);
+    }
+    std::vector<ServerOutgoing> out;
+    REQUIRE(server_->Poll(now_us_, &out).ok());
+    for (ServerOutgoing& o : out) {
+      if (o.kind == ServerOutgoing::Kind::kMergeResult) ++merge_results_;
+      const int to = o.kind == ServerOutgoing::Kind::kTransferStatus ? o.status.robot_id
+                     : o.kind == ServerOutgoing::Kind::kScanRequest ? o.request.robot_id
+                                                                     : -2;  // broadcast: nobody consumes it here
+      if (to >= 0) Send(to, RobotOutgoing{}, std::move(o));
+    }
+    for (std::size_t i = 0; i < robots_.size(); ++i) {
+      Robot& r = *robots_[i];
+      RobotOutgoing m;
+      while (bucket_[i].CanSend(now_us_)) {
+        auto more = r.link->Next(now_us_, &m);
+        REQUIRE(more.ok());
+        if (!*more) break;
+        const std::size_t bytes = WireBytes(m);
+        bucket_[i].Take(bytes);
+        bytes_sent_ += bytes;
+        if (m.resend) bytes_resent_ += bytes;
+        Send(-1, m, ServerOutgoing{});
+      }
+    }
+  }
+
+  void Feed(Robot* r) {
+    if (r->scans_fed >= scans_) {
+      if (!r->finished) {
+        REQUIRE(r->agent->Finish().ok());
+        r->finished = true;
+      }
+      return;
+    }
+    const int k = r->scans_fed++;
+    const float x = -30.0f + 1.1f * static_cast<float>(k);
+    CastScan(scene_, lidar_, x, -1.5f, 1.73f, 0.0f, 100u + static_cast<std::uint32_t>(k), &raw_);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(1.1 * k, 0.0, 0.0);
+    REQUIRE(r->agent->AddScan(Span<const PointXYZI>(raw_), T).ok());
+  }
+
+  void Send(int to_robot, RobotOutgoing up, ServerOutgoing down) {
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    if (u(rng_) < model_.loss) return;
+    const int copies = u(rng_) < model_.duplicate ? 2 : 1;
+    for (int c = 0; c < copies; ++c) {
+      Packet p;
+      p.to_robot = to_robot;
+      p.deliver_us = now_us_ + model_.delay_us +
+                     (model_.jitter_us > 0 ? static_cast<std::int64_t>(u(rng_) * static_cast<double>(model_.jitter_us)) : 0);
+      p.order = order_++;
+      p.up = up;
+      p.down = down;
+      in_flight_.push_back(std::move(p));
+    }
+  }
+
+  void Deliver(const Packet& p) {
+    if (p.to_robot >= 0) {
+      RobotLink& link = *robots_[static_cast<std::size_t>(p.to_robot)]->link;
+      if (p.down.kind == ServerOutgoing::Kind::kTransferStatus) {
+        CHECK(link.OnTransferStatus(p.down.status, now_us_).ok());
+      } else {
+        CHECK(link.OnScanRequest(p.down.request, now_us_).ok());
+      }
+      return;
+    }
+    Status st;  // stale or duplicated messages may be refused: that is counted, not a failure
+    switch (p.up.kind) {
+      case RobotOutgoing::Kind::kKeyframeBatch: st = server_->OnKeyframeBatch(p.up.batch, now_us_); break;
+      case RobotOutgoing::Kind::kPoseUpdate: st = server_->OnPoseUpdate(p.up.poses, now_us_); break;
+      case RobotOutgoing::Kind::kScanChunk: st = server_->OnScanChunk(p.up.chunk, now_us_); break;
+    }
+    if (!st.ok()) ++refused_;
+  }
+
+  // Every keyframe of every robot is at the server exactly as the robot's record encoder makes it now (up to
+  // the pose, checked separately), and poses are within the pose-update thresholds.
+  void CheckAllKeyframesDelivered() {
+    for (std::size_t i = 0; i < robots_.size(); ++i) {
+      const RobotAgent& a = *robots_[i]->agent;
+      const RobotKeyframeDb& db = merge_->robot(static_cast<int>(i));
+      REQUIRE(db.size() == a.mapper().num_keyframes());
+      for (std::size_t k = 0; k < db.size(); ++k) {
+        CAPTURE(i);
+        CAPTURE(k);
+        REQUIRE(db.delivered(k));
+        if (a.mapper().descriptor_valid(k)) {
+          KeyframeRecord record;
+          record.keyframe_index = static_cast<std::uint32_t>(k);
+          record.T_world_sensor = a.mapper().pose(k);
+          const Span<const float> d = a.mapper().descriptor(k);
+          std::copy(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim), record.descriptor.begin());
+          record.descriptor_valid = true;
+          std::vector<std::uint8_t> bytes(kKeyframeRecordBytes);
+          REQUIRE(EncodeKeyframeRecord(record, Span<std::uint8_t>(bytes)).ok());
+          auto expected = DecodeKeyframeRecord(Span<const std::uint8_t>(bytes));
+          REQUIRE(expected.ok());
+          for (std::size_t j = 0; j < kKeyframeDescriptorDim; ++j) {
+            REQUIRE(db.descriptors[k * kKeyframeDescriptorDim + j] == expected->descriptor[j]);
+          }
+        }
+        CHECK((db.T_map_sensor[k].translation() - a.mapper().pose(k).translation()).norm() < 0.51);
+      }
+    }
+  }
+
+  // Every scan the robots store is at the server, byte for byte.
+  void CheckAllScansDelivered() {
+    for (std::size_t i = 0; i < robots_.size(); ++i) {
+      const RobotAgent& a = *robots_[i]->agent;
+      std::vector<std::uint8_t> expected;
+      for (std::size_t k = 0; k < a.mapper().num_keyframes(); ++k) {
+        if (!a.store().CopyEncoded(static_cast<std::uint32_t>(k), &expected).ok()) continue;
+        const std::vector<std::uint8_t>* got = merge_->scan_bytes(static_cast<int>(i), static_cast<std::uint32_t>(k));
+        CAPTURE(i);
+        CAPTURE(k);
+        REQUIRE(got != nullptr);
+        REQUIRE(*got == expected);
+      }
+    }
+  }
+
+  int scans_;
+  LinkModel model_;
+  std::mt19937 rng_;
+  ServerLinkParams server_params_;
+  std::vector<std::unique_ptr<Robot>> robots_;
+  std::vector<TokenBucket> bucket_{TokenBucket(250000.0, 16000.0), TokenBucket(250000.0, 16000.0),
+                                   TokenBucket(250000.0, 16000.0)};
+  std::unique_ptr<MergeServer> merge_;
+  std::unique_ptr<ServerLink> server_;
+  BoxScene scene_;
+  SpinningLidar lidar_;
+  std::vector<PointXYZI> raw_;
+  std::deque<Packet> in_flight_;
+  std::int64_t now_us_ = 0;
+  std::uint64_t order_ = 0;
+  std::uint64_t bytes_sent_ = 0, bytes_resent_ = 0;
+  int merge_results_ = 0, refused_ = 0;
+};
+
+ServerLinkParams SendAllParams() {
+  ServerLinkParams p;
+  p.mode = ExchangeMode::kSendAll;  // every stored scan is requested: the transfer of all of them is checked
+  p.round_quiet_s = 2.0;
+  p.request_timeout_s = 600.0;
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("Reliable transfer: a perfect link delivers everything once, with no re-announcement or retransmission") {
+  Mission m(2, 12, LinkModel{}, 1, SendAllParams());
+  m.RunUntil(30000000);
+  m.CheckAllKeyframesDelivered();
+  m.CheckAllScansDelivered();
+  CHECK(m.merge_results_ >= 1);
+  CHECK(m.bytes_resent_ == 0);
+  for (auto& r : m.robots_) {
+    CHECK(r->link->stats().keyframes_requeued == 0);
+    CHECK(r->link->stats().chunks_resent == 0);
+    CHECK(r->link->stats().pose_updates_requeued == 0);
+    CHECK(r->link->stats().requests_completed >= 1);
+  }
+  CHECK(m.merge_->stats().duplicate_chunks == 0);
+  CHECK(m.refused_ == 0);
+}
+
+TEST_CASE("Reliable transfer: 10 and 50 percent loss with duplicates and reordering still deliver every keyframe and scan") {
+  for (double loss : {0.1, 0.5}) {
+    CAPTURE(loss);
+    LinkModel link;
+    link.loss = loss;
+    link.duplicate = 0.1;
+    link.jitter_us = 300000;  // up to 0.3 s extra: messages overtake each other
+    Mission m(2, 12, link, 7, SendAllParams());
+    m.RunUntil(120000000);
+    m.CheckAllKeyframesDelivered();
+    m.CheckAllScansDelivered();
+    CHECK(m.merge_results_ >= 1);
+    CHECK(m.bytes_resent_ > 0);
+    std::uint64_t requeued = 0;
+    for (auto& r : m.robots_) requeued += r->link->stats().keyframes_requeued + r->link->stats().chunks_resent;
+    CHECK(requeued > 0);
+  }
+}
+
+TEST_CASE("Reliable transfer: a restarted server gets every keyframe again and finishes the merge") {
+  Mission m(2, 12, LinkModel{}, 3, SendAllParams());
+  m.RunUntil(800000);  // part of the mission streamed
+  m.StartServer(900);  // the server restarts: it lost everything
+  m.RunUntil(40000000);
+  m.CheckAllKeyframesDelivered();
+  m.CheckAllScansDelivered();
+  CHECK(m.merge_results_ >= 1);
+  for (auto& r : m.robots_) {
+    CHECK(r->link->stats().server_restarts == 1);
+    CHECK(r->link->server_session() == 900);
+  }
+}
+
+TEST_CASE("Reliable transfer: a restarted robot replaces its keyframes, and its old session is refused") {
+  Mission m(2, 12, LinkModel{}, 4, SendAllParams());
+  m.RunUntil(600000);
+  const std::size_t before = m.merge_->robot(1).size();
+  CHECK(before > 0);
+  // A late message of the old session after the restart is stale.
+  KeyframeBatch old_batch;
+  old_batch.robot_id = 1;
+  old_batch.session = 1001;
+  m.RestartRobot(1, 2001);  // maps from scratch
+  m.RunUntil(40000000);
+  m.CheckAllKeyframesDelivered();
+  m.CheckAllScansDelivered();
+  CHECK(m.server_->stats().robot_restarts == 1);
+  CHECK(m.server_->robot_session(1) == 2001);
+  const std::uint64_t stale = m.server_->stats().stale_messages;
+  CHECK_FALSE(m.server_->OnKeyframeBatch(old_batch, m.now_us_).ok());
+  CHECK(m.server_->stats().stale_messages == stale + 1);
+  CHECK(m.merge_->robot(1).size() == m.robots_[1]->agent->mapper().num_keyframes());
+}
+
+TEST_CASE("Reliable transfer: chunks outside the active request and statuses for other robots are refused") {
+  Mission m(2, 4, LinkModel{}, 5, SendAllParams());
+  m.RunUntil(300000);
+  ScanChunk chunk;
+  chunk.robot_id = 0;
+  chunk.request_id = 77;
+  chunk.keyframe = 0;
+  chunk.total_bytes = 30;
+  chunk.num_chunks = 1;
+  chunk.payload.assign(30, 1);
+  const std::size_t held = m.merge_->scans_received();
+  CHECK_FALSE(m.server_->OnScanChunk(chunk, m.now_us_).ok());
+  CHECK(m.merge_->scans_received() == held);
+  TransferStatus foreign = m.server_->MakeStatus(1, m.now_us_);
+  CHECK_FALSE(m.robots_[0]->link->OnTransferStatus(foreign, m.now_us_).ok());
+  CHECK(m.robots_[0]->link->stats().foreign_statuses == 1);
+  ScanRequest other;
+  other.robot_id = 1;
+  CHECK_FALSE(m.robots_[0]->link->OnScanRequest(other, m.now_us_).ok());
+  KeyframeBatch no_session;
+  no_session.robot_id = 0;
+  CHECK_FALSE(m.server_->OnKeyframeBatch(no_session, m.now_us_).ok());
+}
+
+TEST_CASE("Token bucket: the bytes let through never exceed rate x time + burst, and it does not starve") {
+  TokenBucket bucket(1000.0, 500.0);
+  std::int64_t sent = 0;
+  const std::int64_t end_us = 10000000;
+  for (std::int64_t t = 0; t <= end_us; t += 1000) {
+    while (bucket.CanSend(t)) {
+      bucket.Take(120);
+      sent += 120;
+    }
+    if (t > 0) REQUIRE(sent <= static_cast<std::int64_t>(1000.0 * static_cast<double>(t) * 1e-6 + 500.0 + 120.0));
+  }
+  CHECK(sent >= 10000 - 120);  // 10 s at 1000 B/s
+  TokenBucket empty(1000.0, 0.0);
+  CHECK(empty.CanSend(0));
+  empty.Take(2000);
+  CHECK_FALSE(empty.CanSend(0));
+  CHECK(empty.WaitUs(0) == 2000000);
+  CHECK(empty.CanSend(2000000));
+  TokenBucket unlimited(0.0, 0.0);
+  unlimited.Take(1 << 20);
+  CHECK(unlimited.CanSend(0));
+}
