@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "platform/lcm/message_codec.hpp"
 
-#include <cmath>
 #include <limits>
 
 #include "commerge/exchange_policy_t.hpp"
 #include "commerge/keyframe_batch_t.hpp"
 #include "commerge/pose_update_t.hpp"
 #include "commerge/scan_chunk_t.hpp"
+#include "platform/lcm/codec_util.hpp"
 
 namespace commerge::platform {
 
@@ -25,83 +25,9 @@ static_assert(commerge::pose_update_t::MAX_POSES == static_cast<std::int32_t>(kM
 static_assert(commerge::exchange_policy_t::MAX_KEYFRAMES == static_cast<std::int32_t>(kMaxKeyframesPerRequest), "");
 static_assert(commerge::scan_chunk_t::MAX_PAYLOAD_BYTES == static_cast<std::int32_t>(kMaxScanChunkPayloadBytes), "");
 
-// Big-endian integer at `offset` (LCM's byte order); the caller checked the size.
-std::int64_t ReadBe(Span<const std::uint8_t> b, std::size_t offset, int bytes) {
-  std::uint64_t v = 0;
-  for (int i = 0; i < bytes; ++i) v = (v << 8) | b[offset + static_cast<std::size_t>(i)];
-  const int shift = 64 - 8 * bytes;
-  return static_cast<std::int64_t>(v << shift) >> shift;  // sign-extend
-}
-
-// Checks the fingerprint and that the buffer holds the fixed header up to `header_bytes` (after the hash).
-template <typename LcmType>
-Status CheckHeader(Span<const std::uint8_t> bytes, std::size_t header_bytes, const char* type) {
-  if (bytes.size() >= 8 && ReadBe(bytes, 0, 8) != LcmType::getHash()) {
-    return DataLoss(std::string(type) + ": fingerprint does not match (another message type or another layout "
-                                        "version of commerge)");
-  }
-  if (bytes.size() < 8 + header_bytes) {
-    return DataLoss(std::string(type) + ": " + std::to_string(bytes.size()) + " bytes is shorter than its header");
-  }
-  return Status::Ok();
-}
-
-// The buffer must hold `needed` bytes for the counts it announces: checked before the decoder allocates.
-Status CheckRoom(Span<const std::uint8_t> bytes, std::int64_t needed, const char* type) {
-  if (static_cast<std::int64_t>(bytes.size()) < needed) {
-    return DataLoss(std::string(type) + ": " + std::to_string(bytes.size()) + " bytes cannot hold the " +
-                    std::to_string(needed) + " its counts announce");
-  }
-  return Status::Ok();
-}
-
-Status CheckCount(std::int64_t value, std::int64_t max, const char* type, const char* field) {
-  if (value < 0 || value > max) {
-    return DataLoss(std::string(type) + ": " + field + " = " + std::to_string(value) + " is outside 0.." +
-                    std::to_string(max));
-  }
-  return Status::Ok();
-}
-
-template <typename LcmType>
-Status DecodeChecked(Span<const std::uint8_t> bytes, LcmType* msg, const char* type) {
-  const int n = msg->decode(bytes.data(), 0, static_cast<int>(bytes.size()));
-  if (n < 0) return DataLoss(std::string(type) + ": truncated or malformed (" + std::to_string(bytes.size()) + " bytes)");
-  if (static_cast<std::size_t>(n) != bytes.size()) {
-    return DataLoss(std::string(type) + ": " + std::to_string(bytes.size() - static_cast<std::size_t>(n)) +
-                    " trailing bytes");
-  }
-  return Status::Ok();
-}
-
-template <typename LcmType>
-Status EncodeInto(const LcmType& msg, std::vector<std::uint8_t>* out, const char* type) {
-  const int size = msg.getEncodedSize();
-  out->resize(static_cast<std::size_t>(size));
-  if (msg.encode(out->data(), 0, size) != size) {
-    out->clear();
-    return InvalidArgument(std::string(type) + ": LCM encoding failed");
-  }
-  return Status::Ok();
-}
-
-Status CheckRobotId(int robot_id, const char* type) {
-  if (robot_id < 0 || robot_id > kMaxRobotId) {
-    return InvalidArgument(std::string(type) + ": robot_id " + std::to_string(robot_id) + " is outside 0.." +
-                           std::to_string(kMaxRobotId));
-  }
-  return Status::Ok();
-}
-
-Status CheckDecodedRobotId(int robot_id, const char* type) {
-  if (robot_id < 0 || robot_id > kMaxRobotId) {
-    return DataLoss(std::string(type) + ": robot_id " + std::to_string(robot_id) + " is outside 0.." +
-                    std::to_string(kMaxRobotId));
-  }
-  return Status::Ok();
-}
-
 }  // namespace
+
+using namespace lcm_detail;  // NOLINT(google-build-using-namespace): the shared helpers of platform/lcm
 
 Status EncodeKeyframeBatch(const KeyframeBatch& m, std::vector<std::uint8_t>* out) {
   const char* type = "keyframe_batch_t";
@@ -115,6 +41,7 @@ Status EncodeKeyframeBatch(const KeyframeBatch& m, std::vector<std::uint8_t>* ou
   commerge::keyframe_batch_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
+  msg.session = m.session;
   msg.sequence = m.sequence;
   msg.num_records = static_cast<std::int32_t>(n);
   msg.num_record_bytes = static_cast<std::int32_t>(m.records.size());
@@ -131,21 +58,22 @@ Status EncodeKeyframeBatch(const KeyframeBatch& m, std::vector<std::uint8_t>* ou
 
 Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes) {
   const char* type = "keyframe_batch_t";
-  // After the hash: utime 8, robot_id 2, sequence 4, num_records 4, num_record_bytes 4.
-  if (Status st = CheckHeader<commerge::keyframe_batch_t>(bytes, 22, type); !st.ok()) return st;
-  const std::int64_t n = ReadBe(bytes, 8 + 14, 4), nb = ReadBe(bytes, 8 + 18, 4);
+  // After the hash: utime 8, robot_id 2, session 8, sequence 4, num_records 4, num_record_bytes 4.
+  if (Status st = CheckHeader<commerge::keyframe_batch_t>(bytes, 30, type); !st.ok()) return st;
+  const std::int64_t n = ReadBe(bytes, 8 + 22, 4), nb = ReadBe(bytes, 8 + 26, 4);
   if (Status st = CheckCount(n, static_cast<std::int64_t>(kMaxRecordsPerBatch), type, "num_records"); !st.ok()) return st;
   if (nb != n * static_cast<std::int64_t>(kKeyframeRecordBytes)) {
     return DataLoss("keyframe_batch_t: num_record_bytes = " + std::to_string(nb) + " is not 92 x num_records = " +
                     std::to_string(n * 92));
   }
-  if (Status st = CheckRoom(bytes, 8 + 22 + nb + 4 * n, type); !st.ok()) return st;
+  if (Status st = CheckRoom(bytes, 8 + 30 + nb + 4 * n, type); !st.ok()) return st;
   commerge::keyframe_batch_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
   KeyframeBatch m;
   m.utime_us = msg.utime;
   m.robot_id = msg.robot_id;
+  m.session = msg.session;
   m.sequence = msg.sequence;
   m.records = std::move(msg.records);
   m.stored_points.resize(static_cast<std::size_t>(n));
@@ -168,14 +96,20 @@ Status EncodePoseUpdate(const PoseUpdate& m, std::vector<std::uint8_t>* out) {
                            std::to_string(m.T_map_sensor.size()) + " poses (equal and at most " +
                            std::to_string(kMaxPosesPerUpdate) + ")");
   }
+  if (!m.no_descriptor.empty() && m.no_descriptor.size() != n) {
+    return InvalidArgument("pose_update_t: no_descriptor has " + std::to_string(m.no_descriptor.size()) +
+                           " entries for " + std::to_string(n) + " keyframes (empty or one per keyframe)");
+  }
   commerge::pose_update_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
+  msg.session = m.session;
   msg.sequence = m.sequence;
   msg.num_poses = static_cast<std::int32_t>(n);
   msg.keyframe_index.resize(n);
-  msg.translation_m.assign(n, std::vector<float>(3));
-  msg.quaternion.assign(n, std::vector<float>(4));
+  msg.translation_m.resize(n);
+  msg.quaternion.resize(n);
+  msg.no_descriptor.assign(n, 0);  // empty = all 0
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Isometry3d& T = m.T_map_sensor[i];
     if (!T.matrix().allFinite() || m.keyframes[i] > static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max())) {
@@ -183,22 +117,24 @@ Status EncodePoseUpdate(const PoseUpdate& m, std::vector<std::uint8_t>* out) {
                              std::to_string(m.keyframes[i]) + ") is not finite or its index is too large");
     }
     msg.keyframe_index[i] = static_cast<std::int32_t>(m.keyframes[i]);
-    const Eigen::Quaterniond q(T.linear());
-    const Eigen::Quaterniond u = q.normalized();
-    msg.quaternion[i] = {static_cast<float>(u.w()), static_cast<float>(u.x()), static_cast<float>(u.y()),
-                         static_cast<float>(u.z())};
-    for (int a = 0; a < 3; ++a) msg.translation_m[i][static_cast<std::size_t>(a)] = static_cast<float>(T.translation()[a]);
+    PoseToWire(T, &msg.translation_m[i], &msg.quaternion[i]);
+    if (!m.no_descriptor.empty()) {
+      const std::string field = "no_descriptor[" + std::to_string(i) + "]";
+      if (Status st = CheckFlag(m.no_descriptor[i], InvalidArgument, type, field); !st.ok()) return st;
+      msg.no_descriptor[i] = static_cast<std::int8_t>(m.no_descriptor[i]);
+    }
   }
   return EncodeInto(msg, out, type);
 }
 
 Result<PoseUpdate> DecodePoseUpdate(Span<const std::uint8_t> bytes) {
   const char* type = "pose_update_t";
-  if (Status st = CheckHeader<commerge::pose_update_t>(bytes, 18, type); !st.ok()) return st;
-  const std::int64_t n = ReadBe(bytes, 8 + 14, 4);
+  // After the hash: utime 8, robot_id 2, session 8, sequence 4, num_poses 4.
+  if (Status st = CheckHeader<commerge::pose_update_t>(bytes, 26, type); !st.ok()) return st;
+  const std::int64_t n = ReadBe(bytes, 8 + 22, 4);
   if (Status st = CheckCount(n, static_cast<std::int64_t>(kMaxPosesPerUpdate), type, "num_poses"); !st.ok()) return st;
-  // Each pose takes 4 + 12 + 16 bytes: a short buffer is refused before the decoder allocates for it.
-  if (static_cast<std::int64_t>(bytes.size()) < 8 + 18 + 32 * n) {
+  // Each pose takes 4 + 12 + 16 + 1 bytes: a short buffer is refused before the decoder allocates for it.
+  if (static_cast<std::int64_t>(bytes.size()) < 8 + 26 + 33 * n) {
     return DataLoss("pose_update_t: " + std::to_string(bytes.size()) + " bytes cannot hold " + std::to_string(n) +
                     " poses");
   }
@@ -208,23 +144,20 @@ Result<PoseUpdate> DecodePoseUpdate(Span<const std::uint8_t> bytes) {
   PoseUpdate m;
   m.utime_us = msg.utime;
   m.robot_id = msg.robot_id;
+  m.session = msg.session;
   m.sequence = msg.sequence;
   m.keyframes.resize(static_cast<std::size_t>(n));
   m.T_map_sensor.resize(static_cast<std::size_t>(n));
+  m.no_descriptor.resize(static_cast<std::size_t>(n));
   for (std::size_t i = 0; i < m.keyframes.size(); ++i) {
-    const auto& t = msg.translation_m[i];
-    const auto& q = msg.quaternion[i];
-    const Eigen::Vector4d qv(q[0], q[1], q[2], q[3]);
-    const Eigen::Vector3d tv(t[0], t[1], t[2]);
-    if (msg.keyframe_index[i] < 0 || !qv.allFinite() || !tv.allFinite() || std::abs(qv.norm() - 1.0) > 1e-3) {
+    if (msg.keyframe_index[i] < 0 || !PoseFromWire(msg.translation_m[i], msg.quaternion[i], &m.T_map_sensor[i])) {
       return DataLoss("pose_update_t: pose " + std::to_string(i) + " has a negative keyframe index, a non-finite "
                       "value or a quaternion that is not unit");
     }
     m.keyframes[i] = static_cast<std::uint32_t>(msg.keyframe_index[i]);
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::Quaterniond(qv[0], qv[1], qv[2], qv[3]).normalized().toRotationMatrix();
-    T.translation() = tv;
-    m.T_map_sensor[i] = T;
+    const std::string field = "no_descriptor[" + std::to_string(i) + "]";
+    if (Status st = CheckFlag(msg.no_descriptor[i], DataLoss, type, field); !st.ok()) return st;
+    m.no_descriptor[i] = static_cast<std::uint8_t>(msg.no_descriptor[i]);
   }
   return m;
 }
@@ -239,6 +172,7 @@ Status EncodeScanRequest(const ScanRequest& m, std::vector<std::uint8_t>* out) {
   commerge::exchange_policy_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
+  msg.server_session = m.server_session;
   msg.request_id = m.request_id;
   msg.num_keyframes = static_cast<std::int32_t>(m.keyframes.size());
   msg.keyframe_index.resize(m.keyframes.size());
@@ -257,18 +191,20 @@ Status EncodeScanRequest(const ScanRequest& m, std::vector<std::uint8_t>* out) {
 
 Result<ScanRequest> DecodeScanRequest(Span<const std::uint8_t> bytes) {
   const char* type = "exchange_policy_t";
-  if (Status st = CheckHeader<commerge::exchange_policy_t>(bytes, 18, type); !st.ok()) return st;
-  const std::int64_t n = ReadBe(bytes, 8 + 14, 4);
+  // After the hash: utime 8, robot_id 2, server_session 8, request_id 4, num_keyframes 4.
+  if (Status st = CheckHeader<commerge::exchange_policy_t>(bytes, 26, type); !st.ok()) return st;
+  const std::int64_t n = ReadBe(bytes, 8 + 22, 4);
   if (Status st = CheckCount(n, static_cast<std::int64_t>(kMaxKeyframesPerRequest), type, "num_keyframes"); !st.ok()) {
     return st;
   }
-  if (Status st = CheckRoom(bytes, 8 + 18 + 4 * n, type); !st.ok()) return st;
+  if (Status st = CheckRoom(bytes, 8 + 26 + 4 * n, type); !st.ok()) return st;
   commerge::exchange_policy_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
   ScanRequest m;
   m.utime_us = msg.utime;
   m.robot_id = msg.robot_id;
+  m.server_session = msg.server_session;
   m.request_id = msg.request_id;
   m.keyframes.resize(static_cast<std::size_t>(n));
   for (std::size_t i = 0; i < m.keyframes.size(); ++i) {

@@ -16,21 +16,24 @@
 
 namespace commerge::platform {
 
-/// Channel names (lcm-spy shows them): COMMERGE_KEYFRAMES, COMMERGE_POSES, COMMERGE_POLICY, COMMERGE_SCANS.
+/// Channel names (lcm-spy shows them): COMMERGE_KEYFRAMES, COMMERGE_POSES, COMMERGE_POLICY, COMMERGE_SCANS. The
+/// status, merge-result and health channels are in platform/lcm/status_codec.hpp.
 extern const char* const kKeyframesChannel;
 extern const char* const kPosesChannel;
 extern const char* const kPolicyChannel;
 extern const char* const kScansChannel;
 
 /// Encoders replace `*out` with the message's wire bytes. Errors (InvalidArgument naming the field): a robot id
-/// outside 0..63, an array beyond its MAX_..., inconsistent sizes, a non-finite pose.
+/// outside 0..63, an array beyond its MAX_..., inconsistent sizes, a non-finite pose. PoseUpdate::no_descriptor
+/// may be empty (sent as all 0) or hold one 0/1 flag per keyframe.
 Status EncodeKeyframeBatch(const KeyframeBatch& message, std::vector<std::uint8_t>* out);
 Status EncodePoseUpdate(const PoseUpdate& message, std::vector<std::uint8_t>* out);
 Status EncodeScanRequest(const ScanRequest& message, std::vector<std::uint8_t>* out);
 Status EncodeScanChunk(const ScanChunk& message, std::vector<std::uint8_t>* out);
 
 /// Decoders. Errors (DataLoss): foreign fingerprint (another message type), truncated or trailing bytes, a count
-/// outside [0, MAX], negative ids or indices, sizes that contradict each other, non-finite values.
+/// outside [0, MAX], negative ids or indices, sizes that contradict each other, non-finite values, flags other
+/// than 0/1. A decoded PoseUpdate always has one no_descriptor flag per keyframe.
 Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes);
 Result<PoseUpdate> DecodePoseUpdate(Span<const std::uint8_t> bytes);
 Result<ScanRequest> DecodeScanRequest(Span<const std::uint8_t> bytes);

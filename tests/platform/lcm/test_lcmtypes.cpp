@@ -11,9 +11,10 @@
 namespace {
 
 commerge::robot_status_t MakeStatus() {
-  commerge::robot_status_t s;
+  commerge::robot_status_t s{};
   s.utime = 1763800000123456;
   s.robot_id = 2;
+  s.session = 1763799999000002;
   s.peak_rss_bytes = 300LL << 20;
   s.budget_total_bytes = 275LL << 20;
   s.budget_limit_bytes = 2650LL << 20;
@@ -22,6 +23,15 @@ commerge::robot_status_t MakeStatus() {
   s.module_budget_bytes = {160LL << 20, 10LL << 20};
   s.module_used_bytes = {12345678, 4096};
   s.module_high_water_bytes = {23456789, 8192};
+  s.keyframes = 120;
+  s.keyframes_acked = 100;
+  s.queued_keyframes = 20;
+  s.queued_poses = 3;
+  s.queued_chunks = 41;
+  s.bytes_sent = 123456789;
+  s.bytes_resent = 4567;
+  s.request_id = 5;
+  s.state = "sending scans";
   return s;
 }
 
@@ -52,6 +62,10 @@ TEST_CASE("robot_status_t encodes and decodes to the same values, and a truncate
   CHECK(d.robot_id == 2);
   CHECK(d.module_name == s.module_name);
   CHECK(d.module_high_water_bytes == s.module_high_water_bytes);
+  CHECK(d.session == s.session);
+  CHECK(d.queued_chunks == 41);
+  CHECK(d.bytes_resent == 4567);
+  CHECK(d.state == "sending scans");
   commerge::robot_status_t t;
   CHECK(t.decode(buf.data(), 0, static_cast<int>(buf.size()) - 9) < 0);
   buf[0] ^= 0xFF;  // wrong fingerprint

@@ -24,74 +24,10 @@
 #include "core/agent/messages.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
 #include "platform/lcm/message_codec.hpp"
+#include "tests/platform/lcm/lcm_test_util.hpp"
 
 namespace commerge::platform {
 namespace {
-
-using Buffer = std::vector<std::uint8_t>;
-
-// ---- independent byte helpers (LCM is big-endian) ----
-
-std::int64_t GetBe(const Buffer& b, std::size_t offset, int bytes) {
-  REQUIRE(offset + static_cast<std::size_t>(bytes) <= b.size());
-  std::uint64_t v = 0;
-  for (int i = 0; i < bytes; ++i) v = (v << 8) | b[offset + static_cast<std::size_t>(i)];
-  if (bytes < 8 && (v >> (8 * bytes - 1)) != 0) v |= ~std::uint64_t{0} << (8 * bytes);  // sign-extend
-  return static_cast<std::int64_t>(v);
-}
-
-void PutBe32(Buffer* b, std::size_t offset, std::uint32_t v) {
-  REQUIRE(offset + 4 <= b->size());
-  for (int i = 0; i < 4; ++i) (*b)[offset + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(v >> (24 - 8 * i));
-}
-
-float GetBeFloat(const Buffer& b, std::size_t offset) {
-  const auto bits = static_cast<std::uint32_t>(GetBe(b, offset, 4));
-  float f = 0.0f;
-  std::memcpy(&f, &bits, 4);
-  return f;
-}
-
-Span<const std::uint8_t> S(const Buffer& b) { return Span<const std::uint8_t>(b.data(), b.size()); }
-
-bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
-
-// The generated type's own encoding.
-template <typename LcmType>
-Buffer LcmEncode(const LcmType& msg) {
-  Buffer b(static_cast<std::size_t>(msg.getEncodedSize()));
-  REQUIRE(msg.encode(b.data(), 0, static_cast<int>(b.size())) == static_cast<int>(b.size()));
-  return b;
-}
-
-template <typename LcmType>
-LcmType LcmDecode(const Buffer& b) {
-  LcmType msg;
-  REQUIRE(msg.decode(b.data(), 0, static_cast<int>(b.size())) == static_cast<int>(b.size()));
-  return msg;
-}
-
-template <typename T>
-void CheckDataLoss(const Result<T>& r, const std::vector<std::string>& parts) {
-  REQUIRE_FALSE(r.ok());
-  CHECK(r.status().code() == StatusCode::kDataLoss);
-  for (const std::string& part : parts) {
-    INFO("message: ", r.status().message(), " expected to contain: ", part);
-    CHECK(Contains(r.status().message(), part));
-  }
-}
-
-void CheckInvalid(const Status& st, const std::vector<std::string>& parts) {
-  CHECK(st.code() == StatusCode::kInvalidArgument);
-  for (const std::string& part : parts) {
-    INFO("message: ", st.message(), " expected to contain: ", part);
-    CHECK(Contains(st.message(), part));
-  }
-}
-
-double RotationError(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return Eigen::AngleAxisd(a.transpose() * b).angle();
-}
 
 // ---- message builders ----
 
@@ -127,6 +63,7 @@ KeyframeBatch MakeBatch(std::size_t n) {
   KeyframeBatch m;
   m.utime_us = 1763800000123456;
   m.robot_id = 7;
+  m.session = 1763799999000001;
   m.sequence = 41;
   std::vector<KeyframeRecord> records;
   for (std::size_t i = 0; i < n; ++i) records.push_back(MakeRecord(static_cast<std::uint32_t>(10 + 3 * i)));
@@ -139,6 +76,7 @@ commerge::keyframe_batch_t ToLcm(const KeyframeBatch& m) {
   commerge::keyframe_batch_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
+  msg.session = m.session;
   msg.sequence = m.sequence;
   msg.num_records = static_cast<std::int32_t>(m.stored_points.size());
   msg.num_record_bytes = static_cast<std::int32_t>(m.records.size());
@@ -147,20 +85,15 @@ commerge::keyframe_batch_t ToLcm(const KeyframeBatch& m) {
   return msg;
 }
 
-Eigen::Isometry3d Pose(double angle, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
-  T.translation() = t;
-  return T;
-}
-
 PoseUpdate MakePoseUpdate(std::size_t n) {
   PoseUpdate m;
   m.utime_us = 1763800000654321;
   m.robot_id = 3;
+  m.session = 1763799999000003;
   m.sequence = 9;
   for (std::size_t i = 0; i < n; ++i) {
     m.keyframes.push_back(static_cast<std::uint32_t>(5 * i + 2));
+    m.no_descriptor.push_back(static_cast<std::uint8_t>(i % 2));
     m.T_map_sensor.push_back(Pose(0.4 + 0.9 * static_cast<double>(i), Eigen::Vector3d(-1.0, 0.5, 2.0 + static_cast<double>(i)),
                                   Eigen::Vector3d(12.345 * static_cast<double>(i), -3.5, 0.125)));
   }
@@ -171,6 +104,7 @@ ScanRequest MakeRequest(std::vector<std::uint32_t> keyframes) {
   ScanRequest m;
   m.utime_us = 1763800000000777;
   m.robot_id = 12;
+  m.server_session = 1763799990000042;
   m.request_id = 4242;
   m.keyframes = std::move(keyframes);
   return m;
@@ -180,6 +114,7 @@ commerge::exchange_policy_t ToLcm(const ScanRequest& m) {
   commerge::exchange_policy_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
+  msg.server_session = m.server_session;
   msg.request_id = m.request_id;
   msg.num_keyframes = static_cast<std::int32_t>(m.keyframes.size());
   for (std::uint32_t k : m.keyframes) msg.keyframe_index.push_back(static_cast<std::int32_t>(k));
@@ -261,10 +196,12 @@ AllDecoders DecodeWithAll(const Buffer& b) {
 }
 
 // Offsets of the count fields (8-byte fingerprint first, then the fields in declaration order).
-constexpr std::size_t kBatchNumRecords = 8 + 8 + 2 + 4;             // 22
-constexpr std::size_t kBatchNumRecordBytes = kBatchNumRecords + 4;  // 26
-constexpr std::size_t kPoseNumPoses = 8 + 8 + 2 + 4;                // 22
-constexpr std::size_t kRequestNumKeyframes = 8 + 8 + 2 + 4;         // 22
+// utime 8, robot_id 2, session 8, sequence 4:
+constexpr std::size_t kBatchNumRecords = 8 + 8 + 2 + 8 + 4;         // 30
+constexpr std::size_t kBatchNumRecordBytes = kBatchNumRecords + 4;  // 34
+constexpr std::size_t kPoseNumPoses = 8 + 8 + 2 + 8 + 4;            // 30
+// utime 8, robot_id 2, server_session 8, request_id 4:
+constexpr std::size_t kRequestNumKeyframes = 8 + 8 + 2 + 8 + 4;     // 30
 constexpr std::size_t kChunkNumBytes = 8 + 8 + 2 + 4 + 4 + 4 + 2 + 2;  // 34
 
 TEST_CASE("message codec: channel names are the documented ones") {
@@ -280,19 +217,20 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
   m.stored_points[2] = static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max());
   const Buffer b = Encoded(m);
 
-  // Wire layout, read by hand: fingerprint, utime, robot_id, sequence, num_records, num_record_bytes, records,
-  // stored_points.
-  REQUIRE(b.size() == 8 + 22 + 3 * 92 + 3 * 4);
+  // Wire layout, read by hand: fingerprint, utime, robot_id, session, sequence, num_records, num_record_bytes,
+  // records, stored_points.
+  REQUIRE(b.size() == 8 + 30 + 3 * 92 + 3 * 4);
   CHECK(GetBe(b, 0, 8) == commerge::keyframe_batch_t::getHash());
   CHECK(GetBe(b, 8, 8) == 1763800000123456);
   CHECK(GetBe(b, 16, 2) == 63);
-  CHECK(GetBe(b, 18, 4) == 41);
+  CHECK(GetBe(b, 18, 8) == 1763799999000001);
+  CHECK(GetBe(b, 26, 4) == 41);
   CHECK(GetBe(b, kBatchNumRecords, 4) == 3);
   CHECK(GetBe(b, kBatchNumRecordBytes, 4) == 276);
-  CHECK(std::memcmp(b.data() + 30, m.records.data(), 276) == 0);
-  CHECK(GetBe(b, 30 + 276, 4) == 0);
-  CHECK(GetBe(b, 30 + 276 + 4, 4) == 1007);
-  CHECK(GetBe(b, 30 + 276 + 8, 4) == std::numeric_limits<std::int32_t>::max());
+  CHECK(std::memcmp(b.data() + 38, m.records.data(), 276) == 0);
+  CHECK(GetBe(b, 38 + 276, 4) == 0);
+  CHECK(GetBe(b, 38 + 276 + 4, 4) == 1007);
+  CHECK(GetBe(b, 38 + 276 + 8, 4) == std::numeric_limits<std::int32_t>::max());
 
   // The byte ledger counts the wire: the generated type encodes the same values to the same bytes.
   const commerge::keyframe_batch_t lcm = ToLcm(m);
@@ -303,6 +241,7 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
   REQUIRE(d.ok());
   CHECK(d->utime_us == m.utime_us);
   CHECK(d->robot_id == 63);
+  CHECK(d->session == 1763799999000001);
   CHECK(d->sequence == 41);
   CHECK(d->records == m.records);
   CHECK(d->stored_points == m.stored_points);
@@ -324,17 +263,19 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
   }
 }
 
-TEST_CASE("message codec: an empty keyframe batch is the 30-byte header and round-trips") {
+TEST_CASE("message codec: an empty keyframe batch is the 38-byte header and round-trips") {
   KeyframeBatch m;
   m.utime_us = -5;
   m.robot_id = 0;
+  m.session = 1;
   m.sequence = 0;
   const Buffer b = Encoded(m);
-  CHECK(b.size() == 30);
+  CHECK(b.size() == 38);
   CHECK(b == LcmEncode(ToLcm(m)));
   auto d = DecodeKeyframeBatch(S(b));
   REQUIRE(d.ok());
   CHECK(d->utime_us == -5);
+  CHECK(d->session == 1);
   CHECK(d->records.empty());
   CHECK(d->stored_points.empty());
 }
@@ -347,15 +288,19 @@ TEST_CASE("message codec: pose update round trip keeps poses within float precis
   m.T_map_sensor[2] = Eigen::Isometry3d::Identity();
   const Buffer b = Encoded(m);
 
-  REQUIRE(b.size() == 8 + 18 + 4 * (4 + 12 + 16));
+  REQUIRE(b.size() == 8 + 26 + 4 * (4 + 12 + 16 + 1));
   CHECK(GetBe(b, 0, 8) == commerge::pose_update_t::getHash());
   CHECK(GetBe(b, 8, 8) == m.utime_us);
   CHECK(GetBe(b, 16, 2) == 3);
-  CHECK(GetBe(b, 18, 4) == 9);
+  CHECK(GetBe(b, 18, 8) == 1763799999000003);
+  CHECK(GetBe(b, 26, 4) == 9);
   CHECK(GetBe(b, kPoseNumPoses, 4) == 4);
-  for (std::size_t i = 0; i < 4; ++i) CHECK(GetBe(b, 26 + 4 * i, 4) == static_cast<std::int64_t>(m.keyframes[i]));
-  // Translations (float, big-endian) follow the indices; then unit quaternions w, x, y, z of the rotation.
-  const std::size_t t0 = 26 + 16, q0 = t0 + 4 * 12;
+  for (std::size_t i = 0; i < 4; ++i) CHECK(GetBe(b, 34 + 4 * i, 4) == static_cast<std::int64_t>(m.keyframes[i]));
+  // Translations (float, big-endian) follow the indices; then unit quaternions w, x, y, z of the rotation; then
+  // one no_descriptor byte per pose.
+  const std::size_t t0 = 34 + 16, q0 = t0 + 4 * 12, f0 = q0 + 4 * 16;
+  REQUIRE(f0 + 4 == b.size());
+  for (std::size_t i = 0; i < 4; ++i) CHECK(GetBe(b, f0 + i, 1) == static_cast<std::int64_t>(m.no_descriptor[i]));
   for (std::size_t i = 0; i < 4; ++i) {
     for (std::size_t a = 0; a < 3; ++a) {
       CHECK(static_cast<double>(GetBeFloat(b, t0 + 12 * i + 4 * a)) ==
@@ -374,8 +319,10 @@ TEST_CASE("message codec: pose update round trip keeps poses within float precis
   REQUIRE(d.ok());
   CHECK(d->utime_us == m.utime_us);
   CHECK(d->robot_id == 3);
+  CHECK(d->session == 1763799999000003);
   CHECK(d->sequence == 9);
   CHECK(d->keyframes == m.keyframes);
+  CHECK(d->no_descriptor == std::vector<std::uint8_t>{0, 1, 0, 1});
   REQUIRE(d->T_map_sensor.size() == 4);
   for (std::size_t i = 0; i < 4; ++i) {
     INFO("pose ", i);
@@ -392,23 +339,25 @@ TEST_CASE("message codec: pose update round trip keeps poses within float precis
   PoseUpdate empty;
   empty.robot_id = 1;
   const Buffer e = Encoded(empty);
-  CHECK(e.size() == 26);
+  CHECK(e.size() == 34);
   auto de = DecodePoseUpdate(S(e));
   REQUIRE(de.ok());
   CHECK(de->keyframes.empty());
   CHECK(de->T_map_sensor.empty());
+  CHECK(de->no_descriptor.empty());
 }
 
 TEST_CASE("message codec: scan request round trip keeps ids and ascending keyframes") {
   const ScanRequest m = MakeRequest({0, 5, 6, 1000, static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max())});
   const Buffer b = Encoded(m);
-  REQUIRE(b.size() == 8 + 18 + 5 * 4);
+  REQUIRE(b.size() == 8 + 26 + 5 * 4);
   CHECK(GetBe(b, 0, 8) == commerge::exchange_policy_t::getHash());
   CHECK(GetBe(b, 8, 8) == m.utime_us);
   CHECK(GetBe(b, 16, 2) == 12);
-  CHECK(GetBe(b, 18, 4) == 4242);
+  CHECK(GetBe(b, 18, 8) == 1763799990000042);
+  CHECK(GetBe(b, 26, 4) == 4242);
   CHECK(GetBe(b, kRequestNumKeyframes, 4) == 5);
-  CHECK(GetBe(b, 26 + 12, 4) == 1000);
+  CHECK(GetBe(b, 34 + 12, 4) == 1000);
   const commerge::exchange_policy_t lcm = ToLcm(m);
   CHECK(lcm.getEncodedSize() == static_cast<int>(b.size()));
   CHECK(LcmEncode(lcm) == b);
@@ -417,12 +366,13 @@ TEST_CASE("message codec: scan request round trip keeps ids and ascending keyfra
   REQUIRE(d.ok());
   CHECK(d->utime_us == m.utime_us);
   CHECK(d->robot_id == 12);
+  CHECK(d->server_session == 1763799990000042);
   CHECK(d->request_id == 4242);
   CHECK(d->keyframes == m.keyframes);
 
   const ScanRequest none = MakeRequest({});
   const Buffer e = Encoded(none);
-  CHECK(e.size() == 26);
+  CHECK(e.size() == 34);
   auto de = DecodeScanRequest(S(e));
   REQUIRE(de.ok());
   CHECK(de->keyframes.empty());
@@ -488,8 +438,10 @@ TEST_CASE("message codec: the encoded bytes are exactly what lcm publish of the 
   // identity and the half turns about x and z (Eigen gives the quaternion its positive non-zero component).
   PoseUpdate poses;
   poses.robot_id = 4;
+  poses.session = 77;
   poses.sequence = 2;
   poses.keyframes = {1, 4, 8};
+  poses.no_descriptor = {0, 1, 0};
   poses.T_map_sensor.assign(3, Eigen::Isometry3d::Identity());
   poses.T_map_sensor[0].translation() = Eigen::Vector3d(1.5, -2.25, 100.125);
   poses.T_map_sensor[1].linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();
@@ -498,11 +450,13 @@ TEST_CASE("message codec: the encoded bytes are exactly what lcm publish of the 
   commerge::pose_update_t pose_msg;
   pose_msg.utime = 0;
   pose_msg.robot_id = 4;
+  pose_msg.session = 77;
   pose_msg.sequence = 2;
   pose_msg.num_poses = 3;
   pose_msg.keyframe_index = {1, 4, 8};
   pose_msg.translation_m = {{1.5f, -2.25f, 100.125f}, {0.0f, 0.0f, 0.0f}, {0.5f, 0.25f, -8.0f}};
   pose_msg.quaternion = {{1.0f, 0.0f, 0.0f, 0.0f}, {0.0f, 1.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f, 1.0f}};
+  pose_msg.no_descriptor = {0, 1, 0};
 
   const commerge::keyframe_batch_t batch_msg = ToLcm(batch);
   const commerge::exchange_policy_t request_msg = ToLcm(request);
@@ -570,52 +524,23 @@ TEST_CASE("message codec: every decoder refuses a foreign message type by its fi
   }
   // A foreign message shorter than our header is refused too (whatever the reason given).
   PoseUpdate empty_poses;
-  const Buffer short_foreign = Encoded(empty_poses);  // 26 bytes
+  const Buffer short_foreign = Encoded(empty_poses);  // 34 bytes
   CHECK(DecodeScanChunk(S(short_foreign)).status().code() == StatusCode::kDataLoss);
   CHECK(DecodeKeyframeBatch(S(short_foreign)).status().code() == StatusCode::kDataLoss);
 }
 
 TEST_CASE("message codec: every truncation of a valid buffer is refused") {
-  const Buffer buffers[] = {Encoded(MakeBatch(1)), Encoded(MakePoseUpdate(2)), Encoded(MakeRequest({1, 2, 3, 4, 5})),
-                            Encoded(MakeChunk(10))};
-  for (std::size_t which = 0; which < 4; ++which) {
-    const Buffer& full = buffers[which];
-    for (std::size_t len = 0; len < full.size(); ++len) {
-      // An exact-size heap copy, so a read past the end is a real overread (sanitizers see it).
-      const Buffer cut(full.begin(), full.begin() + static_cast<std::ptrdiff_t>(len));
-      const Span<const std::uint8_t> s(cut.data(), cut.size());
-      StatusCode code = StatusCode::kOk;
-      bool ok = true;
-      switch (which) {
-        case 0: { auto r = DecodeKeyframeBatch(s); ok = r.ok(); code = r.status().code(); break; }
-        case 1: { auto r = DecodePoseUpdate(s); ok = r.ok(); code = r.status().code(); break; }
-        case 2: { auto r = DecodeScanRequest(s); ok = r.ok(); code = r.status().code(); break; }
-        default: { auto r = DecodeScanChunk(s); ok = r.ok(); code = r.status().code(); break; }
-      }
-      if (ok || code != StatusCode::kDataLoss) {
-        INFO("message type ", which, " truncated to ", len, " of ", full.size(), " bytes");
-        CHECK_FALSE(ok);
-        CHECK(code == StatusCode::kDataLoss);
-      }
-    }
-  }
+  CheckEveryTruncationRefused(Encoded(MakeBatch(1)), DecodeKeyframeBatch, "keyframe_batch_t");
+  CheckEveryTruncationRefused(Encoded(MakePoseUpdate(2)), DecodePoseUpdate, "pose_update_t");
+  CheckEveryTruncationRefused(Encoded(MakeRequest({1, 2, 3, 4, 5})), DecodeScanRequest, "exchange_policy_t");
+  CheckEveryTruncationRefused(Encoded(MakeChunk(10)), DecodeScanChunk, "scan_chunk_t");
 }
 
 TEST_CASE("message codec: trailing bytes after a valid message are refused") {
-  for (std::size_t extra : {std::size_t{1}, std::size_t{8}}) {
-    Buffer b = Encoded(MakeBatch(1));
-    b.insert(b.end(), extra, 0);
-    CheckDataLoss(DecodeKeyframeBatch(S(b)), {"keyframe_batch_t", "trailing"});
-    b = Encoded(MakePoseUpdate(1));
-    b.insert(b.end(), extra, 0);
-    CheckDataLoss(DecodePoseUpdate(S(b)), {"pose_update_t", "trailing"});
-    b = Encoded(MakeRequest({2, 4}));
-    b.insert(b.end(), extra, 0);
-    CheckDataLoss(DecodeScanRequest(S(b)), {"exchange_policy_t", "trailing"});
-    b = Encoded(MakeChunk(3));
-    b.insert(b.end(), extra, 0);
-    CheckDataLoss(DecodeScanChunk(S(b)), {"scan_chunk_t", "trailing"});
-  }
+  CheckTrailingBytesRefused(Encoded(MakeBatch(1)), DecodeKeyframeBatch, "keyframe_batch_t");
+  CheckTrailingBytesRefused(Encoded(MakePoseUpdate(1)), DecodePoseUpdate, "pose_update_t");
+  CheckTrailingBytesRefused(Encoded(MakeRequest({2, 4})), DecodeScanRequest, "exchange_policy_t");
+  CheckTrailingBytesRefused(Encoded(MakeChunk(3)), DecodeScanChunk, "scan_chunk_t");
 }
 
 TEST_CASE("message codec: a count field patched to a huge or negative value is refused quickly, naming it") {
@@ -703,7 +628,7 @@ TEST_CASE("message codec: encoders refuse arrays beyond MAX and inconsistent siz
     m.records.assign(512 * 92, 0);
     m.stored_points.assign(512, 0);
     REQUIRE(EncodeKeyframeBatch(m, &out).ok());
-    CHECK(out.size() == 30 + 512 * 96);
+    CHECK(out.size() == 38 + 512 * 96);
     KeyframeBatch mismatch = MakeBatch(2);
     mismatch.stored_points.push_back(1);
     CheckInvalid(EncodeKeyframeBatch(mismatch, &out), {"keyframe_batch_t", "point counts"});
@@ -719,7 +644,7 @@ TEST_CASE("message codec: encoders refuse arrays beyond MAX and inconsistent siz
     m.keyframes.assign(4096, 0);
     m.T_map_sensor.assign(4096, Eigen::Isometry3d::Identity());
     REQUIRE(EncodePoseUpdate(m, &out).ok());
-    CHECK(out.size() == 26 + 4096 * 32);
+    CHECK(out.size() == 34 + 4096 * 33);
     PoseUpdate mismatch = MakePoseUpdate(2);
     mismatch.keyframes.push_back(99);
     CheckInvalid(EncodePoseUpdate(mismatch, &out), {"pose_update_t", "3 keyframes and 2 poses"});
@@ -737,7 +662,7 @@ TEST_CASE("message codec: encoders refuse arrays beyond MAX and inconsistent siz
     CheckInvalid(EncodeScanRequest(m, &out), {"exchange_policy_t", "65537"});
     m.keyframes.pop_back();
     REQUIRE(EncodeScanRequest(m, &out).ok());
-    CHECK(out.size() == 26 + 65536 * 4);
+    CHECK(out.size() == 34 + 65536 * 4);
     auto d = DecodeScanRequest(S(out));
     REQUIRE(d.ok());
     CHECK(d->keyframes.size() == 65536);
@@ -784,6 +709,7 @@ TEST_CASE("message codec: decoders refuse counts beyond MAX in otherwise well-fo
     msg.keyframe_index.assign(4097, 0);
     msg.translation_m.assign(4097, std::vector<float>(3, 0.0f));
     msg.quaternion.assign(4097, std::vector<float>{1.0f, 0.0f, 0.0f, 0.0f});
+    msg.no_descriptor.assign(4097, 0);
     const Buffer b = LcmEncode(msg);
     CheckDataLoss(DecodePoseUpdate(S(b)), {"pose_update_t", "num_poses = 4097", "0..4096"});
   }
@@ -951,20 +877,99 @@ TEST_CASE("message codec: the encoder refuses a request whose keyframes are not 
 TEST_CASE("message codec: a short buffer announcing large arrays is refused before decoding") {
   // Headers only, counts patched to the largest legal values: the announced arrays are not there.
   Buffer request = Encoded(MakeRequest({}));
-  PutBe32(&request, 8 + 14, 65536);
+  PutBe32(&request, kRequestNumKeyframes, 65536);
   CheckDataLoss(DecodeScanRequest(S(request)), {"cannot hold"});
   Buffer chunk = Encoded(MakeChunk(0));
-  PutBe32(&chunk, 8 + 26, 1200);
+  PutBe32(&chunk, kChunkNumBytes, 1200);
   CheckDataLoss(DecodeScanChunk(S(chunk)), {"cannot hold"});
   Buffer batch = Encoded(MakeBatch(0));
-  PutBe32(&batch, 8 + 14, 512);
-  PutBe32(&batch, 8 + 18, 512 * 92);
+  PutBe32(&batch, kBatchNumRecords, 512);
+  PutBe32(&batch, kBatchNumRecordBytes, 512 * 92);
   CheckDataLoss(DecodeKeyframeBatch(S(batch)), {"cannot hold"});
 }
 
 TEST_CASE("message codec: a short foreign message is refused by its fingerprint") {
-  const Buffer tiny = Encoded(MakeRequest({}));  // 30 bytes: shorter than a scan chunk's header
+  const Buffer tiny = Encoded(MakeRequest({}));  // 34 bytes: shorter than a scan chunk's header (38)
   CheckDataLoss(DecodeScanChunk(S(tiny)), {"fingerprint"});
+}
+
+TEST_CASE("message codec: session ids travel as int64 at their offsets in batches, pose updates and requests") {
+  for (std::int64_t session : {std::int64_t{1}, std::int64_t{1763799999123456}, std::numeric_limits<std::int64_t>::max(),
+                               std::int64_t{0}, std::int64_t{-7}}) {
+    INFO("session ", session);
+    KeyframeBatch batch = MakeBatch(1);
+    batch.session = session;
+    const Buffer bb = Encoded(batch);
+    CHECK(GetBe(bb, 18, 8) == session);  // after the fingerprint, utime and robot_id
+    CHECK(bb == LcmEncode(ToLcm(batch)));
+    auto db = DecodeKeyframeBatch(S(bb));
+    REQUIRE(db.ok());
+    CHECK(db->session == session);
+
+    PoseUpdate poses = MakePoseUpdate(1);
+    poses.session = session;
+    const Buffer pb = Encoded(poses);
+    CHECK(GetBe(pb, 18, 8) == session);
+    auto dp = DecodePoseUpdate(S(pb));
+    REQUIRE(dp.ok());
+    CHECK(dp->session == session);
+
+    ScanRequest request = MakeRequest({4});
+    request.server_session = session;
+    const Buffer rb = Encoded(request);
+    CHECK(GetBe(rb, 18, 8) == session);
+    CHECK(rb == LcmEncode(ToLcm(request)));
+    auto dr = DecodeScanRequest(S(rb));
+    REQUIRE(dr.ok());
+    CHECK(dr->server_session == session);
+  }
+}
+
+TEST_CASE("message codec: pose update no_descriptor is empty or one 0 or 1 flag per keyframe") {
+  // Empty: all 0 on the wire, and the decoder fills one flag per pose.
+  PoseUpdate m = MakePoseUpdate(3);
+  m.no_descriptor.clear();
+  const Buffer b = Encoded(m);
+  const std::size_t f0 = 8 + 26 + 3 * 32;
+  REQUIRE(b.size() == f0 + 3);
+  for (std::size_t i = 0; i < 3; ++i) CHECK(GetBe(b, f0 + i, 1) == 0);
+  PoseUpdate zeros = m;
+  zeros.no_descriptor = {0, 0, 0};
+  CHECK(Encoded(zeros) == b);
+  auto d = DecodePoseUpdate(S(b));
+  REQUIRE(d.ok());
+  CHECK(d->no_descriptor == std::vector<std::uint8_t>{0, 0, 0});
+  // All 1: a pose update of keyframes without descriptors.
+  PoseUpdate ones = MakePoseUpdate(3);
+  ones.no_descriptor = {1, 1, 1};
+  const Buffer ob = Encoded(ones);
+  for (std::size_t i = 0; i < 3; ++i) CHECK(GetBe(ob, f0 + i, 1) == 1);
+  auto dones = DecodePoseUpdate(S(ob));
+  REQUIRE(dones.ok());
+  CHECK(dones->no_descriptor == ones.no_descriptor);
+
+  // The encoder refuses another size or another value, naming the field.
+  Buffer out;
+  PoseUpdate wrong_size = MakePoseUpdate(3);
+  wrong_size.no_descriptor = {0, 1};
+  CheckInvalid(EncodePoseUpdate(wrong_size, &out), {"pose_update_t", "no_descriptor", "2 entries for 3 keyframes"});
+  wrong_size.no_descriptor = {0, 1, 0, 1};
+  CheckInvalid(EncodePoseUpdate(wrong_size, &out), {"no_descriptor", "4 entries for 3 keyframes"});
+  PoseUpdate wrong_value = MakePoseUpdate(3);
+  wrong_value.no_descriptor = {0, 2, 1};
+  CheckInvalid(EncodePoseUpdate(wrong_value, &out), {"pose_update_t", "no_descriptor[1] = 2", "not 0 or 1"});
+
+  // The decoder refuses a flag byte other than 0 or 1.
+  for (std::uint8_t bad : {std::uint8_t{2}, std::uint8_t{0xff}, std::uint8_t{0x80}}) {
+    Buffer patched = b;
+    patched[f0 + 2] = bad;
+    CheckDataLoss(DecodePoseUpdate(S(patched)), {"pose_update_t", "no_descriptor[2] = ", "not 0 or 1"});
+  }
+  // And the generated type, filled by hand, gives the same bytes.
+  commerge::pose_update_t msg = LcmDecode<commerge::pose_update_t>(ob);
+  CHECK(msg.no_descriptor == std::vector<std::int8_t>{1, 1, 1});
+  msg.no_descriptor = {0, 0, 0};
+  CHECK(LcmEncode(msg) == b);
 }
 
 }  // namespace

@@ -1,0 +1,149 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Helpers shared by the LCM codec tests: big-endian bytes read and patched by hand (independently of the codecs),
+// the generated types' own encode/decode as the reference, error-message checks, and the hostile-buffer sweeps
+// (every truncation, trailing bytes) every decoder must survive.
+#pragma once
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/common/span.hpp"
+#include "core/common/status.hpp"
+
+namespace commerge::platform {
+
+using Buffer = std::vector<std::uint8_t>;
+
+// ---- independent byte helpers (LCM is big-endian) ----
+
+inline std::int64_t GetBe(const Buffer& b, std::size_t offset, int bytes) {
+  REQUIRE(offset + static_cast<std::size_t>(bytes) <= b.size());
+  std::uint64_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = (v << 8) | b[offset + static_cast<std::size_t>(i)];
+  if (bytes < 8 && (v >> (8 * bytes - 1)) != 0) v |= ~std::uint64_t{0} << (8 * bytes);  // sign-extend
+  return static_cast<std::int64_t>(v);
+}
+
+inline void PutBe(Buffer* b, std::size_t offset, std::uint64_t v, int bytes) {
+  REQUIRE(offset + static_cast<std::size_t>(bytes) <= b->size());
+  for (int i = 0; i < bytes; ++i) {
+    (*b)[offset + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(v >> (8 * (bytes - 1 - i)));
+  }
+}
+inline void PutBe32(Buffer* b, std::size_t offset, std::uint32_t v) { PutBe(b, offset, v, 4); }
+inline void PutBe16(Buffer* b, std::size_t offset, std::uint16_t v) { PutBe(b, offset, v, 2); }
+
+inline float GetBeFloat(const Buffer& b, std::size_t offset) {
+  const auto bits = static_cast<std::uint32_t>(GetBe(b, offset, 4));
+  float f = 0.0f;
+  std::memcpy(&f, &bits, 4);
+  return f;
+}
+
+inline void PutBeFloat(Buffer* b, std::size_t offset, float f) {
+  std::uint32_t bits = 0;
+  std::memcpy(&bits, &f, 4);
+  PutBe32(b, offset, bits);
+}
+
+inline Span<const std::uint8_t> S(const Buffer& b) { return Span<const std::uint8_t>(b.data(), b.size()); }
+
+inline bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+// ---- the generated type's own encoding ----
+
+template <typename LcmType>
+Buffer LcmEncode(const LcmType& msg) {
+  Buffer b(static_cast<std::size_t>(msg.getEncodedSize()));
+  REQUIRE(msg.encode(b.data(), 0, static_cast<int>(b.size())) == static_cast<int>(b.size()));
+  return b;
+}
+
+template <typename LcmType>
+LcmType LcmDecode(const Buffer& b) {
+  LcmType msg;
+  REQUIRE(msg.decode(b.data(), 0, static_cast<int>(b.size())) == static_cast<int>(b.size()));
+  return msg;
+}
+
+// ---- error checks ----
+
+template <typename T>
+void CheckDataLoss(const Result<T>& r, const std::vector<std::string>& parts) {
+  REQUIRE_FALSE(r.ok());
+  CHECK(r.status().code() == StatusCode::kDataLoss);
+  for (const std::string& part : parts) {
+    INFO("message: ", r.status().message(), " expected to contain: ", part);
+    CHECK(Contains(r.status().message(), part));
+  }
+}
+
+inline void CheckInvalid(const Status& st, const std::vector<std::string>& parts) {
+  CHECK(st.code() == StatusCode::kInvalidArgument);
+  for (const std::string& part : parts) {
+    INFO("message: ", st.message(), " expected to contain: ", part);
+    CHECK(Contains(st.message(), part));
+  }
+}
+
+// ---- hostile-buffer sweeps ----
+
+/// Every truncation 0..size-1 of a valid buffer is refused with DataLoss (each an exact-size heap copy, so a read
+/// past the end is a real overread that sanitizers see). `decode` is a decoder taking Span<const uint8_t>.
+template <typename Decode>
+void CheckEveryTruncationRefused(const Buffer& full, Decode decode, const char* type) {
+  REQUIRE(decode(S(full)).ok());
+  std::size_t refused = 0;
+  for (std::size_t len = 0; len < full.size(); ++len) {
+    const Buffer cut(full.begin(), full.begin() + static_cast<std::ptrdiff_t>(len));
+    const auto r = decode(S(cut));
+    if (r.ok() || r.status().code() != StatusCode::kDataLoss) {
+      INFO(type, " truncated to ", len, " of ", full.size(), " bytes: ", r.status().ToString());
+      CHECK_FALSE(r.ok());
+      CHECK(r.status().code() == StatusCode::kDataLoss);
+    } else {
+      ++refused;
+    }
+  }
+  INFO(type, ": ", refused, " of ", full.size(), " truncations refused");
+  CHECK(refused == full.size());
+}
+
+/// 1 and 8 bytes after a valid buffer are refused, naming the type and "trailing".
+template <typename Decode>
+void CheckTrailingBytesRefused(const Buffer& full, Decode decode, const char* type) {
+  for (std::size_t extra : {std::size_t{1}, std::size_t{8}}) {
+    Buffer b = full;
+    b.insert(b.end(), extra, 0);
+    CheckDataLoss(decode(S(b)), {type, "trailing"});
+  }
+}
+
+// ---- poses ----
+
+inline double RotationError(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::AngleAxisd(a.transpose() * b).angle();
+}
+
+inline Eigen::Isometry3d Pose(double angle, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+  T.translation() = t;
+  return T;
+}
+
+/// Within float precision: translation to 1e-5 relative (at least 1e-5 m), rotation to 1e-5 rad.
+inline bool NearPose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  const double scale = std::max(1.0, b.translation().cwiseAbs().maxCoeff());
+  return (a.translation() - b.translation()).cwiseAbs().maxCoeff() < 1e-5 * scale &&
+         RotationError(a.linear(), b.linear()) < 1e-5;
+}
+
+}  // namespace commerge::platform
