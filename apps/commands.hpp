@@ -18,5 +18,7 @@ Command AddDemoCommand(CLI::App& root);
 Command AddVoxelizeCommand(CLI::App& root);
 Command AddSimCommand(CLI::App& root);
 Command AddRunCommand(CLI::App& root);
+Command AddRobotCommand(CLI::App& root);
+Command AddServerCommand(CLI::App& root);
 
 }  // namespace commerge::app

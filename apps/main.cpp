@@ -16,7 +16,8 @@ int main(int argc, char** argv) {
   root.require_subcommand(1);
 
   const std::vector<Command> commands = {AddDemoCommand(root), AddBudgetCommand(root), AddVoxelizeCommand(root),
-                                       AddSimCommand(root), AddRunCommand(root)};
+                                       AddSimCommand(root), AddRunCommand(root), AddRobotCommand(root),
+                                       AddServerCommand(root)};
 
   try {
     root.parse(argc, argv);

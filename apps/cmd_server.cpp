@@ -1,0 +1,292 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// `commerge server`: the merge server process on LCM. It receives keyframe batches, pose updates and scan
+// chunks (decoded with the bounded decoders; malformed, foreign, stale and unknown-robot messages are counted),
+// sends transfer statuses and exchange policies, runs merge rounds (core/agent/server_link), publishes
+// merge_result_t and server_status_t, and writes transforms.txt after every round. With --exit-when-merged N
+// it ends (exit 0) once N robots are in the world frame; otherwise it runs until SIGINT / SIGTERM.
+#include <CLI/CLI.hpp>
+
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "apps/app_common.hpp"
+#include "apps/commands.hpp"
+#include "core/agent/server_link.hpp"
+#include "platform/lcm/lcm_bus.hpp"
+#include "platform/lcm/message_codec.hpp"
+#include "platform/lcm/status_codec.hpp"
+#include "platform/memory/peak_rss.hpp"
+
+namespace commerge::app {
+
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;
+void OnSignal(int) { g_stop = 1; }
+
+struct ServerOptions {
+  std::string out_dir = "commerge-server-out";
+  std::string mode = "A+B+C";
+  std::string lcm_url;
+  double round_interval_s = 10.0;
+  double round_quiet_s = 3.0;
+  double request_timeout_s = 60.0;
+  std::int64_t round_min_new_keyframes = 200;
+  double tau_inter = 0.0;
+  std::int64_t tau_area = -1;
+  int exit_when_merged = 0;
+  double max_runtime_s = 0.0;
+  double delay_ms = 0.0;
+  bool quiet = false;
+  MemoryFlags memory;
+};
+
+Status WriteTransforms(const std::string& path, const MergeResultMessage& m) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) return IoError("cannot write " + path);
+  std::fprintf(f, "# commerge server round %d: T_world_map per robot (world = robot 0's map), row-major 3x4\n",
+               m.round);
+  for (std::size_t i = 0; i < m.robot_ids.size(); ++i) {
+    const Eigen::Matrix4d T = m.T_world_map[i].matrix();
+    std::fprintf(f, "robot %d %s", m.robot_ids[i], m.in_world[i] ? "merged" : "unmerged");
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 4; ++c) std::fprintf(f, " %.9g", T(r, c));
+    }
+    std::fprintf(f, "\n");
+  }
+  for (const MergePairOutcome& p : m.pairs) {
+    std::fprintf(f, "# pair %d-%d: %s, overlap %.3f, %u inliers, scans %u + %u%s\n", p.alpha, p.beta,
+                 p.verdict.c_str(), static_cast<double>(p.overlap), p.inliers, p.alpha_scans, p.beta_scans,
+                 p.success && !p.consistent ? " (rejected as inconsistent)" : "");
+  }
+  const bool ok = std::fclose(f) == 0;
+  return ok ? Status::Ok() : IoError("cannot write " + path);
+}
+
+int RunServer(const ServerOptions& o) {
+  const char* tag = "commerge server";
+  MemorySetup setup;
+  if (int rc = SetUpMemory(AppKind::kServer, o.memory, &setup, false); rc != kExitOk) return rc;
+  // Robot ids 0..--robots-1 are accepted (the memory flag that also sizes the budget).
+  const int robots = setup.config.max_robots;
+  if (robots < 2 || robots > 8) {
+    std::fprintf(stderr, "%s: --robots = %d is outside 2..8 (the frame solver's limit)\n", tag, robots);
+    return kExitUsage;
+  }
+  auto mode = ExchangeModeFromName(o.mode);
+  if (!mode.ok()) {
+    std::fprintf(stderr, "%s: --mode: %s\n", tag, mode.status().message().c_str());
+    return kExitUsage;
+  }
+  MergeServerParams server_params;
+  if (o.tau_inter > 0.0) server_params.cascade.stage_a.tau_inter = o.tau_inter;
+  if (o.tau_area >= 0) server_params.cascade.stage_a.tau_area = static_cast<std::uint64_t>(o.tau_area);
+  server_params.max_submap_points =
+      static_cast<std::size_t>(std::min<std::int32_t>(setup.config.max_submap_points, 100000));
+  if (Status st = ValidateMergeServerParams(server_params); !st.ok()) {
+    std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
+    return kExitUsage;
+  }
+  ServerLinkParams link_params;
+  link_params.mode = *mode;
+  link_params.round_interval_s = o.round_interval_s;
+  link_params.round_quiet_s = o.round_quiet_s;
+  link_params.request_timeout_s = o.request_timeout_s;
+  link_params.round_min_new_keyframes = static_cast<std::size_t>(std::max<std::int64_t>(1, o.round_min_new_keyframes));
+  if (Status st = ValidateServerLinkParams(link_params); !st.ok()) {
+    std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
+    return kExitUsage;
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(o.out_dir, ec);
+  if (ec) {
+    std::fprintf(stderr, "%s: cannot create --out %s: %s\n", tag, o.out_dir.c_str(), ec.message().c_str());
+    return kExitFailure;
+  }
+  MergeServer server(robots, static_cast<std::size_t>(setup.config.max_keyframes_per_robot), server_params);
+  const std::int64_t session = platform::WallTimeUs();
+  ServerLink link(session, link_params, &server);
+
+  platform::LcmBusParams bus_params;
+  bus_params.url = o.lcm_url;
+  bus_params.delay_ms = o.delay_ms;
+  auto bus = platform::LcmBus::Create(bus_params);
+  if (!bus.ok()) {
+    std::fprintf(stderr, "%s: %s\n", tag, bus.status().message().c_str());
+    return kExitFailure;
+  }
+  for (const char* channel : {platform::kKeyframesChannel, platform::kPosesChannel, platform::kScansChannel}) {
+    if (Status st = (*bus)->Subscribe(channel); !st.ok()) {
+      std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
+      return kExitFailure;
+    }
+  }
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  if (!o.quiet) {
+    std::fprintf(stderr, "%s: session %lld, robots 0..%d, mode %s, writing to %s\n", tag,
+                 static_cast<long long>(session), robots - 1, ExchangeModeName(*mode), o.out_dir.c_str());
+  }
+  std::int64_t bytes_received = 0, rejected = 0;
+  std::string last_rejection;
+  const std::int64_t start_us = platform::MonotonicUs();
+  std::int64_t next_status_us = start_us;
+  int exit_code = kExitOk;
+  std::vector<ServerOutgoing> out;
+  std::vector<std::uint8_t> buffer;
+  platform::BusMessage message;
+  while (!g_stop) {
+    if (Status st = (*bus)->Poll(10); !st.ok()) {
+      std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
+      return kExitFailure;
+    }
+    const std::int64_t wall = platform::WallTimeUs();
+    while ((*bus)->Take(&message)) {
+      const Span<const std::uint8_t> bytes(message.bytes.data(), message.bytes.size());
+      Status st;
+      if (message.channel == platform::kKeyframesChannel) {
+        auto m = platform::DecodeKeyframeBatch(bytes);
+        st = m.ok() ? link.OnKeyframeBatch(*m, wall) : m.status();
+      } else if (message.channel == platform::kPosesChannel) {
+        auto m = platform::DecodePoseUpdate(bytes);
+        st = m.ok() ? link.OnPoseUpdate(*m, wall) : m.status();
+      } else if (message.channel == platform::kScansChannel) {
+        auto m = platform::DecodeScanChunk(bytes);
+        st = m.ok() ? link.OnScanChunk(*m, wall) : m.status();
+      }
+      if (st.ok()) {
+        bytes_received += static_cast<std::int64_t>(message.bytes.size());
+      } else {
+        ++rejected;
+        last_rejection = message.channel + ": " + st.message();
+        if (last_rejection.size() > kMaxStatusTextBytes) last_rejection.resize(kMaxStatusTextBytes);
+      }
+    }
+    out.clear();
+    if (Status st = link.Poll(wall, &out); !st.ok()) {
+      std::fprintf(stderr, "%s: merge round failed: %s\n", tag, st.message().c_str());
+    }
+    for (const ServerOutgoing& o_msg : out) {
+      Status st;
+      const char* channel = platform::kStatusChannel;
+      switch (o_msg.kind) {
+        case ServerOutgoing::Kind::kTransferStatus: st = platform::EncodeTransferStatus(o_msg.status, &buffer); break;
+        case ServerOutgoing::Kind::kScanRequest:
+          st = platform::EncodeScanRequest(o_msg.request, &buffer);
+          channel = platform::kPolicyChannel;
+          break;
+        case ServerOutgoing::Kind::kMergeResult:
+          st = platform::EncodeMergeResult(o_msg.result, &buffer);
+          channel = platform::kMergeResultChannel;
+          break;
+      }
+      if (st.ok()) st = (*bus)->Publish(channel, buffer);
+      if (!st.ok()) std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
+      if (o_msg.kind == ServerOutgoing::Kind::kMergeResult) {
+        if (Status w = WriteTransforms(o.out_dir + "/transforms.txt", o_msg.result); !w.ok()) {
+          std::fprintf(stderr, "%s: %s\n", tag, w.message().c_str());
+        }
+        if (!o.quiet) std::fprintf(stderr, "%s: %s\n", tag, link.state().c_str());
+      }
+    }
+    const std::int64_t now = platform::MonotonicUs();
+    int in_world = 0;
+    for (std::uint8_t w : link.last_result().in_world) in_world += w;
+    const bool done = o.exit_when_merged > 0 && in_world >= o.exit_when_merged;
+    if (now >= next_status_us || done) {
+      next_status_us = now + 1000000;
+      ServerStatus status;
+      status.utime_us = wall;
+      status.session = session;
+      status.peak_rss_bytes = platform::ReadRss().peak_bytes;
+      status.budget_total_bytes = setup.table.total_bytes();
+      status.round = link.rounds_merged();
+      status.state = link.state();
+      status.bytes_received = bytes_received;
+      status.messages_rejected = rejected + static_cast<std::int64_t>(server.stats().rejected_batches +
+                                                                      server.stats().rejected_pose_updates +
+                                                                      server.stats().rejected_chunks);
+      status.last_rejection = last_rejection;
+      for (int r = 0; r < robots; ++r) {
+        if (link.robot_session(r) == 0) continue;
+        status.robot_ids.push_back(r);
+        status.keyframes.push_back(static_cast<std::uint32_t>(server.robot(r).size()));
+        std::uint32_t scans = 0;
+        for (std::size_t k = 0; k < server.robot(r).size(); ++k) scans += server.has_scan(r, static_cast<std::uint32_t>(k));
+        status.scans.push_back(scans);
+        status.chunks_missing.push_back(static_cast<std::uint32_t>(link.chunks_missing(r)));
+      }
+      if (platform::EncodeServerStatus(status, &buffer).ok()) (void)(*bus)->Publish(platform::kServerStatusChannel, buffer);
+      if (!o.quiet) {
+        std::fprintf(stderr, "%s: %s; %lld bytes received, %lld messages rejected\n", tag, status.state.c_str(),
+                     static_cast<long long>(bytes_received), static_cast<long long>(status.messages_rejected));
+      }
+    }
+    if (done) break;
+    if (o.max_runtime_s > 0.0 && static_cast<double>(now - start_us) > o.max_runtime_s * 1e6) {
+      exit_code = kExitFailure;
+      break;
+    }
+  }
+  // Keep answering for a moment so the robots hear the final statuses and result.
+  for (int i = 0; i < 300; ++i) {
+    (void)(*bus)->Poll(10);
+    platform::BusMessage drop;
+    while ((*bus)->Take(&drop)) {
+    }
+    out.clear();
+    (void)link.Poll(platform::WallTimeUs(), &out);
+    for (const ServerOutgoing& o_msg : out) {
+      if (o_msg.kind == ServerOutgoing::Kind::kTransferStatus && platform::EncodeTransferStatus(o_msg.status, &buffer).ok()) {
+        (void)(*bus)->Publish(platform::kStatusChannel, buffer);
+      }
+    }
+    if (i % 100 == 0 && link.rounds_merged() > 0 &&
+        platform::EncodeMergeResult(link.last_result(), &buffer).ok()) {
+      (void)(*bus)->Publish(platform::kMergeResultChannel, buffer);
+    }
+  }
+  int in_world = 0;
+  for (std::uint8_t w : link.last_result().in_world) in_world += w;
+  std::printf("server: %d merge rounds, %d of %zu robots in the world frame; %lld bytes received; %lld messages "
+              "rejected%s%s\n",
+              link.rounds_merged(), in_world, link.last_result().robot_ids.size(),
+              static_cast<long long>(bytes_received), static_cast<long long>(rejected),
+              last_rejection.empty() ? "" : "; last: ", last_rejection.c_str());
+  std::printf("%s\n", PeakRssLine().c_str());
+  if (o.exit_when_merged > 0 && in_world < o.exit_when_merged) exit_code = kExitFailure;
+  return exit_code;
+}
+
+}  // namespace
+
+Command AddServerCommand(CLI::App& root) {
+  auto o = std::make_shared<ServerOptions>();
+  CLI::App* cmd = root.add_subcommand("server", "the merge server process on LCM: collect descriptors, request the "
+                                                "few scans the cascade selects, register, publish the merge");
+  cmd->add_option("--out", o->out_dir, "output directory (transforms.txt after every round)")->capture_default_str();
+  cmd->add_option("--mode", o->mode, "exchange mode: send-all, A, A+B, A+C, A+B+C")->capture_default_str();
+  cmd->add_option("--lcm-url", o->lcm_url, "LCM provider URL (default: LCM_DEFAULT_URL)");
+  cmd->add_option("--round-interval-s", o->round_interval_s, "merge rounds start at most this often [s]")
+      ->capture_default_str();
+  cmd->add_option("--round-quiet-s", o->round_quiet_s, "start a round when new keyframes arrived and the robots "
+                                                       "were quiet this long [s]")->capture_default_str();
+  cmd->add_option("--round-min-new-keyframes", o->round_min_new_keyframes,
+                  "start a round when this many keyframes arrived since the last")->capture_default_str();
+  cmd->add_option("--request-timeout-s", o->request_timeout_s, "merge with what arrived after this [s]")
+      ->capture_default_str();
+  cmd->add_option("--tau-inter", o->tau_inter, "stage A descriptor distance threshold (0 = the paper's)");
+  cmd->add_option("--tau-area", o->tau_area, "stage A minimal cluster span area [cells] (-1 = the paper's 10000)");
+  cmd->add_option("--exit-when-merged", o->exit_when_merged, "exit 0 once this many robots are in the world frame");
+  cmd->add_option("--max-runtime-s", o->max_runtime_s, "give up (exit 1) after this long [s] (0 = never)");
+  cmd->add_option("--delay-ms", o->delay_ms, "hold every outgoing message this long (fault tests) [ms]");
+  cmd->add_flag("--quiet", o->quiet, "no progress lines on stderr");
+  AddMemoryFlags(cmd, &o->memory);
+  return {cmd, [o]() { return RunServer(*o); }};
+}
+
+}  // namespace commerge::app

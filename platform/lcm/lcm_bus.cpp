@@ -1,0 +1,108 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "platform/lcm/lcm_bus.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include <lcm/lcm-cpp.hpp>
+
+namespace commerge::platform {
+
+std::int64_t WallTimeUs() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::int64_t MonotonicUs() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+LcmBus::LcmBus(const LcmBusParams& params) : params_(params) {}
+
+LcmBus::~LcmBus() = default;
+
+Result<std::unique_ptr<LcmBus>> LcmBus::Create(const LcmBusParams& params) {
+  if (params.max_queued_messages < 1 || params.max_queued_bytes < 65536 || !(params.delay_ms >= 0.0)) {
+    return InvalidArgument("LCM bus: max_queued_messages must be >= 1, max_queued_bytes >= 65536 and delay_ms >= 0");
+  }
+  std::unique_ptr<LcmBus> bus(new LcmBus(params));
+  bus->lcm_ = std::make_unique<lcm::LCM>(params.url);
+  if (!bus->lcm_->good()) {
+    return IoError("cannot open LCM at '" + (params.url.empty() ? std::string("the default URL (LCM_DEFAULT_URL)") : params.url) +
+                   "': for udpm the interface needs a multicast route (e.g. `ip route add 224.0.0.0/4 dev lo`)");
+  }
+  return bus;
+}
+
+Status LcmBus::Subscribe(const std::string& regex) {
+  if (lcm_->subscribe(regex, &LcmBus::OnMessage, this) == nullptr) {
+    return InvalidArgument("cannot subscribe to LCM channels '" + regex + "'");
+  }
+  return Status::Ok();
+}
+
+void LcmBus::OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+  const std::size_t n = rbuf->data_size;
+  if (queue_.size() >= params_.max_queued_messages || queued_bytes_ + n > params_.max_queued_bytes) {
+    ++stats_.dropped_queue_full;
+    return;
+  }
+  const auto* data = static_cast<const std::uint8_t*>(rbuf->data);
+  queue_.push_back(BusMessage{channel, std::vector<std::uint8_t>(data, data + n)});
+  queued_bytes_ += n;
+  ++stats_.received;
+  stats_.received_bytes += n;
+}
+
+Status LcmBus::Poll(int timeout_ms) {
+  FlushDelayed();
+  if (!delayed_.empty()) {
+    const std::int64_t wait_ms = (delayed_.front().due_us - MonotonicUs()) / 1000;
+    if (wait_ms < timeout_ms) timeout_ms = static_cast<int>(std::max<std::int64_t>(0, wait_ms));
+  }
+  const int rc = lcm_->handleTimeout(timeout_ms);
+  if (rc < 0) return IoError("LCM handle failed");
+  while (rc > 0 && lcm_->handleTimeout(0) > 0) {
+  }
+  FlushDelayed();
+  return Status::Ok();
+}
+
+bool LcmBus::Take(BusMessage* out) {
+  if (queue_.empty()) return false;
+  *out = std::move(queue_.front());
+  queue_.pop_front();
+  queued_bytes_ -= out->bytes.size();
+  return true;
+}
+
+Status LcmBus::PublishNow(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
+  if (lcm_->publish(channel, bytes.data(), static_cast<unsigned int>(bytes.size())) != 0) {
+    ++stats_.publish_errors;
+    return IoError("LCM publish on " + channel + " failed");
+  }
+  ++stats_.published;
+  stats_.published_bytes += bytes.size();
+  return Status::Ok();
+}
+
+void LcmBus::FlushDelayed() {
+  const std::int64_t now = MonotonicUs();
+  while (!delayed_.empty() && delayed_.front().due_us <= now) {
+    (void)PublishNow(delayed_.front().message.channel, delayed_.front().message.bytes);
+    delayed_.pop_front();
+  }
+}
+
+Status LcmBus::Publish(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
+  if (params_.delay_ms <= 0.0) return PublishNow(channel, bytes);
+  if (delayed_.size() >= params_.max_queued_messages) {
+    ++stats_.publish_errors;
+    return ResourceExhausted("delay stage full (" + std::to_string(delayed_.size()) + " messages held)");
+  }
+  delayed_.push_back(Delayed{MonotonicUs() + static_cast<std::int64_t>(params_.delay_ms * 1000.0), BusMessage{channel, bytes}});
+  return Status::Ok();
+}
+
+}  // namespace commerge::platform
