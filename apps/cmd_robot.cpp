@@ -107,16 +107,10 @@ int RunRobot(const RobotOptions& o) {
   platform::LcmBusParams bus_params;
   bus_params.url = o.lcm_url;
   bus_params.delay_ms = o.delay_ms;
-  auto bus = platform::LcmBus::Create(bus_params);
+  auto bus = platform::OpenLcmBus(bus_params, {platform::kPolicyChannel, platform::kStatusChannel, platform::kMergeResultChannel});
   if (!bus.ok()) {
     std::fprintf(stderr, "%s: %s\n", tag, bus.status().message().c_str());
     return kExitFailure;
-  }
-  for (const char* channel : {platform::kPolicyChannel, platform::kStatusChannel, platform::kMergeResultChannel}) {
-    if (Status st = (*bus)->Subscribe(channel); !st.ok()) {
-      std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
-      return kExitFailure;
-    }
   }
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);

@@ -105,4 +105,13 @@ Status LcmBus::Publish(const std::string& channel, const std::vector<std::uint8_
   return Status::Ok();
 }
 
+Result<std::unique_ptr<LcmBus>> OpenLcmBus(const LcmBusParams& params, std::initializer_list<const char*> channels) {
+  auto bus = LcmBus::Create(params);
+  if (!bus.ok()) return bus.status();
+  for (const char* channel : channels) {
+    if (Status st = (*bus)->Subscribe(channel); !st.ok()) return st;
+  }
+  return bus;
+}
+
 }  // namespace commerge::platform

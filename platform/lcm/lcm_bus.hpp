@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <initializer_list>
 #include <memory>
 #include <string>
 #include <vector>
@@ -77,6 +78,9 @@ class LcmBus {
   std::deque<Delayed> delayed_;
   LcmBusStats stats_;
 };
+
+/// Create() plus Subscribe() of each channel: the daemons' start-up. Errors name the URL or the channel.
+Result<std::unique_ptr<LcmBus>> OpenLcmBus(const LcmBusParams& params, std::initializer_list<const char*> channels);
 
 /// Microseconds since the Unix epoch (message utime, session ids).
 std::int64_t WallTimeUs();
