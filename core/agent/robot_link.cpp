@@ -41,6 +41,17 @@ std::size_t RobotLink::queued_chunks() const noexcept {
   return n;
 }
 
+void RobotLink::SeeServerSession(std::int64_t server_session) {
+  // A restarted server lost our keyframes, poses and its requests: announce everything again.
+  if (server_session_ != 0) {
+    ++stats_.server_restarts;
+    agent_->RequeueAllSent();
+    in_flight_.clear();
+    DropRequest();
+  }
+  server_session_ = server_session;
+}
+
 void RobotLink::DropRequest() {
   work_.clear();
   std::fill(slot_queued_.begin(), slot_queued_.end(), 0);
@@ -57,14 +68,8 @@ Status RobotLink::OnScanRequest(const ScanRequest& request, std::int64_t now_us)
   }
   if (request.server_session < server_session_) return Status::Ok();  // from a server that has since restarted
   if (request.server_session > server_session_) {
-    // A restarted server: it lost our keyframes (its status would say so too).
-    if (server_session_ != 0) {
-      ++stats_.server_restarts;
-      agent_->RequeueAllSent();
-      in_flight_.clear();
-    }
-    server_session_ = request.server_session;
-    request_.request_id = -1;
+    SeeServerSession(request.server_session);
+    request_.request_id = -1;  // request ids restart with the server
   }
   if (request.request_id <= request_.request_id) return Status::Ok();  // a repeat, or an older one
   request_ = request;
@@ -168,15 +173,7 @@ Status RobotLink::OnTransferStatus(const TransferStatus& status, std::int64_t no
                            std::to_string(status.robot_session) + ", newer than this process's " +
                            std::to_string(session_) + ": another process uses this robot id");
   }
-  if (status.server_session > server_session_) {
-    if (server_session_ != 0) {
-      ++stats_.server_restarts;
-      agent_->RequeueAllSent();
-      in_flight_.clear();
-      DropRequest();
-    }
-    server_session_ = status.server_session;
-  }
+  if (status.server_session > server_session_) SeeServerSession(status.server_session);
   ++stats_.statuses;
   ApplyKeyframeAcks(status, now_us);
   ApplyPoseAcks(status, now_us);

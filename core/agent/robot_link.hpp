@@ -95,6 +95,7 @@ class RobotLink {
   void ApplyPoseAcks(const TransferStatus& status, std::int64_t now_us);
   void ApplyChunkAcks(const TransferStatus& status, std::int64_t now_us);
   void DropRequest();
+  void SeeServerSession(std::int64_t server_session);
 
   std::int64_t session_;
   RobotLinkParams params_;
