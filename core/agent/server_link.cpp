@@ -69,7 +69,20 @@ Status ServerLink::CheckSession(int robot_id, std::int64_t session, const char* 
   if (session > r.session) {
     if (r.session != 0) {
       ++stats_.robot_restarts;
+      // Its keyframes count as new again, so a round starts once the new session's keyframes are in (they may
+      // be no more than the old session delivered).
+      const std::size_t dropped = DeliveredKeyframes(robot_id);
+      delivered_at_last_round_ -= std::min(dropped, delivered_at_last_round_);
       server_->ResetRobot(robot_id);
+      // The restarted robot maps in a new frame: its placement is void until a round merges it again. Robot 0's
+      // map is the world frame, so its restart voids everybody else's placement.
+      for (std::size_t i = 0; i < last_result_.robot_ids.size(); ++i) {
+        const int id = last_result_.robot_ids[i];
+        if (id == robot_id ? id != 0 : robot_id == 0) {
+          last_result_.in_world[i] = 0;
+          last_result_.T_world_map[i] = Eigen::Isometry3d::Identity();
+        }
+      }
     }
     r = RobotState();
     r.session = session;
@@ -200,9 +213,10 @@ TransferStatus ServerLink::MakeStatus(int robot, std::int64_t now_us) const {
   return s;
 }
 
-std::size_t ServerLink::DeliveredKeyframes() const {
+std::size_t ServerLink::DeliveredKeyframes(int only_robot) const {
   std::size_t n = 0;
   for (int r = 0; r < server_->max_robots(); ++r) {
+    if (only_robot >= 0 && r != only_robot) continue;
     const RobotKeyframeDb& db = server_->robot(r);
     for (std::size_t k = 0; k < db.size(); ++k) n += db.delivered(k) ? 1 : 0;
   }

@@ -108,7 +108,8 @@ class ServerLink {
   bool RequestComplete(int robot) const;
   Status StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
   Status FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
-  std::size_t DeliveredKeyframes() const;
+  /// Keyframes delivered by every robot, or by `only_robot` alone.
+  std::size_t DeliveredKeyframes(int only_robot = -1) const;
 
   std::int64_t session_;
   ServerLinkParams params_;

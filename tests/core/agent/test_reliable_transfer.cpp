@@ -17,6 +17,7 @@
 #include "core/agent/merge_server.hpp"
 #include "core/agent/robot_link.hpp"
 #include "core/agent/server_link.hpp"
+#include "core/agent/delivery_digest.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
@@ -227,6 +228,21 @@ class Mission {
         }
         CHECK((db.T_map_sensor[k].translation() - a.mapper().pose(k).translation()).norm() < 0.51);
       }
+      // The one-line digests the process-level fault tests compare agree, and would catch one changed or
+      // missing descriptor.
+      auto robot_digest = RobotDeliveryDigest(a.mapper());
+      REQUIRE(robot_digest.ok());
+      CHECK(ServerDeliveryDigest(db).ToText() == robot_digest->ToText());
+      for (std::size_t k = 0; k < db.size(); ++k) {
+        if (!db.valid[k]) continue;
+        RobotKeyframeDb changed = db;
+        changed.descriptors[k * kKeyframeDescriptorDim + 3] += 1e-6f;
+        CHECK(ServerDeliveryDigest(changed).digest != robot_digest->digest);
+        changed = db;
+        changed.valid[k] = 0;
+        CHECK(ServerDeliveryDigest(changed).descriptors + 1 == robot_digest->descriptors);
+        break;
+      }
     }
   }
 
@@ -344,6 +360,30 @@ TEST_CASE("Reliable transfer: a restarted robot replaces its keyframes, and its 
   CHECK_FALSE(m.server_->OnKeyframeBatch(old_batch, m.now_us_).ok());
   CHECK(m.server_->stats().stale_messages == stale + 1);
   CHECK(m.merge_->robot(1).size() == m.robots_[1]->agent->mapper().num_keyframes());
+}
+
+TEST_CASE("Reliable transfer: a robot restarted after a merge leaves the world frame until it is merged again") {
+  Mission m(2, 12, LinkModel{}, 4, SendAllParams());
+  m.RunUntil(40000000);
+  REQUIRE(m.merge_results_ >= 1);
+  const auto in_world = [&m](int robot) {
+    const MergeResultMessage& r = m.server_->last_result();
+    for (std::size_t i = 0; i < r.robot_ids.size(); ++i) {
+      if (r.robot_ids[i] == robot) return r.in_world[i] != 0;
+    }
+    return false;
+  };
+  REQUIRE(in_world(1));
+  const int rounds = m.server_->rounds_merged();
+  m.RestartRobot(1, 2001);  // its new map frame is unrelated to the old one
+  m.RunUntil(m.now_us_ + 300000);
+  REQUIRE(m.server_->robot_session(1) == 2001);
+  CHECK(m.server_->rounds_merged() == rounds);
+  CHECK_FALSE(in_world(1));
+  CHECK(in_world(0));  // robot 0's map is the world frame
+  m.RunUntil(m.now_us_ + 40000000);
+  CHECK(m.server_->rounds_merged() > rounds);
+  CHECK(in_world(1));
 }
 
 TEST_CASE("Reliable transfer: chunks outside the active request and statuses for other robots are refused") {
