@@ -123,6 +123,10 @@ Status ServerLink::OnScanChunk(const ScanChunk& chunk, std::int64_t now_us) {
   if (!params_status_.ok()) return params_status_;
   if (chunk.robot_id < 0 || chunk.robot_id >= static_cast<int>(robots_.size())) return server_->OnScanChunk(chunk);
   const RobotState& r = robots_[static_cast<std::size_t>(chunk.robot_id)];
+  if (params_.accept_unrequested_scans && r.session != 0) {
+    last_message_us_ = now_us;
+    return server_->OnScanChunk(chunk);
+  }
   if (r.request.request_id < 0 || chunk.request_id != r.request.request_id ||
       !std::binary_search(r.request.keyframes.begin(), r.request.keyframes.end(), chunk.keyframe)) {
     return Refuse(InvalidArgument("scan chunk of robot " + std::to_string(chunk.robot_id) + " keyframe " +

@@ -39,6 +39,10 @@ struct ServerLinkParams {
   double round_quiet_s = 3.0;
   /// A round merges with the scans that arrived when its requests are still incomplete after this [s].
   double request_timeout_s = 60.0;
+  /// Replay of a recorded mission (`commerge server --replay`): accept the chunks of any keyframe of a robot's
+  /// current session, not only those of this server's active request, because the recording server made the
+  /// requests. Off in live operation: there, stale retransmissions and a previous server's requests are refused.
+  bool accept_unrequested_scans = false;
 };
 
 Status ValidateServerLinkParams(const ServerLinkParams& params);

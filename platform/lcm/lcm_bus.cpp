@@ -18,13 +18,15 @@ std::int64_t MonotonicUs() {
       .count();
 }
 
-LcmBus::LcmBus(const LcmBusParams& params) : params_(params) {}
+LcmBus::LcmBus(const LcmBusParams& params) : params_(params), fault_rng_(params.fault_seed) {}
 
 LcmBus::~LcmBus() = default;
 
 Result<std::unique_ptr<LcmBus>> LcmBus::Create(const LcmBusParams& params) {
-  if (params.max_queued_messages < 1 || params.max_queued_bytes < 65536 || !(params.delay_ms >= 0.0)) {
-    return InvalidArgument("LCM bus: max_queued_messages must be >= 1, max_queued_bytes >= 65536 and delay_ms >= 0");
+  if (params.max_queued_messages < 1 || params.max_queued_bytes < 65536 || !(params.delay_ms >= 0.0) ||
+      !(params.jitter_ms >= 0.0) || !(params.duplicate_pct >= 0.0 && params.duplicate_pct <= 100.0)) {
+    return InvalidArgument("LCM bus: max_queued_messages must be >= 1, max_queued_bytes >= 65536, delay_ms and "
+                           "jitter_ms >= 0, duplicate_pct in [0, 100]");
   }
   std::unique_ptr<LcmBus> bus(new LcmBus(params));
   bus->lcm_ = std::make_unique<lcm::LCM>(params.url);
@@ -58,7 +60,7 @@ void LcmBus::OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channe
 Status LcmBus::Poll(int timeout_ms) {
   FlushDelayed();
   if (!delayed_.empty()) {
-    const std::int64_t wait_ms = (delayed_.front().due_us - MonotonicUs()) / 1000;
+    const std::int64_t wait_ms = (delayed_.begin()->first - MonotonicUs()) / 1000;
     if (wait_ms < timeout_ms) timeout_ms = static_cast<int>(std::max<std::int64_t>(0, wait_ms));
   }
   const int rc = lcm_->handleTimeout(timeout_ms);
@@ -89,19 +91,30 @@ Status LcmBus::PublishNow(const std::string& channel, const std::vector<std::uin
 
 void LcmBus::FlushDelayed() {
   const std::int64_t now = MonotonicUs();
-  while (!delayed_.empty() && delayed_.front().due_us <= now) {
-    (void)PublishNow(delayed_.front().message.channel, delayed_.front().message.bytes);
-    delayed_.pop_front();
+  while (!delayed_.empty() && delayed_.begin()->first <= now) {
+    (void)PublishNow(delayed_.begin()->second.channel, delayed_.begin()->second.bytes);
+    delayed_.erase(delayed_.begin());
   }
 }
 
-Status LcmBus::Publish(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
-  if (params_.delay_ms <= 0.0) return PublishNow(channel, bytes);
+Status LcmBus::Hold(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
   if (delayed_.size() >= params_.max_queued_messages) {
     ++stats_.publish_errors;
-    return ResourceExhausted("delay stage full (" + std::to_string(delayed_.size()) + " messages held)");
+    return ResourceExhausted("fault stage full (" + std::to_string(delayed_.size()) + " messages held)");
   }
-  delayed_.push_back(Delayed{MonotonicUs() + static_cast<std::int64_t>(params_.delay_ms * 1000.0), BusMessage{channel, bytes}});
+  double hold_ms = params_.delay_ms;
+  if (params_.jitter_ms > 0.0) hold_ms += std::uniform_real_distribution<double>(0.0, params_.jitter_ms)(fault_rng_);
+  delayed_.emplace(MonotonicUs() + static_cast<std::int64_t>(hold_ms * 1000.0), BusMessage{channel, bytes});
+  return Status::Ok();
+}
+
+Status LcmBus::Publish(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
+  if (!fault_stage()) return PublishNow(channel, bytes);
+  if (Status st = Hold(channel, bytes); !st.ok()) return st;
+  if (params_.duplicate_pct > 0.0 &&
+      std::uniform_real_distribution<double>(0.0, 100.0)(fault_rng_) < params_.duplicate_pct) {
+    return Hold(channel, bytes);
+  }
   return Status::Ok();
 }
 

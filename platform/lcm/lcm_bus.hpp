@@ -2,15 +2,19 @@
 // A thin LCM transport for the daemons: raw-buffer subscriptions (commerge decodes with its own bounded
 // decoders, never with the generated decode), publishing of encoded bytes, and a wait with timeout. Incoming
 // messages are queued up to a fixed count and byte total; beyond that they are dropped and counted, so a flood
-// cannot grow memory. A test-only delay stage (`delay_ms`) holds outgoing messages for a fixed time before
-// publishing them (the 2 s delay fault test; sch_netem is unavailable on the CI kernel).
+// cannot grow memory. A test-only fault stage holds outgoing messages for `delay_ms` plus a random jitter of up
+// to `jitter_ms` (which reorders them) and publishes `duplicate_pct` percent of them twice: the delay,
+// duplication and reordering fault tests (sch_netem is unavailable on the CI kernel). It is bounded like the
+// receive queue.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <initializer_list>
+#include <map>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -28,6 +32,9 @@ struct LcmBusParams {
   std::size_t max_queued_messages = 4096;
   std::size_t max_queued_bytes = 16u << 20;
   double delay_ms = 0.0;               ///< hold every outgoing message this long (fault tests)
+  double jitter_ms = 0.0;              ///< plus a uniform random extra hold in [0, jitter_ms] (reorders)
+  double duplicate_pct = 0.0;          ///< publish this percentage of messages twice (independent jitter)
+  std::uint32_t fault_seed = 1;        ///< seed of the jitter and duplication draws
 };
 
 struct BusMessage {
@@ -55,10 +62,10 @@ class LcmBus {
   Status Poll(int timeout_ms);
   /// Takes the oldest queued message; false when none.
   bool Take(BusMessage* out);
-  /// Publishes (or holds, with delay_ms) one encoded message.
+  /// Publishes (or holds in the fault stage) one encoded message.
   Status Publish(const std::string& channel, const std::vector<std::uint8_t>& bytes);
   const LcmBusStats& stats() const noexcept { return stats_; }
-  /// Messages held by the delay stage.
+  /// Messages held by the fault stage.
   std::size_t delayed() const noexcept { return delayed_.size(); }
 
  private:
@@ -67,15 +74,17 @@ class LcmBus {
   Status PublishNow(const std::string& channel, const std::vector<std::uint8_t>& bytes);
   void FlushDelayed();
 
-  struct Delayed {
-    std::int64_t due_us = 0;
-    BusMessage message;
-  };
+  bool fault_stage() const noexcept {
+    return params_.delay_ms > 0.0 || params_.jitter_ms > 0.0 || params_.duplicate_pct > 0.0;
+  }
+  Status Hold(const std::string& channel, const std::vector<std::uint8_t>& bytes);
+
   LcmBusParams params_;
   std::unique_ptr<lcm::LCM> lcm_;
   std::deque<BusMessage> queue_;
   std::size_t queued_bytes_ = 0;
-  std::deque<Delayed> delayed_;
+  std::multimap<std::int64_t, BusMessage> delayed_;  ///< by due time [us, monotonic]
+  std::mt19937 fault_rng_;
   LcmBusStats stats_;
 };
 
