@@ -20,5 +20,6 @@ Command AddSimCommand(CLI::App& root);
 Command AddRunCommand(CLI::App& root);
 Command AddRobotCommand(CLI::App& root);
 Command AddServerCommand(CLI::App& root);
+Command AddFeedCommand(CLI::App& root);
 
 }  // namespace commerge::app

@@ -160,6 +160,7 @@ struct MergeResultMessage {
   std::vector<int> robot_ids;             ///< robots with keyframes at the server, ascending
   std::vector<std::uint8_t> in_world;     ///< per robot: 1 = connected to the world frame (robot 0's map)
   std::vector<Eigen::Isometry3d> T_world_map;  ///< per robot (identity when not in_world)
+  std::vector<std::uint32_t> keyframes;   ///< per robot: its keyframes at the server when the round started
   std::vector<MergePairOutcome> pairs;
 };
 

@@ -182,6 +182,7 @@ Status ValidateMergeResult(const MergeResultMessage& m, MakeError make) {
   if (Status st = CheckSameSize(m.T_world_map.size(), n, make, type, "T_world_map", "robot_ids"); !st.ok()) {
     return st;
   }
+  if (Status st = CheckSameSize(m.keyframes.size(), n, make, type, "keyframes", "robot_ids"); !st.ok()) return st;
   if (Status st = CheckSize(m.pairs.size(), kMaxMergePairs, make, type, "pairs"); !st.ok()) return st;
   for (std::size_t i = 0; i < n; ++i) {
     if (Status st = CheckRobotIdAs(make, m.robot_ids[i], type, Indexed("robot_ids", i)); !st.ok()) return st;
@@ -401,10 +402,15 @@ Status EncodeMergeResult(const MergeResultMessage& m, std::vector<std::uint8_t>*
   msg.num_robots = static_cast<std::int32_t>(n);
   msg.translation_m.resize(n);
   msg.quaternion.resize(n);
+  msg.keyframes.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     msg.robot_id.push_back(static_cast<std::int16_t>(m.robot_ids[i]));
     msg.in_world.push_back(static_cast<std::int8_t>(m.in_world[i]));
     PoseToWire(m.T_world_map[i], &msg.translation_m[i], &msg.quaternion[i]);
+    if (Status st = CountersToWire({{"keyframes", m.keyframes[i], &msg.keyframes[i]}}, type, Indexed("robots", i) + ".");
+        !st.ok()) {
+      return st;
+    }
   }
   const std::size_t np = m.pairs.size();
   msg.num_pairs = static_cast<std::int32_t>(np);
@@ -443,9 +449,9 @@ Result<MergeResultMessage> DecodeMergeResult(Span<const std::uint8_t> bytes) {
   if (Status st = CheckHeader<commerge::merge_result_t>(bytes, 24, type); !st.ok()) return st;
   WireWalker w(bytes, type);
   w.Skip(20, "the header");
-  // Per robot: robot_id 2, in_world 1, translation_m 12, quaternion 16.
-  const std::int64_t n = w.Count(4, static_cast<std::int64_t>(kMaxMergeRobots), "num_robots", 31);
-  w.Skip(31 * n, "robot_id, in_world, translation_m, quaternion");
+  // Per robot: robot_id 2, in_world 1, translation_m 12, quaternion 16, keyframes 4.
+  const std::int64_t n = w.Count(4, static_cast<std::int64_t>(kMaxMergeRobots), "num_robots", 35);
+  w.Skip(35 * n, "robot_id, in_world, translation_m, quaternion, keyframes");
   // Per pair: alpha 2, beta 2, success 1, verdict >= 5, then 12 + 16 + 4 x 4 + 4 + 4 + 1 = 53.
   const std::int64_t np = w.Count(4, static_cast<std::int64_t>(kMaxMergePairs), "num_pairs", 5 + 5 + 53);
   w.Skip(5 * np, "alpha, beta, success");
@@ -461,7 +467,12 @@ Result<MergeResultMessage> DecodeMergeResult(Span<const std::uint8_t> bytes) {
   m.round = msg.round;
   m.robot_ids.assign(msg.robot_id.begin(), msg.robot_id.end());
   m.T_world_map.resize(static_cast<std::size_t>(n));
+  m.keyframes.resize(static_cast<std::size_t>(n));
   for (std::size_t i = 0; i < m.T_world_map.size(); ++i) {
+    if (Status st = CountersFromWire({{"keyframes", msg.keyframes[i], &m.keyframes[i]}}, type, Indexed("robots", i) + ".");
+        !st.ok()) {
+      return st;
+    }
     if (Status st = CheckFlag(msg.in_world[i], DataLoss, type, Indexed("in_world", i)); !st.ok()) return st;
     m.in_world.push_back(static_cast<std::uint8_t>(msg.in_world[i]));
     if (!PoseFromWire(msg.translation_m[i], msg.quaternion[i], &m.T_world_map[i])) {

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Helpers shared by the LCM codec tests: big-endian bytes read and patched by hand (independently of the codecs),
 // the generated types' own encode/decode as the reference, error-message checks, and the hostile-buffer sweeps
-// (every truncation, trailing bytes) every decoder must survive.
+// (every truncation, trailing bytes, counts and string lengths patched beyond MAX or the buffer) every decoder
+// must survive.
 #pragma once
 
 #include <doctest/doctest.h>
@@ -51,6 +52,19 @@ inline void PutBeFloat(Buffer* b, std::size_t offset, float f) {
   std::uint32_t bits = 0;
   std::memcpy(&bits, &f, 4);
   PutBe32(b, offset, bits);
+}
+
+inline double GetBeDouble(const Buffer& b, std::size_t offset) {
+  const auto bits = static_cast<std::uint64_t>(GetBe(b, offset, 8));
+  double d = 0.0;
+  std::memcpy(&d, &bits, 8);
+  return d;
+}
+
+inline void PutBeDouble(Buffer* b, std::size_t offset, double d) {
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, &d, 8);
+  PutBe(b, offset, bits, 8);
 }
 
 inline Span<const std::uint8_t> S(const Buffer& b) { return Span<const std::uint8_t>(b.data(), b.size()); }
@@ -124,6 +138,59 @@ void CheckTrailingBytesRefused(const Buffer& full, Decode decode, const char* ty
     b.insert(b.end(), extra, 0);
     CheckDataLoss(decode(S(b)), {type, "trailing"});
   }
+}
+
+// A count field (big-endian, `width` bytes at `offset`, holding `expected` in `valid`) patched outside 0..max is
+// refused naming it; patched to max, more elements than the buffer holds, it is refused as well. Either way
+// before the generated decoder allocates (a patched 2^31 would otherwise ask for gigabytes).
+template <typename Decode>
+void CheckPatchedCount(const Buffer& valid, std::size_t offset, int width, std::int64_t expected, std::int64_t max,
+                       const char* field, Decode decode) {
+  INFO("count ", field, " at offset ", offset);
+  REQUIRE(GetBe(valid, offset, width) == expected);
+  REQUIRE(decode(S(valid)).ok());
+  const std::uint64_t top = width == 2 ? 0x7fffu : 0x7fffffffu;
+  const std::uint64_t minus_one = width == 2 ? 0xffffu : 0xffffffffu;
+  for (std::uint64_t v : {static_cast<std::uint64_t>(max + 1), top, minus_one, top + 1}) {
+    INFO("patched to ", v);
+    Buffer b = valid;
+    PutBe(&b, offset, v, width);
+    CheckDataLoss(decode(S(b)), {field, "outside 0.." + std::to_string(max)});
+  }
+  Buffer b = valid;
+  PutBe(&b, offset, static_cast<std::uint64_t>(max), width);
+  CheckDataLoss(decode(S(b)), {field, "cannot hold"});
+}
+
+// A string's int32 length (with its NUL, at `offset`, the string `text` in `valid`) patched to 0, negative,
+// beyond 257, beyond the buffer, or so that the NUL is not where the length says, is refused naming the field.
+template <typename Decode>
+void CheckPatchedStringLength(const Buffer& valid, std::size_t offset, const std::string& text, const char* field,
+                              Decode decode) {
+  INFO("string ", field, " at offset ", offset);
+  REQUIRE(GetBe(valid, offset, 4) == static_cast<std::int64_t>(text.size() + 1));
+  REQUIRE(offset + 4 + text.size() + 1 <= valid.size());
+  REQUIRE(std::memcmp(valid.data() + offset + 4, text.data(), text.size()) == 0);
+  REQUIRE(valid[offset + 4 + text.size()] == 0);
+  for (std::uint32_t v : {0u, 0xffffffffu, 0x80000000u, 258u, 0x7fffffffu}) {
+    INFO("length patched to ", v);
+    Buffer b = valid;
+    PutBe32(&b, offset, v);
+    CheckDataLoss(decode(S(b)), {field, "length"});
+  }
+  if (offset + 4 + 257 > valid.size()) {  // a legal length the buffer cannot hold
+    Buffer b = valid;
+    PutBe32(&b, offset, 257);
+    CheckDataLoss(decode(S(b)), {field});
+  }
+  if (!text.empty()) {  // one byte shorter: the last byte it covers is not the NUL
+    Buffer b = valid;
+    PutBe32(&b, offset, static_cast<std::uint32_t>(text.size()));
+    CheckDataLoss(decode(S(b)), {field});
+  }
+  Buffer b = valid;  // the NUL replaced
+  b[offset + 4 + text.size()] = 'x';
+  CheckDataLoss(decode(S(b)), {field, "NUL"});
 }
 
 // ---- poses ----

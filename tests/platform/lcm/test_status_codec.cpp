@@ -34,61 +34,6 @@ constexpr std::uint32_t kBeyondInt32 = 0x80000000u;
 const float kNaN = std::numeric_limits<float>::quiet_NaN();
 const float kInf = std::numeric_limits<float>::infinity();
 
-// ---- generic hostile-buffer checks ----
-
-// A count field (big-endian, `width` bytes at `offset`, holding `expected` in `valid`) patched outside 0..max is
-// refused naming it; patched to max, more elements than the buffer holds, it is refused as well. Either way
-// before the generated decoder allocates (a patched 2^31 would otherwise ask for gigabytes).
-template <typename Decode>
-void CheckPatchedCount(const Buffer& valid, std::size_t offset, int width, std::int64_t expected, std::int64_t max,
-                       const char* field, Decode decode) {
-  INFO("count ", field, " at offset ", offset);
-  REQUIRE(GetBe(valid, offset, width) == expected);
-  REQUIRE(decode(S(valid)).ok());
-  const std::uint64_t top = width == 2 ? 0x7fffu : 0x7fffffffu;
-  const std::uint64_t minus_one = width == 2 ? 0xffffu : 0xffffffffu;
-  for (std::uint64_t v : {static_cast<std::uint64_t>(max + 1), top, minus_one, top + 1}) {
-    INFO("patched to ", v);
-    Buffer b = valid;
-    PutBe(&b, offset, v, width);
-    CheckDataLoss(decode(S(b)), {field, "outside 0.." + std::to_string(max)});
-  }
-  Buffer b = valid;
-  PutBe(&b, offset, static_cast<std::uint64_t>(max), width);
-  CheckDataLoss(decode(S(b)), {field, "cannot hold"});
-}
-
-// A string's int32 length (with its NUL, at `offset`, the string `text` in `valid`) patched to 0, negative,
-// beyond 257, beyond the buffer, or so that the NUL is not where the length says, is refused naming the field.
-template <typename Decode>
-void CheckPatchedStringLength(const Buffer& valid, std::size_t offset, const std::string& text, const char* field,
-                              Decode decode) {
-  INFO("string ", field, " at offset ", offset);
-  REQUIRE(GetBe(valid, offset, 4) == static_cast<std::int64_t>(text.size() + 1));
-  REQUIRE(offset + 4 + text.size() + 1 <= valid.size());
-  REQUIRE(std::memcmp(valid.data() + offset + 4, text.data(), text.size()) == 0);
-  REQUIRE(valid[offset + 4 + text.size()] == 0);
-  for (std::uint32_t v : {0u, 0xffffffffu, 0x80000000u, 258u, 0x7fffffffu}) {
-    INFO("length patched to ", v);
-    Buffer b = valid;
-    PutBe32(&b, offset, v);
-    CheckDataLoss(decode(S(b)), {field, "length"});
-  }
-  if (offset + 4 + 257 > valid.size()) {  // a legal length the buffer cannot hold
-    Buffer b = valid;
-    PutBe32(&b, offset, 257);
-    CheckDataLoss(decode(S(b)), {field});
-  }
-  if (!text.empty()) {  // one byte shorter: the last byte it covers is not the NUL
-    Buffer b = valid;
-    PutBe32(&b, offset, static_cast<std::uint32_t>(text.size()));
-    CheckDataLoss(decode(S(b)), {field});
-  }
-  Buffer b = valid;  // the NUL replaced
-  b[offset + 4 + text.size()] = 'x';
-  CheckDataLoss(decode(S(b)), {field, "NUL"});
-}
-
 std::string Text(std::size_t n, char c = 'a') { return std::string(n, c); }
 
 // ---- transfer_status_t ----
@@ -194,6 +139,7 @@ MergeResultMessage MakeMergeResult() {
   m.round = 3;
   m.robot_ids = {0, 2, 5, 63};
   m.in_world = {1, 1, 0, 1};
+  m.keyframes = {0, 1, 12345, static_cast<std::uint32_t>(kInt32Max)};
   m.T_world_map = {Eigen::Isometry3d::Identity(),
                    Pose(0.7, Eigen::Vector3d(0.3, -1.0, 0.2), Eigen::Vector3d(12.5, -3.25, 0.75)),
                    Eigen::Isometry3d::Identity(),
@@ -227,6 +173,7 @@ MergeResultMessage MakeExactMergeResult() {
   m.round = 1;
   m.robot_ids = {0, 2, 5};
   m.in_world = {1, 1, 0};
+  m.keyframes = {200, 17, 0};
   m.T_world_map = {Eigen::Isometry3d::Identity(), Exact({1, 1, 1}, {1.5, -2.25, 100.125}),
                    Exact({1, -1, -1}, {0.5, 0.25, -8.0})};
   m.pairs = {MakePair(0, 2, true, "success", Exact({-1, -1, 1}, {-4.0, 2.5, 0.0}), 7, 0.75f, true),
@@ -244,6 +191,7 @@ commerge::merge_result_t ExactMergeResultLcm() {
   msg.in_world = {1, 1, 0};
   msg.translation_m = {{0.0f, 0.0f, 0.0f}, {1.5f, -2.25f, 100.125f}, {0.5f, 0.25f, -8.0f}};
   msg.quaternion = {{1.0f, 0.0f, 0.0f, 0.0f}, {1.0f, 0.0f, 0.0f, 0.0f}, {0.0f, 1.0f, 0.0f, 0.0f}};
+  msg.keyframes = {200, 17, 0};
   msg.num_pairs = 2;
   msg.alpha = {0, 2};
   msg.beta = {2, 5};
@@ -267,6 +215,7 @@ void CheckSame(const MergeResultMessage& d, const MergeResultMessage& m) {
   CHECK(d.round == m.round);
   CHECK(d.robot_ids == m.robot_ids);
   CHECK(d.in_world == m.in_world);
+  CHECK(d.keyframes == m.keyframes);
   REQUIRE(d.T_world_map.size() == m.T_world_map.size());
   for (std::size_t i = 0; i < m.T_world_map.size(); ++i) {
     INFO("robot ", i);
@@ -293,7 +242,7 @@ void CheckSame(const MergeResultMessage& d, const MergeResultMessage& m) {
 
 // Offsets: utime 8, server_session 8, round 4, then num_robots; per robot 2 + 1 + 12 + 16 bytes.
 constexpr std::size_t kMergeNumRobots = 8 + 8 + 8 + 4;  // 28
-std::size_t MergeNumPairs(std::size_t robots) { return kMergeNumRobots + 4 + 31 * robots; }
+std::size_t MergeNumPairs(std::size_t robots) { return kMergeNumRobots + 4 + 35 * robots; }
 std::size_t MergeFirstVerdict(std::size_t robots, std::size_t pairs) { return MergeNumPairs(robots) + 4 + 5 * pairs; }
 
 // ---- robot_status_t / server_status_t ----
@@ -738,6 +687,8 @@ TEST_CASE("status codec: merge result bytes are the generated type's, fields at 
   CHECK(GetBe(b, 32 + 2 * r + 2, 1) == 0);                // in_world[2]
   CHECK(GetBeFloat(b, 32 + 3 * r + 12 + 8) == 100.125f);  // translation_m[1][2]
   CHECK(GetBeFloat(b, 32 + 15 * r + 32 + 4) == 1.0f);     // quaternion[2] x
+  CHECK(GetBe(b, 32 + 31 * r, 4) == 200);                 // keyframes[0]
+  CHECK(GetBe(b, 32 + 31 * r + 4, 4) == 17);              // keyframes[1]
   CHECK(GetBe(b, MergeNumPairs(r), 4) == 2);
   CHECK(GetBe(b, MergeNumPairs(r) + 4 + 2 * p + 2, 2) == 5);  // beta[1]
   CHECK(GetBe(b, v0, 4) == 8);                                 // "success" + NUL
@@ -758,6 +709,7 @@ TEST_CASE("status codec: merge result at exactly 64 robots and 2016 pairs round-
     m.robot_ids.push_back(i);
     m.in_world.push_back(static_cast<std::uint8_t>(i % 2));
     m.T_world_map.push_back(Pose(0.01 * i, Eigen::Vector3d(1, 0, 1), Eigen::Vector3d(i, -i, 0.5)));
+    m.keyframes.push_back(static_cast<std::uint32_t>(100 * i));
   }
   for (int a = 0; a < static_cast<int>(kMaxMergeRobots); ++a) {
     for (int b = a + 1; b < static_cast<int>(kMaxMergeRobots); ++b) {
@@ -841,6 +793,9 @@ TEST_CASE("status codec: merge result decoder refuses ids, flags, poses and coun
   msg = good;
   msg.robot_id[2] = 2;
   CheckDataLoss(decode(msg), {"robot_ids[2] = 2", "ascending"});
+  msg = good;
+  msg.keyframes[1] = -1;
+  CheckDataLoss(decode(msg), {"robots[1].keyframes"});
   msg = good;
   msg.alpha[1] = 64;
   CheckDataLoss(decode(msg), {"pairs[1].alpha 64"});
