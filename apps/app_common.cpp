@@ -11,6 +11,19 @@
 
 namespace commerge::app {
 
+void AddFaultFlags(CLI::App* cmd, double* delay_ms, double* jitter_ms, double* duplicate_pct) {
+  const char* group = "Fault injection on outgoing messages (network fault tests; sch_netem is often unavailable)";
+  cmd->add_option("--delay-ms", *delay_ms, "hold every outgoing message this long [ms]")
+      ->check(CLI::Range(0.0, 600000.0))
+      ->group(group);
+  cmd->add_option("--jitter-ms", *jitter_ms, "plus a random extra hold up to this [ms] (reorders messages)")
+      ->check(CLI::Range(0.0, 600000.0))
+      ->group(group);
+  cmd->add_option("--duplicate-pct", *duplicate_pct, "send this percentage of messages twice")
+      ->check(CLI::Range(0.0, 100.0))
+      ->group(group);
+}
+
 void AddMemoryFlags(CLI::App* cmd, MemoryFlags* f) {
   cmd->add_option("--board", f->board, "Board profile: jetson-nano (4 GiB), ipc-6000 (8 GiB), desktop")
       ->check(CLI::IsMember({"jetson-nano", "ipc-6000", "desktop"}))

@@ -37,6 +37,10 @@ struct MemoryFlags {
 
 void AddMemoryFlags(CLI::App* cmd, MemoryFlags* flags);
 
+/// The daemons' test-only fault injection on outgoing messages (platform::LcmBusParams): --delay-ms,
+/// --jitter-ms (reorders), --duplicate-pct, in their own help group.
+void AddFaultFlags(CLI::App* cmd, double* delay_ms, double* jitter_ms, double* duplicate_pct);
+
 /// Result of the start-up memory check of one app.
 struct MemorySetup {
   BoardProfile board = BoardProfile::kDesktop;

@@ -2,20 +2,30 @@
 // `commerge server`: the merge server process on LCM. It receives keyframe batches, pose updates and scan
 // chunks (decoded with the bounded decoders; malformed, foreign, stale and unknown-robot messages are counted),
 // sends transfer statuses and exchange policies, runs merge rounds (core/agent/server_link), publishes
-// merge_result_t and server_status_t, and writes transforms.txt after every round. With --exit-when-merged N
-// it ends (exit 0) once N robots are in the world frame; otherwise it runs until SIGINT / SIGTERM.
+// merge_result_t and server_status_t, and writes transforms.txt and the merged map of the scans it holds
+// (merged_map.pcd / .ply, robot id per point) after every round. With --exit-when-merged N it ends (exit 0) once
+// N robots are in the world frame after a round that saw every delivered keyframe; otherwise it runs until SIGINT / SIGTERM. At exit it prints, per robot, a
+// digest of the descriptors it holds (compare with the robot's own line: equal = every descriptor arrived).
+// --replay takes a mission recorded with lcm-logger and played back with lcm-logplayer: scan chunks are
+// accepted without this server's own request (the recording server made the requests).
 #include <CLI/CLI.hpp>
 
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <set>
+#include <utility>
 #include <string>
 #include <vector>
 
 #include "apps/app_common.hpp"
 #include "apps/commands.hpp"
+#include "core/agent/delivery_digest.hpp"
 #include "core/agent/server_link.hpp"
+#include "core/cloud/scan_codec.hpp"
+#include "platform/io/pcd.hpp"
+#include "platform/io/ply.hpp"
 #include "platform/lcm/lcm_bus.hpp"
 #include "platform/lcm/message_codec.hpp"
 #include "platform/lcm/status_codec.hpp"
@@ -40,7 +50,9 @@ struct ServerOptions {
   std::int64_t tau_area = -1;
   int exit_when_merged = 0;
   double max_runtime_s = 0.0;
-  double delay_ms = 0.0;
+  double linger_s = 3.0;
+  bool replay = false;
+  double delay_ms = 0.0, jitter_ms = 0.0, duplicate_pct = 0.0;
   bool quiet = false;
   MemoryFlags memory;
 };
@@ -65,6 +77,39 @@ Status WriteTransforms(const std::string& path, const MergeResultMessage& m) {
   }
   const bool ok = std::fclose(f) == 0;
   return ok ? Status::Ok() : IoError("cannot write " + path);
+}
+
+// The scans the server holds of the robots in the world frame, placed with T_world_map * T_map_sensor: the
+// merged map the server can build (the robots keep the rest). Returns the number of points written.
+Result<std::size_t> WriteServerMap(const std::string& dir, const MergeServer& server, const MergeResultMessage& m) {
+  std::vector<PointXYZI> map, scan;
+  std::vector<std::uint16_t> ids;
+  for (std::size_t i = 0; i < m.robot_ids.size(); ++i) {
+    if (!m.in_world[i]) continue;
+    const int r = m.robot_ids[i];
+    const RobotKeyframeDb& db = server.robot(r);
+    for (std::size_t k = 0; k < db.size(); ++k) {
+      const std::vector<std::uint8_t>* bytes = server.scan_bytes(r, static_cast<std::uint32_t>(k));
+      if (bytes == nullptr || !db.pose_known[k]) continue;
+      if (!DecodeScan(Span<const std::uint8_t>(bytes->data(), bytes->size()), &scan).ok()) continue;
+      const Eigen::Isometry3f T = (m.T_world_map[i] * db.T_map_sensor[k]).cast<float>();
+      for (const PointXYZI& p : scan) {
+        const Eigen::Vector3f q = T * Eigen::Vector3f(p.x, p.y, p.z);
+        map.push_back({q.x(), q.y(), q.z(), p.intensity});
+      }
+      ids.insert(ids.end(), scan.size(), static_cast<std::uint16_t>(r));
+    }
+  }
+  if (Status st = platform::WritePcd(dir + "/merged_map.pcd", Span<const PointXYZI>(map), platform::PcdEncoding::kBinary,
+                                     Span<const std::uint16_t>(ids));
+      !st.ok()) {
+    return st;
+  }
+  if (Status st = platform::WritePly(dir + "/merged_map.ply", Span<const PointXYZI>(map), Span<const std::uint16_t>(ids));
+      !st.ok()) {
+    return st;
+  }
+  return map.size();
 }
 
 int RunServer(const ServerOptions& o) {
@@ -97,6 +142,8 @@ int RunServer(const ServerOptions& o) {
   link_params.round_quiet_s = o.round_quiet_s;
   link_params.request_timeout_s = o.request_timeout_s;
   link_params.round_min_new_keyframes = static_cast<std::size_t>(std::max<std::int64_t>(1, o.round_min_new_keyframes));
+  link_params.accept_unrequested_scans = o.replay;
+  link_params.automatic_rounds = !o.replay;  // a replay runs its rounds where the recording has merge results
   if (Status st = ValidateServerLinkParams(link_params); !st.ok()) {
     std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
     return kExitUsage;
@@ -114,7 +161,13 @@ int RunServer(const ServerOptions& o) {
   platform::LcmBusParams bus_params;
   bus_params.url = o.lcm_url;
   bus_params.delay_ms = o.delay_ms;
-  auto bus = platform::OpenLcmBus(bus_params, {platform::kKeyframesChannel, platform::kPosesChannel, platform::kScansChannel});
+  bus_params.jitter_ms = o.jitter_ms;
+  bus_params.duplicate_pct = o.duplicate_pct;
+  bus_params.fault_seed = static_cast<std::uint32_t>(session);
+  auto bus = o.replay ? platform::OpenLcmBus(bus_params, {platform::kKeyframesChannel, platform::kPosesChannel,
+                                                           platform::kScansChannel, platform::kMergeResultChannel})
+                      : platform::OpenLcmBus(bus_params, {platform::kKeyframesChannel, platform::kPosesChannel,
+                                                           platform::kScansChannel});
   if (!bus.ok()) {
     std::fprintf(stderr, "%s: %s\n", tag, bus.status().message().c_str());
     return kExitFailure;
@@ -122,10 +175,14 @@ int RunServer(const ServerOptions& o) {
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   if (!o.quiet) {
-    std::fprintf(stderr, "%s: session %lld, robots 0..%d, mode %s, writing to %s\n", tag,
-                 static_cast<long long>(session), robots - 1, ExchangeModeName(*mode), o.out_dir.c_str());
+    std::fprintf(stderr, "%s: session %lld, robots 0..%d, mode %s, writing to %s%s\n", tag,
+                 static_cast<long long>(session), robots - 1, ExchangeModeName(*mode), o.out_dir.c_str(),
+                 o.replay ? " (replay: recorded scan chunks accepted without a request)" : "");
   }
   std::int64_t bytes_received = 0, rejected = 0;
+  // Replay: the recording server's (session, round) pairs already followed, and when the recording last spoke.
+  std::set<std::pair<std::int64_t, std::int32_t>> recorded_rounds;
+  std::int64_t last_recorded_us = platform::MonotonicUs();
   std::string last_rejection;
   const std::int64_t start_us = platform::MonotonicUs();
   std::int64_t next_status_us = start_us;
@@ -151,7 +208,16 @@ int RunServer(const ServerOptions& o) {
       } else if (message.channel == platform::kScansChannel) {
         auto m = platform::DecodeScanChunk(bytes);
         st = m.ok() ? link.OnScanChunk(*m, wall) : m.status();
+      } else if (message.channel == platform::kMergeResultChannel) {
+        auto m = platform::DecodeMergeResult(bytes);
+        if (!m.ok()) {
+          st = m.status();
+        } else if (m->server_session != session && recorded_rounds.size() < 100000 &&
+                   recorded_rounds.insert({m->server_session, m->round}).second) {
+          link.RequestRound();  // the recording merged here: merge on the same data
+        }
       }
+      last_recorded_us = platform::MonotonicUs();
       if (st.ok()) {
         bytes_received += static_cast<std::int64_t>(message.bytes.size());
       } else {
@@ -184,13 +250,21 @@ int RunServer(const ServerOptions& o) {
         if (Status w = WriteTransforms(o.out_dir + "/transforms.txt", o_msg.result); !w.ok()) {
           std::fprintf(stderr, "%s: %s\n", tag, w.message().c_str());
         }
-        if (!o.quiet) std::fprintf(stderr, "%s: %s\n", tag, link.state().c_str());
+        auto points = WriteServerMap(o.out_dir, server, o_msg.result);
+        if (!points.ok()) std::fprintf(stderr, "%s: %s\n", tag, points.status().message().c_str());
+        if (!o.quiet) {
+          std::fprintf(stderr, "%s: %s; merged_map.pcd/.ply %zu points\n", tag, link.state().c_str(),
+                       points.ok() ? *points : std::size_t{0});
+        }
       }
     }
     const std::int64_t now = platform::MonotonicUs();
     int in_world = 0;
     for (std::uint8_t w : link.last_result().in_world) in_world += w;
-    const bool done = o.exit_when_merged > 0 && in_world >= o.exit_when_merged;
+    // Done when enough robots are placed and the round behind it saw every keyframe delivered (the robots went
+    // quiet): an early round on part of the data does not end the mission.
+    const bool done = o.exit_when_merged > 0 && in_world >= o.exit_when_merged && link.Settled(wall) &&
+                      (!o.replay || static_cast<double>(now - last_recorded_us) > o.round_quiet_s * 1e6);
     if (now >= next_status_us || done) {
       next_status_us = now + 1000000;
       ServerStatus status;
@@ -226,8 +300,9 @@ int RunServer(const ServerOptions& o) {
       break;
     }
   }
-  // Keep answering for a moment so the robots hear the final statuses and result.
-  for (int i = 0; i < 300; ++i) {
+  // Keep answering for --linger-s so the robots hear the final statuses and result (sent every second).
+  const int linger_polls = static_cast<int>(o.linger_s * 100.0);
+  for (int i = 0; i < linger_polls && !g_stop; ++i) {
     (void)(*bus)->Poll(10);
     platform::BusMessage drop;
     while ((*bus)->Take(&drop)) {
@@ -251,6 +326,11 @@ int RunServer(const ServerOptions& o) {
               link.rounds_merged(), in_world, link.last_result().robot_ids.size(),
               static_cast<long long>(bytes_received), static_cast<long long>(rejected),
               last_rejection.empty() ? "" : "; last: ", last_rejection.c_str());
+  for (int r = 0; r < robots; ++r) {
+    if (link.robot_session(r) == 0) continue;
+    std::printf("server: robot %d session %lld: %s\n", r, static_cast<long long>(link.robot_session(r)),
+                ServerDeliveryDigest(server.robot(r)).ToText().c_str());
+  }
   std::printf("%s\n", PeakRssLine().c_str());
   if (o.exit_when_merged > 0 && in_world < o.exit_when_merged) exit_code = kExitFailure;
   return exit_code;
@@ -275,10 +355,15 @@ Command AddServerCommand(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--tau-inter", o->tau_inter, "stage A descriptor distance threshold (0 = the paper's)");
   cmd->add_option("--tau-area", o->tau_area, "stage A minimal cluster span area [cells] (-1 = the paper's 10000)");
-  cmd->add_option("--exit-when-merged", o->exit_when_merged, "exit 0 once this many robots are in the world frame");
+  cmd->add_option("--exit-when-merged", o->exit_when_merged, "exit 0 once this many robots are in the world frame "
+                  "and the last round saw every keyframe delivered (the robots went quiet for --round-quiet-s)");
   cmd->add_option("--max-runtime-s", o->max_runtime_s, "give up (exit 1) after this long [s] (0 = never)");
-  cmd->add_option("--delay-ms", o->delay_ms, "hold every outgoing message this long (fault tests) [ms]");
+  cmd->add_option("--linger-s", o->linger_s, "after --exit-when-merged is met, keep sending statuses and the result "
+                                           "this long [s]")->check(CLI::Range(0.0, 3600.0))->capture_default_str();
+  cmd->add_flag("--replay", o->replay, "serve a recorded mission played back with lcm-logplayer: accept recorded scan "
+                                       "chunks that answer the recording server's requests");
   cmd->add_flag("--quiet", o->quiet, "no progress lines on stderr");
+  AddFaultFlags(cmd, &o->delay_ms, &o->jitter_ms, &o->duplicate_pct);
   AddMemoryFlags(cmd, &o->memory);
   return {cmd, [o]() { return RunServer(*o); }};
 }

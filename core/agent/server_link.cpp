@@ -82,6 +82,7 @@ Status ServerLink::CheckSession(int robot_id, std::int64_t session, const char* 
           last_result_.in_world[i] = 0;
           last_result_.T_world_map[i] = Eigen::Isometry3d::Identity();
         }
+        if (id == robot_id && i < last_result_.keyframes.size()) last_result_.keyframes[i] = 0;
       }
     }
     r = RobotState();
@@ -237,6 +238,10 @@ Status ServerLink::StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* 
   if (!plan.ok()) return plan.status();
   round_pairs_ = plan->pairs;
   round_active_ = true;
+  round_keyframes_.assign(robots_.size(), 0);
+  for (int r = 0; r < static_cast<int>(robots_.size()); ++r) {
+    round_keyframes_[static_cast<std::size_t>(r)] = static_cast<std::uint32_t>(DeliveredKeyframes(r));
+  }
   round_start_us_ = now_us;
   for (const ScanRequest& planned : plan->requests) {
     RobotState& r = robots_[static_cast<std::size_t>(planned.robot_id)];
@@ -293,6 +298,7 @@ Status ServerLink::FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>*
     m.robot_ids.push_back(r);
     m.in_world.push_back(f.connected_to_robot0 ? 1 : 0);
     m.T_world_map.push_back(f.connected_to_robot0 ? f.T_world_robot : Eigen::Isometry3d::Identity());
+    m.keyframes.push_back(static_cast<std::size_t>(r) < round_keyframes_.size() ? round_keyframes_[static_cast<std::size_t>(r)] : 0);
   }
   std::size_t measurement = 0;  // SolveFrames numbers the successful pairs in order
   for (const PairMergeResult& p : results) {
@@ -326,6 +332,11 @@ Status ServerLink::FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>*
   return Status::Ok();
 }
 
+bool ServerLink::Settled(std::int64_t now_us) const {
+  return round_ > 0 && !round_active_ && !round_requested_ && Elapsed(last_message_us_, now_us, params_.round_quiet_s) &&
+         (!params_.automatic_rounds || DeliveredKeyframes() == delivered_at_last_round_);
+}
+
 Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
   if (!params_status_.ok()) return params_status_;
   // Round bookkeeping first, so the statuses below already show a new or finished request.
@@ -345,14 +356,14 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
   } else {
     // Counting the delivered keyframes walks every database: only when a round could start.
     bool start = false;
-    if (round_requested_ || (Elapsed(last_round_us_, now_us, params_.round_interval_s) &&
+    if (round_requested_ || (params_.automatic_rounds && Elapsed(last_round_us_, now_us, params_.round_interval_s) &&
                              Elapsed(last_round_check_us_, now_us, params_.status_interval_s))) {
       last_round_check_us_ = now_us;
       const std::size_t delivered = DeliveredKeyframes();
       const std::size_t fresh = delivered > delivered_at_last_round_ ? delivered - delivered_at_last_round_ : 0;
       start = (round_requested_ && delivered > 0) ||
-              (fresh > 0 && (fresh >= params_.round_min_new_keyframes ||
-                             Elapsed(last_message_us_, now_us, params_.round_quiet_s)));
+              (params_.automatic_rounds && fresh > 0 &&
+               (fresh >= params_.round_min_new_keyframes || Elapsed(last_message_us_, now_us, params_.round_quiet_s)));
     }
     if (start) {
       Status st = StartRound(now_us, out);

@@ -43,6 +43,9 @@ struct ServerLinkParams {
   /// current session, not only those of this server's active request, because the recording server made the
   /// requests. Off in live operation: there, stale retransmissions and a previous server's requests are refused.
   bool accept_unrequested_scans = false;
+  /// Start rounds by the rules above. A replaying server turns this off and starts a round (RequestRound) where
+  /// the recording has the recording server's merge result, so its rounds see the same data.
+  bool automatic_rounds = true;
 };
 
 Status ValidateServerLinkParams(const ServerLinkParams& params);
@@ -98,6 +101,9 @@ class ServerLink {
   const ServerLinkStats& stats() const noexcept { return stats_; }
   /// "collecting", "waiting for scans (n chunks)", "merged k/n robots".
   std::string state() const;
+  /// Nothing left to do for now: a round has merged, none is running, every keyframe delivered so far was in
+  /// the last round, and no robot message arrived for round_quiet_s. (`commerge server --exit-when-merged`.)
+  bool Settled(std::int64_t now_us) const;
 
  private:
   struct RobotState {
@@ -125,6 +131,7 @@ class ServerLink {
   std::int64_t round_start_us_ = -1, last_round_us_ = -1, last_message_us_ = -1, last_round_check_us_ = -1;
   std::size_t delivered_at_last_round_ = 0;
   std::vector<PairSelection> round_pairs_;
+  std::vector<std::uint32_t> round_keyframes_;  ///< per robot: delivered keyframes when the round started
   int round_ = 0;
   MergeResultMessage last_result_;
   std::vector<PairMergeResult> last_pairs_;

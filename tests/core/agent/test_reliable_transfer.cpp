@@ -329,6 +329,28 @@ TEST_CASE("Reliable transfer: 10 and 50 percent loss with duplicates and reorder
   }
 }
 
+TEST_CASE("Reliable transfer: a 2 s one-way delay still delivers everything and merges every robot") {
+  LinkModel link;
+  link.delay_us = 2000000;
+  ServerLinkParams params = SendAllParams();
+  params.mode = ExchangeMode::kStageABC;
+  params.round_min_new_keyframes = 6;  // rounds start while the robots are still mapping
+  Mission m(2, 12, link, 9, params);
+  m.RunUntil(120000000);
+  m.CheckAllKeyframesDelivered();
+  const MergeResultMessage& r = m.server_->last_result();
+  REQUIRE(r.in_world.size() == 2);
+  CHECK(r.in_world[0] == 1);
+  CHECK(r.in_world[1] == 1);
+  // The last round saw every keyframe (what `commerge robot` waits for before it ends), and the server is
+  // settled (what `commerge server --exit-when-merged` waits for).
+  REQUIRE(r.keyframes.size() == 2);
+  CHECK(r.keyframes[0] == m.robots_[0]->agent->mapper().num_keyframes());
+  CHECK(r.keyframes[1] == m.robots_[1]->agent->mapper().num_keyframes());
+  CHECK(m.server_->Settled(m.now_us_));
+  CHECK(m.server_->rounds_merged() >= 2);  // rounds started while the robots were mapping
+}
+
 TEST_CASE("Reliable transfer: a restarted server gets every keyframe again and finishes the merge") {
   Mission m(2, 12, LinkModel{}, 3, SendAllParams());
   m.RunUntil(800000);  // part of the mission streamed
