@@ -1,0 +1,376 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// cm_lcm_sampler: a test publisher for lcm-spy. It fills one realistic sample of every commerge message (keyframe
+// batch, pose update, scan request / exchange policy, scan chunk, transfer status, merge result, robot status,
+// server status), encodes it with the project's own Encode* functions (platform/lcm) and publishes it on its real
+// channel, --count rounds at --rate-hz (the LCM URL from LCM_DEFAULT_URL, as the daemons). Before publishing it
+// prints one manifest line per channel,
+//   sample <channel> <package.type> <fingerprint, 16 hex digits> <bytes>
+// where the fingerprint is the first 8 bytes of the encoded message (big-endian), checked against the generated
+// type's getHash(); tests/apps/lcm_spy_test.sh compares these with what lcm-spy discovered and decoded.
+// Exit codes: 0 published, 1 an encoder or LCM failed, 2 usage.
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include <commerge/exchange_policy_t.hpp>
+#include <commerge/keyframe_batch_t.hpp>
+#include <commerge/lidar_scan_t.hpp>
+#include <commerge/merge_result_t.hpp>
+#include <commerge/odometry_t.hpp>
+#include <commerge/pose_update_t.hpp>
+#include <commerge/robot_status_t.hpp>
+#include <commerge/scan_chunk_t.hpp>
+#include <commerge/server_status_t.hpp>
+#include <commerge/transfer_status_t.hpp>
+
+#include "core/agent/messages.hpp"
+#include "core/cloud/point.hpp"
+#include "core/cloud/scan_codec.hpp"
+#include "core/common/span.hpp"
+#include "core/common/status.hpp"
+#include "core/descriptor/descriptor_codec.hpp"
+#include "platform/lcm/input_codec.hpp"
+#include "platform/lcm/lcm_bus.hpp"
+#include "platform/lcm/message_codec.hpp"
+#include "platform/lcm/status_codec.hpp"
+
+namespace commerge {
+namespace {
+
+using Bytes = std::vector<std::uint8_t>;
+constexpr const char* kTag = "cm_lcm_sampler";
+constexpr int kRobotId = 1;
+constexpr std::int32_t kRequestId = 7;
+constexpr double kPi = 3.14159265358979323846;
+
+Eigen::Isometry3d MakePose(double yaw_rad, double x, double y, double z) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(x, y, z);
+  return T;
+}
+
+// One channel: how to encode round `round`'s sample, and the generated type it must match.
+struct Sample {
+  const char* channel;
+  std::string type;           // package.type
+  std::uint64_t fingerprint;  // the generated type's getHash()
+  std::function<Status(int round, Bytes*)> encode;
+};
+
+template <typename LcmType>
+Sample MakeSample(const char* channel, std::function<Status(int, Bytes*)> encode) {
+  return {channel, std::string("commerge.") + LcmType::getTypeName(), static_cast<std::uint64_t>(LcmType::getHash()),
+          std::move(encode)};
+}
+
+// The scan whose chunks the sampler sends: a 500-point ring (3 012 encoded bytes: 3 chunks of <= 1 200 B).
+Result<Bytes> EncodedRingScan() {
+  std::vector<PointXYZI> points(500);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double a = 2.0 * kPi * static_cast<double>(i) / static_cast<double>(points.size());
+    const double r = 8.0 + 2.0 * std::sin(5.0 * a);
+    points[i].x = static_cast<float>(r * std::cos(a));
+    points[i].y = static_cast<float>(r * std::sin(a));
+    points[i].z = static_cast<float>(-1.2 + 0.1 * std::cos(3.0 * a));
+  }
+  Bytes encoded(EncodedScanBytes(points.size()));
+  auto info = EncodeScan(Span<const PointXYZI>(points), Span<std::uint8_t>(encoded));
+  if (!info.ok()) return info.status();
+  encoded.resize(info->bytes_written);
+  return encoded;
+}
+
+std::vector<Sample> MakeSamples(std::int64_t robot_session, std::int64_t server_session, const Bytes& scan) {
+  const std::uint64_t chunks = ScanChunkCount(scan.size(), kMaxScanChunkPayloadBytes);
+  std::vector<Sample> s;
+  s.push_back(MakeSample<commerge::keyframe_batch_t>(platform::kKeyframesChannel, [=](int round, Bytes* out) {
+    KeyframeBatch m;
+    m.utime_us = platform::WallTimeUs();
+    m.robot_id = kRobotId;
+    m.session = robot_session;
+    m.sequence = round;
+    constexpr std::size_t kRecords = 4;
+    m.records.resize(kRecords * kKeyframeRecordBytes);
+    for (std::size_t k = 0; k < kRecords; ++k) {
+      KeyframeRecord r;
+      r.keyframe_index = static_cast<std::uint32_t>(4 * round + static_cast<int>(k));
+      r.T_world_sensor = MakePose(0.05 * static_cast<double>(r.keyframe_index), 1.0 * r.keyframe_index, 0.3, 0.0);
+      double norm2 = 0.0;
+      std::array<double, kKeyframeDescriptorDim> d{};
+      for (std::size_t i = 0; i < d.size(); ++i) {
+        d[i] = 0.5 + static_cast<double>((i * 3 + k) % 7);
+        norm2 += d[i] * d[i];
+      }
+      for (std::size_t i = 0; i < d.size(); ++i) r.descriptor[i] = static_cast<float>(d[i] / std::sqrt(norm2));
+      r.descriptor_valid = true;
+      Status st = EncodeKeyframeRecord(r, Span<std::uint8_t>(m.records.data() + k * kKeyframeRecordBytes,
+                                                             kKeyframeRecordBytes));
+      if (!st.ok()) return st;
+      m.stored_points.push_back(k == 2 ? 0u : 4000u + 37u * static_cast<std::uint32_t>(k));
+    }
+    return platform::EncodeKeyframeBatch(m, out);
+  }));
+  s.push_back(MakeSample<commerge::pose_update_t>(platform::kPosesChannel, [=](int round, Bytes* out) {
+    PoseUpdate m;
+    m.utime_us = platform::WallTimeUs();
+    m.robot_id = kRobotId;
+    m.session = robot_session;
+    m.sequence = round;
+    m.keyframes = {2, 3, 5};
+    for (std::uint32_t k : m.keyframes) m.T_map_sensor.push_back(MakePose(0.1 * k, 1.02 * k, 0.28, 0.01));
+    m.no_descriptor = {0, 0, 1};
+    return platform::EncodePoseUpdate(m, out);
+  }));
+  s.push_back(MakeSample<commerge::exchange_policy_t>(platform::kPolicyChannel, [=](int, Bytes* out) {
+    ScanRequest m;
+    m.utime_us = platform::WallTimeUs();
+    m.robot_id = kRobotId;
+    m.server_session = server_session;
+    m.request_id = kRequestId;
+    m.keyframes = {0, 1, 3};
+    return platform::EncodeScanRequest(m, out);
+  }));
+  s.push_back(MakeSample<commerge::scan_chunk_t>(platform::kScansChannel, [=, &scan](int round, Bytes* out) {
+    ScanChunk m;
+    m.utime_us = platform::WallTimeUs();
+    m.robot_id = kRobotId;
+    m.request_id = kRequestId;
+    m.keyframe = 1;
+    m.total_bytes = static_cast<std::uint32_t>(scan.size());
+    m.num_chunks = static_cast<std::uint16_t>(chunks);
+    m.chunk_index = static_cast<std::uint16_t>(static_cast<std::uint64_t>(round) % chunks);
+    const ChunkRange range = ScanChunkRange(scan.size(), chunks, m.chunk_index);
+    m.payload.assign(scan.begin() + static_cast<std::ptrdiff_t>(range.offset),
+                     scan.begin() + static_cast<std::ptrdiff_t>(range.offset + range.size));
+    return platform::EncodeScanChunk(m, out);
+  }));
+  s.push_back(MakeSample<commerge::transfer_status_t>(platform::kStatusChannel, [=](int round, Bytes* out) {
+    TransferStatus m;
+    m.utime_us = platform::WallTimeUs();
+    m.robot_id = kRobotId;
+    m.server_session = server_session;
+    m.robot_session = robot_session;
+    m.keyframes_contiguous = 2;
+    m.keyframes_seen = 4;
+    m.gaps = {{2, 3}};
+    m.pose_sequences = {round};
+    m.request_id = kRequestId;
+    m.request_complete = false;
+    m.missing = {{1, 2, 1}, {3, 0, 0}};
+    return platform::EncodeTransferStatus(m, out);
+  }));
+  s.push_back(MakeSample<commerge::merge_result_t>(platform::kMergeResultChannel, [=](int round, Bytes* out) {
+    MergeResultMessage m;
+    m.utime_us = platform::WallTimeUs();
+    m.server_session = server_session;
+    m.round = round + 1;
+    m.robot_ids = {0, 1};
+    m.in_world = {1, 1};
+    m.keyframes = {200, 200};
+    m.T_world_map = {Eigen::Isometry3d::Identity(), MakePose(0.52, 12.5, -3.25, 0.4)};
+    MergePairOutcome p;
+    p.alpha = 0;
+    p.beta = 1;
+    p.success = true;
+    p.verdict = "success";
+    p.T_alpha_beta = m.T_world_map[1];
+    p.loops_stage_a = 12;
+    p.loops_stage_c = 5;
+    p.alpha_scans = 3;
+    p.beta_scans = 3;
+    p.overlap = 0.62f;
+    p.inliers = 850;
+    p.consistent = true;
+    m.pairs = {p};
+    return platform::EncodeMergeResult(m, out);
+  }));
+  // The odometry stack's input (board-local in a deployment; here on the same URL, for lcm-spy).
+  s.push_back(MakeSample<commerge::lidar_scan_t>(platform::kLidarScanChannel, [=](int round, Bytes* out) {
+    LidarScan m;
+    m.utime_us = robot_session + 100000 * round;
+    m.frame = "velodyne";
+    for (int i = 0; i < 360; ++i) {
+      const float a = static_cast<float>(i) * 3.14159265f / 180.0f;
+      m.points.push_back({12.0f * std::cos(a), 12.0f * std::sin(a), -1.5f + 0.01f * static_cast<float>(round), 0.25f});
+    }
+    return platform::EncodeLidarScan(m, out);
+  }));
+  s.push_back(MakeSample<commerge::odometry_t>(platform::kOdometryChannel, [=](int round, Bytes* out) {
+    OdometrySample m;
+    m.utime_us = robot_session + 100000 * round;
+    m.odom_frame = "odom";
+    m.sensor_frame = "velodyne";
+    m.T_odom_sensor = Eigen::Isometry3d::Identity();
+    m.T_odom_sensor.translation() = Eigen::Vector3d(1.0 * round, 0.5, 0.0);
+    m.T_odom_sensor.linear() = Eigen::AngleAxisd(0.1 * round, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return platform::EncodeOdometry(m, out);
+  }));
+  s.push_back(MakeSample<commerge::robot_status_t>(platform::kRobotStatusChannel, [=](int round, Bytes* out) {
+    RobotStatus m;
+    m.utime_us = platform::WallTimeUs();
+    m.robot_id = kRobotId;
+    m.session = robot_session;
+    constexpr std::int64_t kMiB = 1 << 20;
+    m.peak_rss_bytes = 310 * kMiB + round * kMiB;
+    m.budget_total_bytes = 900 * kMiB;
+    m.budget_limit_bytes = 2530 * kMiB;
+    m.modules = {{"descriptor_db", 4 * kMiB, 1 * kMiB, 1 * kMiB},
+                 {"pose_graph", 2 * kMiB, kMiB / 2, kMiB / 2},
+                 {"scan_store", 512 * kMiB, 96 * kMiB + round * kMiB, 120 * kMiB},
+                 {"scan_workspace", 64 * kMiB, 18 * kMiB, 40 * kMiB},
+                 {"loop_closure", 32 * kMiB, 0, 12 * kMiB},
+                 {"outbox", 16 * kMiB, 3 * kMiB, 5 * kMiB},
+                 {"runtime", 96 * kMiB, 70 * kMiB, 72 * kMiB}};
+    m.keyframes = 4;
+    m.keyframes_acked = 2;
+    m.queued_keyframes = 1;
+    m.queued_poses = 3;
+    m.queued_chunks = 2;
+    m.bytes_sent = 41250 + 1500 * round;
+    m.bytes_resent = 1220;
+    m.request_id = kRequestId;
+    m.state = "sending scans";
+    return platform::EncodeRobotStatus(m, out);
+  }));
+  s.push_back(MakeSample<commerge::server_status_t>(platform::kServerStatusChannel, [=](int round, Bytes* out) {
+    ServerStatus m;
+    m.utime_us = platform::WallTimeUs();
+    m.session = server_session;
+    constexpr std::int64_t kMiB = 1 << 20;
+    m.peak_rss_bytes = 640 * kMiB;
+    m.budget_total_bytes = 1400 * kMiB;
+    m.budget_limit_bytes = 2530 * kMiB;
+    m.modules = {{"descriptor_db", 8 * kMiB, 1 * kMiB, 1 * kMiB},
+                 {"affinity", 2 * kMiB, kMiB / 4, kMiB / 4},
+                 {"solvers", 64 * kMiB, 0, 9 * kMiB},
+                 {"scan_reassembly", 48 * kMiB, 2 * kMiB, 6 * kMiB},
+                 {"submaps", 256 * kMiB, 0, 80 * kMiB},
+                 {"registration", 256 * kMiB, 0, 95 * kMiB},
+                 {"merged_map", 512 * kMiB, 0, 0},
+                 {"inbox", 16 * kMiB, kMiB, 2 * kMiB},
+                 {"runtime", 96 * kMiB, 74 * kMiB, 75 * kMiB}};
+    m.round = round;
+    m.state = "waiting for scans";
+    m.bytes_received = 52000 + 1500 * round;
+    m.messages_rejected = 1;
+    m.last_rejection = "pose_update_t from robot 3: no session at the server";
+    m.robot_ids = {0, 1};
+    m.keyframes = {6, 2};
+    m.scans = {3, 0};
+    m.chunks_missing = {0, 4};
+    return platform::EncodeServerStatus(m, out);
+  }));
+  return s;
+}
+
+std::uint64_t FirstEightBytesBigEndian(const Bytes& b) {
+  std::uint64_t v = 0;
+  for (std::size_t i = 0; i < 8 && i < b.size(); ++i) v = (v << 8) | b[i];
+  return v;
+}
+
+int Usage(const char* message) {
+  if (message != nullptr) std::fprintf(stderr, "%s: %s\n", kTag, message);
+  std::fprintf(stderr,
+               "usage: %s [--count N] [--rate-hz R]\n"
+               "  publishes one sample of every commerge message on its channel, N rounds (default 5) at R rounds\n"
+               "  per second (default 10); the LCM URL is $LCM_DEFAULT_URL (udpm: only inside a private network\n"
+               "  namespace, PLATFORM.md 4.1)\n",
+               kTag);
+  return message != nullptr ? 2 : 0;
+}
+
+bool ParseNumber(const char* text, double* out) {
+  char* end = nullptr;
+  *out = std::strtod(text, &end);
+  return end != text && *end == '\0' && std::isfinite(*out);
+}
+
+int Run(int argc, char** argv) {
+  double count = 5.0;
+  double rate_hz = 10.0;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "-h" || arg == "--help") return Usage(nullptr);
+    if ((arg == "--count" || arg == "--rate-hz") && i + 1 < argc) {
+      double v = 0.0;
+      if (!ParseNumber(argv[++i], &v)) return Usage((arg + ": not a number: " + argv[i]).c_str());
+      (arg == "--count" ? count : rate_hz) = v;
+      continue;
+    }
+    return Usage(("unknown or incomplete argument '" + arg + "'").c_str());
+  }
+  if (count < 1.0 || count > 100000.0 || std::floor(count) != count) return Usage("--count: an integer 1..100000");
+  if (rate_hz <= 0.0 || rate_hz > 1000.0) return Usage("--rate-hz: in (0, 1000]");
+
+  auto scan = EncodedRingScan();
+  if (!scan.ok()) {
+    std::fprintf(stderr, "%s: scan: %s\n", kTag, scan.status().message().c_str());
+    return 1;
+  }
+  const std::int64_t robot_session = platform::WallTimeUs();
+  const std::int64_t server_session = robot_session - 5000000;
+  const std::vector<Sample> samples = MakeSamples(robot_session, server_session, *scan);
+
+  // The manifest, from round 0's encoding: fails before any traffic if an encoder disagrees with its type.
+  Bytes buffer;
+  for (const Sample& s : samples) {
+    Status st = s.encode(0, &buffer);
+    if (!st.ok()) {
+      std::fprintf(stderr, "%s: %s: %s\n", kTag, s.channel, st.message().c_str());
+      return 1;
+    }
+    const std::uint64_t fp = FirstEightBytesBigEndian(buffer);
+    if (buffer.size() < 8 || fp != s.fingerprint) {
+      std::fprintf(stderr, "%s: %s: the encoded fingerprint %016llx is not %s's %016llx\n", kTag, s.channel,
+                   static_cast<unsigned long long>(fp), s.type.c_str(),
+                   static_cast<unsigned long long>(s.fingerprint));
+      return 1;
+    }
+    std::printf("sample %s %s %016llx %zu\n", s.channel, s.type.c_str(), static_cast<unsigned long long>(fp),
+                buffer.size());
+  }
+  std::fflush(stdout);
+
+  auto bus = platform::LcmBus::Create(platform::LcmBusParams{});
+  if (!bus.ok()) {
+    std::fprintf(stderr, "%s: %s\n", kTag, bus.status().message().c_str());
+    return 1;
+  }
+  const int rounds = static_cast<int>(count);
+  const auto period = std::chrono::duration<double>(1.0 / rate_hz);
+  auto next = std::chrono::steady_clock::now();
+  for (int round = 0; round < rounds; ++round) {
+    for (const Sample& s : samples) {
+      Status st = s.encode(round, &buffer);
+      if (st.ok()) st = (*bus)->Publish(s.channel, buffer);
+      if (!st.ok()) {
+        std::fprintf(stderr, "%s: round %d, %s: %s\n", kTag, round, s.channel, st.message().c_str());
+        return 1;
+      }
+    }
+    next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    if (round + 1 < rounds) std::this_thread::sleep_until(next);
+  }
+  const auto& stats = (*bus)->stats();
+  std::printf("%s: published %llu messages (%llu bytes) on %zu channels, %d rounds at %g Hz\n", kTag,
+              static_cast<unsigned long long>(stats.published), static_cast<unsigned long long>(stats.published_bytes),
+              samples.size(), rounds, rate_hz);
+  return stats.publish_errors == 0 ? 0 : 1;
+}
+
+}  // namespace
+}  // namespace commerge
+
+int main(int argc, char** argv) { return commerge::Run(argc, argv); }
