@@ -11,6 +11,24 @@
 
 namespace commerge::app {
 
+std::vector<ModuleMemory> StatusModules(const BudgetTable& table, const std::vector<ModuleMemory>& measured) {
+  std::vector<ModuleMemory> out;
+  for (const BudgetEntry& e : table.entries()) {
+    if (out.size() == kMaxStatusModules) break;
+    ModuleMemory m;
+    m.name = e.module.substr(0, kMaxStatusTextBytes);
+    m.budget_bytes = e.bytes;
+    for (const ModuleMemory& x : measured) {
+      if (x.name == e.module) {
+        m.used_bytes = x.used_bytes;
+        m.high_water_bytes = x.high_water_bytes;
+      }
+    }
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
 void AddFaultFlags(CLI::App* cmd, double* delay_ms, double* jitter_ms, double* duplicate_pct) {
   const char* group = "Fault injection on outgoing messages (network fault tests; sch_netem is often unavailable)";
   cmd->add_option("--delay-ms", *delay_ms, "hold every outgoing message this long [ms]")
@@ -78,6 +96,7 @@ int SetUpMemory(AppKind app, const MemoryFlags& f, MemorySetup* s, bool print_ta
       platform::CheckStartupBudget(app, GetBoard(s->board), s->table, platform::ProbeMemoryLimits(roots));
   s->fits = check.verdict.fits;
   s->verdict = check.verdict.message;
+  s->limit_bytes = check.verdict.limit_bytes;
   s->table_text = platform::FormatBudgetTable(s->table, check);
   if (print_table) {
     std::printf("memory budget: %s on %s\n%s", AppKindName(app), f.board.c_str(), s->table_text.c_str());

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <string>
 
+#include "core/agent/messages.hpp"
 #include "core/memory/budget.hpp"
 
 namespace commerge::app {
@@ -49,7 +50,12 @@ struct MemorySetup {
   bool fits = false;
   std::string table_text;  ///< FormatBudgetTable output
   std::string verdict;     ///< one line
+  std::int64_t limit_bytes = 0;  ///< what the budget was checked against (board, MemAvailable, cgroup)
 };
+
+/// The budget table as status-message modules (budget only; used_bytes 0 = not measured), at most
+/// kMaxStatusModules; `measured` fills used / high-water of the named modules.
+std::vector<ModuleMemory> StatusModules(const BudgetTable& table, const std::vector<ModuleMemory>& measured);
 
 /// Maps the flags onto a MemoryConfig for `app`, validates it, checks the budget against this machine and
 /// applies the heap cap. Returns an exit code: kExitOk, kExitUsage (bad flag: message on stderr) or

@@ -359,6 +359,10 @@ int RunRobot(const RobotOptions& o) {
       status.session = session;
       status.peak_rss_bytes = platform::ReadRss().peak_bytes;
       status.budget_total_bytes = static_cast<std::int64_t>(setup.table.total_bytes());
+      status.budget_limit_bytes = setup.limit_bytes;
+      const ScanStoreStats store_stats = (*store)->stats();
+      status.modules = StatusModules(setup.table, {ModuleMemory{"scan_store", 0, static_cast<std::int64_t>(store_stats.used_bytes),
+                                                                static_cast<std::int64_t>(store_stats.high_water_bytes)}});
       status.keyframes = static_cast<std::uint32_t>(agent.mapper().num_keyframes());
       status.keyframes_acked = link.stats().keyframes_acked;
       status.queued_keyframes = static_cast<std::uint32_t>(agent.unsent_keyframes() + agent.queued_resends());

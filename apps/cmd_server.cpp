@@ -179,7 +179,7 @@ int RunServer(const ServerOptions& o) {
                  static_cast<long long>(session), robots - 1, ExchangeModeName(*mode), o.out_dir.c_str(),
                  o.replay ? " (replay: recorded scan chunks accepted without a request)" : "");
   }
-  std::int64_t bytes_received = 0, rejected = 0;
+  std::int64_t bytes_received = 0, rejected = 0, scans_high_water = 0;
   // Replay: the recording server's (session, round) pairs already followed, and when the recording last spoke.
   std::set<std::pair<std::int64_t, std::int32_t>> recorded_rounds;
   std::int64_t last_recorded_us = platform::MonotonicUs();
@@ -272,6 +272,11 @@ int RunServer(const ServerOptions& o) {
       status.session = session;
       status.peak_rss_bytes = platform::ReadRss().peak_bytes;
       status.budget_total_bytes = setup.table.total_bytes();
+      status.budget_limit_bytes = setup.limit_bytes;
+      scans_high_water = std::max<std::int64_t>(scans_high_water, static_cast<std::int64_t>(server.scan_bytes_held()));
+      status.modules = StatusModules(setup.table, {ModuleMemory{"scan_reassembly", 0,
+                                                                static_cast<std::int64_t>(server.scan_bytes_held()),
+                                                                scans_high_water}});
       status.round = link.rounds_merged();
       status.state = link.state();
       status.bytes_received = bytes_received;

@@ -1,0 +1,258 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
+# One LCM mission with separate processes (commerge server + two commerge robot) under a network fault, inside a
+# private network namespace (udpm on loopback only, ttl=0; never a real interface). Used by the CTest tests
+# "lcm mission: ..." (tests/apps/lcm_mission_tests.cmake) and runnable by hand:
+#
+#   tests/apps/lcm_mission.sh --commerge build-host/commerge --data SIMDIR --work /tmp/m --scenario loss50
+#
+# SIMDIR is a two-robot `commerge sim` dataset (robot_0, robot_1, start_transforms.txt). Scenarios:
+#   clean           no fault
+#   loss10 loss50   nftables drops 10 % / 50 % of the packets to the LCM multicast group, at random (ingress)
+#   tbf2mbit        tc tbf limits loopback to 2 Mbit/s (robots capped at 800 kbit/s each)
+#   delay2s         every process holds each outgoing message 2 s (application-level delay stage); robots
+#                   re-announce after 5 s (--resend-timeout-s), longer than the 4 s round trip
+#   dup-reorder     every process sends 20 % of its messages twice and holds each up to 300 ms at random
+#   robot-restart   robot 1 is killed (SIGKILL) mid-mission and started again (a new session)
+#   server-restart  the server is killed (SIGKILL) mid-mission and started again (a new session)
+#   live            robot 1 maps live input: `commerge feed` plays its directory as lidar_scan_t + odometry_t at
+#                   20 Hz on the board-local input URL, and `commerge robot --live` synchronises and maps it
+#   replay          a clean mission recorded with lcm-logger, then played back with lcm-logplayer into a fresh
+#                   `commerge server --replay`, which must reproduce the recorded merge
+# Passes (exit 0) when every final process exits 0 and
+#   - each robot's descriptor digest line equals the server's line for that robot and session (every keyframe
+#     and every descriptor delivered, bit for bit: 100 %),
+#   - robot 1's T_world_map in transforms.txt is within 0.5 m / 2 deg of the truth from start_transforms.txt.
+# Prints one summary line with the bytes each robot sent, the share re-sent, and the transform error.
+set -euo pipefail
+
+usage() { sed -n '3,23p' "$0"; exit 2; }
+bin="" data="" work="" scenario=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --commerge) bin=$2; shift 2 ;;
+    --data) data=$2; shift 2 ;;
+    --work) work=$2; shift 2 ;;
+    --scenario) scenario=$2; shift 2 ;;
+    -h|--help) usage ;;
+    *) echo "lcm_mission.sh: unknown argument '$1'" >&2; usage ;;
+  esac
+done
+[ -n "$bin" ] && [ -n "$data" ] && [ -n "$work" ] && [ -n "$scenario" ] || usage
+case "$scenario" in
+  clean|loss10|loss50|tbf2mbit|delay2s|dup-reorder|robot-restart|server-restart|live|replay) ;;
+  *) echo "lcm_mission.sh: unknown scenario '$scenario'" >&2; exit 2 ;;
+esac
+for f in "$data/robot_0/poses.txt" "$data/robot_1/poses.txt" "$data/start_transforms.txt"; do
+  [ -f "$f" ] || { echo "lcm_mission.sh: missing $f (generate the dataset with commerge sim)" >&2; exit 2; }
+done
+
+# Re-run inside a private network namespace: multicast must never reach a real interface.
+if [ "${CM_MISSION_IN_NETNS:-0}" != 1 ]; then
+  if ! command -v unshare >/dev/null; then echo "CM-SKIP: unshare (util-linux) is not installed"; exit 0; fi
+  if ! unshare -n true 2>/dev/null; then
+    echo "CM-SKIP: cannot create a private network namespace (unshare -n needs root or user namespaces)"; exit 0
+  fi
+  export CM_MISSION_IN_NETNS=1
+  exec unshare -n bash "$0" --commerge "$bin" --data "$data" --work "$work" --scenario "$scenario"
+fi
+
+bin=$(readlink -f "$bin")
+rm -rf "$work"
+mkdir -p "$work"
+cd "$work"
+ip link set lo up
+ip link set lo mtu 1500  # a WiFi-sized MTU: larger messages are IP-fragmented, and one lost fragment loses them
+ip route add 224.0.0.0/4 dev lo
+export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
+
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null || true; done
+}
+trap cleanup EXIT
+
+server_args=(server --out "$work/server" --robots 2 --tau-area 1000 --round-quiet-s 3 --exit-when-merged 2
+             --max-runtime-s 240 --linger-s 5)
+robot_args=(--lidar vlp-16 --keyframe-spacing-m 0.9 --rate-hz 40 --linger-s 200)
+fault=()
+case "$scenario" in
+  loss10|loss50)
+    pct=${scenario#loss}
+    # Match the destination address (non-first IP fragments carry no UDP header) on ingress (PLATFORM.md 4.5).
+    nft add table ip cmloss
+    nft add chain ip cmloss pre '{ type filter hook prerouting priority -300; }'
+    nft add rule ip cmloss pre ip daddr 239.255.76.67 numgen random mod 100 '<' "$pct" counter drop
+    ;;
+  tbf2mbit)
+    tc qdisc add dev lo root tbf rate 2mbit burst 131072 latency 400ms
+    robot_args+=(--bandwidth-kbps 800)
+    ;;
+  delay2s)
+    fault=(--delay-ms 2000)
+    robot_args+=(--resend-timeout-s 5)  # the round trip is 4 s: re-announce only after a status could have come
+    ;;
+  dup-reorder) fault=(--duplicate-pct 20 --jitter-ms 300) ;;
+esac
+
+start_server() {  # $1 = log name
+  "$bin" "${server_args[@]}" "${fault[@]}" >"$work/$1.out" 2>"$work/$1.err" &
+  server_pid=$!
+  pids+=("$server_pid")
+}
+start_robot() {  # $1 = id, $2 = log name
+  local input=(--data "$data/robot_$1")
+  if [ "$scenario" = live ] && [ "$1" = 1 ]; then input=(--live --idle-finish-s 3); fi
+  "$bin" robot --id "$1" "${input[@]}" "${robot_args[@]}" "${fault[@]}" >"$work/$2.out" 2>"$work/$2.err" &
+  eval "robot$1_pid=$!"
+  pids+=("$!")
+}
+
+logger_pid=""
+if [ "$scenario" = replay ]; then
+  command -v lcm-logger >/dev/null && command -v lcm-logplayer >/dev/null ||
+    { echo "CM-SKIP: lcm-logger / lcm-logplayer (Debian liblcm-bin) are not installed"; exit 0; }
+  lcm-logger -f -q "$work/mission.lcmlog" >"$work/logger.out" 2>&1 &
+  logger_pid=$!
+  pids+=("$logger_pid")
+  sleep 0.5
+fi
+
+start=$SECONDS
+start_server server
+sleep 0.5
+start_robot 0 robot0
+start_robot 1 robot1
+case "$scenario" in
+  live)
+    # The robot's map frame is its first mapped scan: start the feed once the robot listens.
+    for _ in $(seq 100); do grep -q "live input" "$work/robot1.err" 2>/dev/null && break; sleep 0.1; done
+    # 1 m between scans at 20 Hz = 20 m/s, under the robot's 30 m/s odometry plausibility limit.
+    "$bin" feed --data "$data/robot_1" --rate-hz 20 --quiet >"$work/feed.out" 2>"$work/feed.err" &
+    feed_pid=$!
+    pids+=("$feed_pid")
+    ;;
+  robot-restart)
+    sleep 2.5
+    kill -9 "$robot1_pid"
+    wait "$robot1_pid" 2>/dev/null || true
+    echo "lcm_mission.sh: killed robot 1 after 2.5 s, starting it again" >&2
+    start_robot 1 robot1-restarted
+    ;;
+  server-restart)
+    sleep 3
+    kill -9 "$server_pid"
+    wait "$server_pid" 2>/dev/null || true
+    echo "lcm_mission.sh: killed the server after 3 s, starting it again" >&2
+    start_server server-restarted
+    ;;
+esac
+
+rc=0
+wait_for() {  # $1 = pid, $2 = name
+  local code=0
+  wait "$1" || code=$?
+  [ "$code" = 0 ] && return 0
+  echo "lcm_mission.sh: $2 exited $code:" >&2
+  tail -n 5 "$work/$2.err" "$work/$2.out" >&2 || true
+  rc=1
+}
+server_log=server
+robot1_log=robot1
+[ "$scenario" = server-restart ] && server_log=server-restarted
+[ "$scenario" = robot-restart ] && robot1_log=robot1-restarted
+wait_for "$robot0_pid" robot0
+wait_for "$robot1_pid" "$robot1_log"
+wait_for "$server_pid" "$server_log"
+[ "$scenario" = live ] && wait_for "$feed_pid" feed
+elapsed=$((SECONDS - start))
+[ "$rc" = 0 ] || { echo "lcm_mission.sh: $scenario: a process failed" >&2; exit 1; }
+
+# Every keyframe and descriptor of each robot's final session is at the server, bit for bit.
+for id in 0 1; do
+  log=robot$id
+  [ "$id" = 1 ] && log=$robot1_log
+  robot_line=$(grep "^robot $id session " "$work/$log.out" | sed "s/^robot $id //")
+  server_line=$(grep "^server: robot $id session " "$work/$server_log.out" | sed "s/^server: robot $id //")
+  if [ -z "$robot_line" ] || [ "$robot_line" != "$server_line" ]; then
+    echo "lcm_mission.sh: robot $id: descriptors not all delivered:" >&2
+    echo "  robot : ${robot_line:-<none>}" >&2
+    echo "  server: ${server_line:-<none>}" >&2
+    exit 1
+  fi
+  case "$robot_line" in
+    *"descriptors 0,"*) echo "lcm_mission.sh: robot $id made no descriptor at all" >&2; exit 1 ;;
+  esac
+done
+
+# Robot 1's placement against the truth: T_true = inv(T_world_start0) * T_world_start1.
+transform_error() {  # $1 = transforms.txt -> "translation_m yaw_deg"
+  awk -v tf="$1" '
+    NR == FNR { n++; for (i = 1; i <= 12; i++) s[n, i] = $i; next }
+    $1 == "robot" && $2 == "1" && $3 == "merged" { for (i = 1; i <= 12; i++) e[i] = $(i + 3); found = 1 }
+    END {
+      if (!found) { print "unmerged"; exit }
+      # rows of the 3x4 matrices: a = start 0, b = start 1
+      for (r = 0; r < 3; r++) for (c = 0; c < 4; c++) { a[r, c] = s[1, 4 * r + c + 1]; b[r, c] = s[2, 4 * r + c + 1] }
+      # T = inv(a) * b: R = a_R^T b_R, t = a_R^T (b_t - a_t)
+      for (r = 0; r < 3; r++) {
+        for (c = 0; c < 3; c++) { R[r, c] = 0; for (k = 0; k < 3; k++) R[r, c] += a[k, r] * b[k, c] }
+        t[r] = 0; for (k = 0; k < 3; k++) t[r] += a[k, r] * (b[k, 3] - a[k, 3])
+      }
+      dx = e[4] - t[0]; dy = e[8] - t[1]; dz = e[12] - t[2]
+      yaw_true = atan2(R[1, 0], R[0, 0]); yaw_est = atan2(e[5], e[1])
+      d = (yaw_est - yaw_true) * 180 / 3.141592653589793
+      while (d > 180) d -= 360; while (d < -180) d += 360
+      printf "%.3f %.2f\n", sqrt(dx * dx + dy * dy + dz * dz), (d < 0 ? -d : d)
+    }' "$data/start_transforms.txt" "$1"
+}
+err=$(transform_error "$work/server/transforms.txt")
+if [ "$err" = unmerged ]; then echo "lcm_mission.sh: robot 1 is not merged in transforms.txt" >&2; exit 1; fi
+read -r err_m err_deg <<<"$err"
+if ! awk -v m="$err_m" -v d="$err_deg" 'BEGIN { exit !(m < 0.5 && d < 2.0) }'; then
+  echo "lcm_mission.sh: wrong merge: robot 1 is $err_m m / $err_deg deg from the truth" >&2
+  exit 1
+fi
+
+bytes_text=""
+for id in 0 1; do
+  log=robot$id
+  [ "$id" = 1 ] && log=$robot1_log
+  line=$(grep "^robot $id: " "$work/$log.out")
+  sent=$(sed -n 's/.*bytes sent \([0-9]*\), resent \([0-9]*\).*/\1/p' <<<"$line")
+  resent=$(sed -n 's/.*bytes sent \([0-9]*\), resent \([0-9]*\).*/\2/p' <<<"$line")
+  pct=$(awk -v s="$sent" -v r="$resent" 'BEGIN { printf "%.1f", (s > 0) ? 100 * r / s : 0 }')
+  bytes_text+=" robot $id sent $sent B ($resent B = $pct % re-sent);"
+done
+dropped=""
+if [ "$scenario" = loss10 ] || [ "$scenario" = loss50 ]; then
+  dropped=" nftables dropped $(nft list table ip cmloss | sed -n 's/.*counter packets \([0-9]*\).*/\1/p') packets;"
+fi
+
+if [ "$scenario" = replay ]; then
+  kill -INT "$logger_pid"
+  wait "$logger_pid" 2>/dev/null || true
+  [ -s "$work/mission.lcmlog" ] || { echo "lcm_mission.sh: lcm-logger wrote nothing" >&2; exit 1; }
+  server_args=(server --out "$work/replay" --robots 2 --tau-area 1000 --round-quiet-s 3 --exit-when-merged 2
+               --max-runtime-s 240 --linger-s 0 --replay)
+  start_server replay-server
+  sleep 0.5
+  lcm-logplayer "$work/mission.lcmlog" >"$work/logplayer.out" 2>&1 &
+  player_pid=$!
+  pids+=("$player_pid")
+  wait_for "$server_pid" replay-server
+  kill "$player_pid" 2>/dev/null || true
+  [ "$rc" = 0 ] || { echo "lcm_mission.sh: the replay server did not merge" >&2; exit 1; }
+  diff_m=$(awk '$1 == "robot" && $2 == "1" { n++; for (i = 4; i <= 15; i++) v[n, i] = $i }
+                END { m = 0; for (i = 4; i <= 15; i++) { d = v[1, i] - v[2, i]; if (d < 0) d = -d; if (d > m) m = d }
+                      printf "%.6f", m }' "$work/server/transforms.txt" "$work/replay/transforms.txt")
+  if ! awk -v d="$diff_m" 'BEGIN { exit !(d < 0.001) }'; then
+    echo "lcm_mission.sh: the replayed merge differs from the recorded one by $diff_m (largest matrix entry)" >&2
+    exit 1
+  fi
+  echo "lcm mission replay: $(stat -c %s "$work/mission.lcmlog") B log replayed into a fresh server; largest" \
+       "difference of T_world_map(1) from the recorded merge: $diff_m"
+fi
+
+echo "lcm mission $scenario: merged in ${elapsed} s; descriptors delivered 100 % (digests equal);$bytes_text$dropped" \
+     "robot 1 within $err_m m / $err_deg deg of the truth"
