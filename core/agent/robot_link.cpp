@@ -234,7 +234,9 @@ Result<bool> RobotLink::Next(std::int64_t now_us, RobotOutgoing* out) {
 
 void TokenBucket::Refill(std::int64_t now_us) noexcept {
   if (last_us_ >= 0 && now_us > last_us_) {
-    tokens_ = std::min(burst_, tokens_ + rate_ * static_cast<double>(now_us - last_us_) * 1e-6);
+    // Seconds as a division: exact for whole multiples of 1 s, so the refill after WaitUs() reaches 0 exactly
+    // (with "* 1e-6" the aarch64 build, which contracts to fused multiply-adds, stopped 2e-13 short of it).
+    tokens_ = std::min(burst_, tokens_ + rate_ * (static_cast<double>(now_us - last_us_) / 1e6));
   }
   if (now_us > last_us_) last_us_ = now_us;
 }
