@@ -103,12 +103,14 @@ Status MergeServer::Reject(std::uint64_t* counter, Status status) {
   return status;
 }
 
+Status MergeServer::CapacityError(int robot, std::uint32_t keyframe) const {
+  return ResourceExhausted(RobotText(robot) + " keyframe " + std::to_string(keyframe) +
+                           " is beyond the server's capacity of " + std::to_string(max_keyframes_) +
+                           " keyframes per robot (--max-keyframes)");
+}
+
 Status MergeServer::EnsureKeyframe(int robot, std::uint32_t keyframe) {
-  if (keyframe >= max_keyframes_) {
-    return ResourceExhausted(RobotText(robot) + " keyframe " + std::to_string(keyframe) +
-                             " is beyond the server's capacity of " + std::to_string(max_keyframes_) +
-                             " keyframes per robot (--max-keyframes)");
-  }
+  if (keyframe >= max_keyframes_) return CapacityError(robot, keyframe);
   RobotKeyframeDb& db = robots_[static_cast<std::size_t>(robot)];
   if (keyframe < db.size()) return Status::Ok();
   const std::size_t n = static_cast<std::size_t>(keyframe) + 1;
@@ -119,6 +121,27 @@ Status MergeServer::EnsureKeyframe(int robot, std::uint32_t keyframe) {
   db.T_map_sensor.resize(n, Eigen::Isometry3d::Identity());
   db.stored_points.resize(n, 0);
   return Status::Ok();
+}
+
+Status MergeServer::CheckKeyframeBatch(const KeyframeBatch& batch) const {
+  if (!params_status_.ok()) return params_status_;
+  if (batch.robot_id < 0 || batch.robot_id >= max_robots()) {
+    return InvalidArgument("keyframe batch: robot_id " + std::to_string(batch.robot_id) + " is outside 0.." +
+                           std::to_string(max_robots() - 1));
+  }
+  const std::size_t n = batch.num_records();
+  if (batch.records.size() != n * kKeyframeRecordBytes || batch.stored_points.size() != n ||
+      n > kMaxRecordsPerBatch) {
+    return InvalidArgument("keyframe batch of " + RobotText(batch.robot_id) + ": malformed record arrays");
+  }
+  Status first_error = InvalidArgument("keyframe batch of " + RobotText(batch.robot_id) + " has no record");
+  for (std::size_t i = 0; i < n; ++i) {
+    auto record = DecodeKeyframeRecord(
+        Span<const std::uint8_t>(batch.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
+    if (record.ok() && record->keyframe_index < max_keyframes_) return Status::Ok();
+    if (i == 0) first_error = record.ok() ? CapacityError(batch.robot_id, record->keyframe_index) : record.status();
+  }
+  return first_error;
 }
 
 Status MergeServer::OnKeyframeBatch(const KeyframeBatch& batch) {
@@ -163,33 +186,34 @@ Status MergeServer::OnKeyframeBatch(const KeyframeBatch& batch) {
   return first_error;
 }
 
-Status MergeServer::OnPoseUpdate(const PoseUpdate& update) {
+Status MergeServer::CheckPoseUpdate(const PoseUpdate& update) const {
   if (!params_status_.ok()) return params_status_;
   if (update.robot_id < 0 || update.robot_id >= max_robots()) {
-    return Reject(&stats_.rejected_pose_updates,
-                  InvalidArgument("pose update: robot_id " + std::to_string(update.robot_id) + " is outside 0.." +
-                                  std::to_string(max_robots() - 1)));
+    return InvalidArgument("pose update: robot_id " + std::to_string(update.robot_id) + " is outside 0.." +
+                           std::to_string(max_robots() - 1));
   }
   if (update.keyframes.size() != update.T_map_sensor.size() || update.keyframes.size() > kMaxPosesPerUpdate ||
       (!update.no_descriptor.empty() && update.no_descriptor.size() != update.keyframes.size())) {
-    return Reject(&stats_.rejected_pose_updates,
-                  InvalidArgument("pose update of " + RobotText(update.robot_id) + ": " +
-                                  std::to_string(update.keyframes.size()) + " keyframes but " +
-                                  std::to_string(update.T_map_sensor.size()) + " poses and " +
-                                  std::to_string(update.no_descriptor.size()) + " descriptor flags (at most " +
-                                  std::to_string(kMaxPosesPerUpdate) + ")"));
+    return InvalidArgument("pose update of " + RobotText(update.robot_id) + ": " +
+                           std::to_string(update.keyframes.size()) + " keyframes but " +
+                           std::to_string(update.T_map_sensor.size()) + " poses and " +
+                           std::to_string(update.no_descriptor.size()) + " descriptor flags (at most " +
+                           std::to_string(kMaxPosesPerUpdate) + ")");
   }
-  // Validate everything first: a refused update changes nothing.
   for (std::size_t i = 0; i < update.keyframes.size(); ++i) {
     if (!IsFinitePose(update.T_map_sensor[i]) || !IsValidRigidTransform(update.T_map_sensor[i], 1e-3)) {
-      return Reject(&stats_.rejected_pose_updates,
-                    InvalidArgument("pose update " + std::to_string(update.sequence) + " of " +
-                                    RobotText(update.robot_id) + ": keyframe " +
-                                    std::to_string(update.keyframes[i]) + " has a non-finite or non-rigid pose"));
+      return InvalidArgument("pose update " + std::to_string(update.sequence) + " of " + RobotText(update.robot_id) +
+                             ": keyframe " + std::to_string(update.keyframes[i]) + " has a non-finite or non-rigid pose");
     }
-    if (update.keyframes[i] >= max_keyframes_) {
-      return Reject(&stats_.rejected_pose_updates, EnsureKeyframe(update.robot_id, update.keyframes[i]));
-    }
+    if (update.keyframes[i] >= max_keyframes_) return CapacityError(update.robot_id, update.keyframes[i]);
+  }
+  return Status::Ok();
+}
+
+Status MergeServer::OnPoseUpdate(const PoseUpdate& update) {
+  // Validate everything first: a refused update changes nothing.
+  if (Status st = CheckPoseUpdate(update); !st.ok()) {
+    return params_status_.ok() ? Reject(&stats_.rejected_pose_updates, st) : st;
   }
   for (std::size_t i = 0; i < update.keyframes.size(); ++i) {
     const std::uint32_t k = update.keyframes[i];

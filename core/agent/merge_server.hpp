@@ -118,6 +118,11 @@ class MergeServer {
   Status OnKeyframeBatch(const KeyframeBatch& batch);
   Status OnPoseUpdate(const PoseUpdate& update);
   Status OnScanChunk(const ScanChunk& chunk);
+  /// What the handlers above check, without counting or applying anything: OK when OnKeyframeBatch would apply
+  /// at least one record, and when OnPoseUpdate would accept the update. (ServerLink adopts a robot's newer
+  /// session, which resets it, only for a message that passes.)
+  Status CheckKeyframeBatch(const KeyframeBatch& batch) const;
+  Status CheckPoseUpdate(const PoseUpdate& update) const;
 
   /// Runs the cascade for every pair of robots that sent keyframes (alpha < beta). Results stay until the next
   /// call; errors: bad parameters, malformed descriptor sets.
@@ -180,6 +185,7 @@ class MergeServer {
     return (static_cast<std::uint64_t>(robot) << 32) | keyframe;
   }
   Status Reject(std::uint64_t* counter, Status status);
+  Status CapacityError(int robot, std::uint32_t keyframe) const;
   Status EnsureKeyframe(int robot, std::uint32_t keyframe);
   const PairState* FindPair(int alpha, int beta) const;
 

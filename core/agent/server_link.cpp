@@ -95,12 +95,10 @@ Status ServerLink::CheckSession(int robot_id, std::int64_t session, const char* 
 Status ServerLink::OnKeyframeBatch(const KeyframeBatch& batch, std::int64_t now_us) {
   if (!params_status_.ok()) return params_status_;
   if (batch.robot_id >= 0 && batch.robot_id < static_cast<int>(robots_.size()) && batch.session > 0 &&
-      batch.session > robot_session(batch.robot_id)) {
-    // Validate before a new session resets anything: a malformed batch must not wipe a robot's keyframes.
-    if (batch.records.size() != batch.num_records() * kKeyframeRecordBytes ||
-        batch.stored_points.size() != batch.num_records() || batch.num_records() > kMaxRecordsPerBatch) {
-      return server_->OnKeyframeBatch(batch);  // refused and counted there
-    }
+      batch.session > robot_session(batch.robot_id) && !server_->CheckKeyframeBatch(batch).ok()) {
+    // Validate before a new session resets anything: a batch without one usable record must not wipe a robot's
+    // keyframes (nor lock its real session out as stale).
+    return server_->OnKeyframeBatch(batch);  // refused and counted there
   }
   if (Status st = CheckSession(batch.robot_id, batch.session, "keyframe batch"); !st.ok()) return st;
   last_message_us_ = now_us;
@@ -109,6 +107,10 @@ Status ServerLink::OnKeyframeBatch(const KeyframeBatch& batch, std::int64_t now_
 
 Status ServerLink::OnPoseUpdate(const PoseUpdate& update, std::int64_t now_us) {
   if (!params_status_.ok()) return params_status_;
+  if (update.robot_id >= 0 && update.robot_id < static_cast<int>(robots_.size()) && update.session > 0 &&
+      update.session > robot_session(update.robot_id) && !server_->CheckPoseUpdate(update).ok()) {
+    return server_->OnPoseUpdate(update);  // refused and counted there, before a new session resets anything
+  }
   if (Status st = CheckSession(update.robot_id, update.session, "pose update"); !st.ok()) return st;
   last_message_us_ = now_us;
   Status st = server_->OnPoseUpdate(update);

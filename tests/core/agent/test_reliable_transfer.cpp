@@ -467,6 +467,33 @@ TEST_CASE("Reliable transfer: a recorded mission replayed into a fresh server re
   CHECK(live_rules.in_world[1] == 0);
 }
 
+TEST_CASE("Reliable transfer: a refused message of a newer session neither resets the robot nor locks it out") {
+  // Found by the server-inbox fuzzer: the newer session used to be adopted (wiping the robot) before the message
+  // was validated, and the robot's real session was refused as stale from then on.
+  Mission m(2, 6, LinkModel{}, 3, SendAllParams());
+  m.RunUntil(2000000);
+  const std::size_t held = m.merge_->robot(0).size();
+  REQUIRE(held > 0);
+  const std::int64_t session = m.server_->robot_session(0);
+  PoseUpdate beyond;  // a keyframe beyond the server's capacity (64)
+  beyond.robot_id = 0;
+  beyond.session = session + 1;
+  beyond.keyframes = {100000};
+  beyond.T_map_sensor = {Eigen::Isometry3d::Identity()};
+  CHECK_FALSE(m.server_->OnPoseUpdate(beyond, m.now_us_).ok());
+  KeyframeBatch corrupt;  // one record whose bytes decode to nothing valid
+  corrupt.robot_id = 0;
+  corrupt.session = session + 2;
+  corrupt.records.assign(kKeyframeRecordBytes, 0xff);
+  corrupt.stored_points = {10};
+  CHECK_FALSE(m.server_->OnKeyframeBatch(corrupt, m.now_us_).ok());
+  CHECK(m.server_->robot_session(0) == session);
+  CHECK(m.server_->stats().robot_restarts == 0);
+  CHECK(m.merge_->robot(0).size() == held);
+  m.RunUntil(40000000);  // the real session goes on
+  m.CheckAllKeyframesDelivered();
+}
+
 TEST_CASE("Reliable transfer: chunks outside the active request and statuses for other robots are refused") {
   Mission m(2, 4, LinkModel{}, 5, SendAllParams());
   m.RunUntil(300000);
