@@ -2,13 +2,15 @@
 # The whole test suite, from a fresh Debian 12 machine: installs the dependencies (apt, via
 # toolchains/install-deps.sh --cross), then builds and tests
 #   host     x86-64 RelWithDebInfo, every test including those labelled `heavy`
+#   fuzz     x86-64 clang RelWithDebInfo with libFuzzer + ASan + UBSan (tests/fuzz): every LCM decoder and the
+#            server inbox fuzzed from their seed corpora for a bounded time (about 2.5 minutes of ctest)
 #   asan     x86-64 Debug with AddressSanitizer + UndefinedBehaviorSanitizer (not `heavy`)
 #   jetson   aarch64 Cortex-A57 cross build (Release), tests under qemu-aarch64 -cpu cortex-a57 (not `heavy`)
 #   ipc      x86-64 -march=skylake (IPC-6000) build; its tests run when this CPU has AVX2/FMA (not `heavy`);
 #            not in the default set (CI time): run `tests/run.sh ipc`
 # Idempotent: build trees (build-<config>/) are reused. Exits non-zero when anything fails.
 #
-# Usage: tests/run.sh [--no-install] [CONFIG...]      (default: host asan jetson)
+# Usage: tests/run.sh [--no-install] [CONFIG...]      (default: host fuzz asan jetson)
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/.." && pwd)
 cd "$repo"
@@ -18,12 +20,12 @@ configs=()
 for arg in "$@"; do
   case "$arg" in
     --no-install) install=0 ;;
-    host|asan|jetson|ipc) configs+=("$arg") ;;
-    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
+    host|fuzz|asan|jetson|ipc) configs+=("$arg") ;;
+    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
     *) echo "tests/run.sh: unknown argument '$arg' (see --help)" >&2; exit 2 ;;
   esac
 done
-[ ${#configs[@]} -gt 0 ] || configs=(host asan jetson)
+[ ${#configs[@]} -gt 0 ] || configs=(host fuzz asan jetson)
 
 if [ $install -eq 1 ]; then bash toolchains/install-deps.sh --cross; fi
 
@@ -42,7 +44,9 @@ run_config() {
   echo "=== [$name] configure + build ($dir) ==="
   mkdir -p "$dir"
   cmake -S . -B "$dir" "$@" >"$dir/configure.log" 2>&1 || { cat "$dir/configure.log"; return 1; }
-  cmake --build "$dir" -j "$jobs"
+  local build_args=()
+  if [ "$name" = fuzz ]; then build_args=(--target cm_fuzz_all); fi  # only what the fuzzers link, and their seeds
+  cmake --build "$dir" -j "$jobs" "${build_args[@]}"
   case "$name" in
     host) ;;
     ipc)
@@ -62,6 +66,8 @@ run_config() {
 for c in "${configs[@]}"; do
   case "$c" in
     host)   run_config host -DCMAKE_BUILD_TYPE=RelWithDebInfo ;;
+    fuzz)   run_config fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+                            -DCM_FUZZ=ON -DCM_BUILD_TESTS=OFF -DCM_BUILD_PROFILING=OFF ;;
     asan)   run_config asan -DCMAKE_BUILD_TYPE=Debug -DCM_SANITIZE=ON -DCM_BUILD_PROFILING=OFF ;;
     jetson) run_config jetson -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/aarch64-jetson-nano.cmake ;;
     ipc)    run_config ipc -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/x86_64-ipc6000.cmake ;;

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Installs everything commerge needs on Debian 12 (bookworm), idempotently.
-#   toolchains/install-deps.sh            host build + tests (x86-64)
+#   toolchains/install-deps.sh            host build + tests (x86-64), with clang + libFuzzer (tests/run.sh fuzz),
+#                                         nftables + iproute2 (network fault tests), Xvfb + jchart2d (lcm-spy)
 #   toolchains/install-deps.sh --cross    also the aarch64 (Jetson Nano) cross toolchain, arm64 libraries,
 #                                         qemu-user, and the LCM arm64 overlay in .deps/sysroot-arm64-lcm
-#   toolchains/install-deps.sh --tools    also profiling / monitoring tools (time, valgrind, Xvfb, ...)
+#   toolchains/install-deps.sh --tools    also profiling tools (valgrind, heaptrack, hyperfine, ImageMagick)
 # Runs apt-get as root (or through sudo). Safe to run again: installed packages are skipped by apt,
 # and the LCM overlay is only extracted when missing.
 set -euo pipefail
@@ -14,7 +15,7 @@ for arg in "$@"; do
   case "$arg" in
     --cross) cross=1 ;;
     --tools) tools=1 ;;
-    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
     *) echo "install-deps.sh: unknown option '$arg' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -25,10 +26,14 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
 apt_install() { $SUDO apt-get install -y --no-install-recommends "$@"; }
 
+# clang (14): the fuzz configuration (CM_FUZZ). libclang-rt-14-dev holds libFuzzer and clang's sanitizer runtimes
+# (-fsanitize=fuzzer,address,undefined); clang only reaches it through a Recommends, which apt_install skips.
 host_pkgs=(cmake make g++ pkg-config ca-certificates
            liblcm-dev liblcm-bin liblcm-java default-jdk-headless
            libeigen3-dev libglpk-dev doctest-dev libmimalloc-dev libnanoflann-dev
-           libcli11-dev zlib1g-dev time)
+           libcli11-dev zlib1g-dev time
+           clang libclang-rt-14-dev
+           nftables iproute2 xvfb libjchart2d-java default-jre)
 missing=()
 for p in "${host_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
@@ -42,7 +47,7 @@ fi
 if [ ${#missing[@]} -gt 0 ]; then apt_install "${missing[@]}"; fi
 
 if [ $tools -eq 1 ]; then
-  apt_install valgrind heaptrack hyperfine nftables iproute2 xvfb imagemagick libjchart2d-java
+  apt_install valgrind heaptrack hyperfine imagemagick
 fi
 
 if [ $cross -eq 1 ]; then

@@ -64,9 +64,10 @@ void RobotAgent::RememberSent(std::size_t k) {
 bool RobotAgent::MovedSinceSent(std::size_t k, double min_translation_m, double min_rotation_deg) const {
   const Eigen::Isometry3d& T = mapper_.pose(k);
   const std::array<float, 7>& s = sent_pose_[k];
-  const Eigen::Vector3d t(s[0], s[1], s[2]);
+  const Eigen::Vector3d t(static_cast<double>(s[0]), static_cast<double>(s[1]), static_cast<double>(s[2]));
   if ((T.translation() - t).norm() > min_translation_m) return true;
-  const Eigen::Quaterniond q_sent(s[3], s[4], s[5], s[6]);
+  const Eigen::Quaterniond q_sent(static_cast<double>(s[3]), static_cast<double>(s[4]), static_cast<double>(s[5]),
+                                  static_cast<double>(s[6]));
   const double angle_rad = Eigen::Quaterniond(T.linear()).angularDistance(q_sent.normalized());
   return angle_rad * 180.0 / 3.14159265358979323846 > min_rotation_deg;
 }

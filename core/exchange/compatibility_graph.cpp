@@ -78,7 +78,7 @@ Result<CliqueGraph> BuildCompatibilityGraph(Span<const SequentialLoopCell> loops
       const double kappa = PositionalConsistency(pa_alpha, alpha_positions_m[lb.alpha_index], pa_beta,
                                                  beta_positions_m[lb.beta_index]);
       if (!(kappa < tau_con_m)) continue;
-      const double xi = CompatibilityScore(la.distance, kappa, lb.distance);
+      const double xi = CompatibilityScore(static_cast<double>(la.distance), kappa, static_cast<double>(lb.distance));
       Status s = graph->AddEdge(a, b, xi);
       if (!s.ok()) return s;
     }

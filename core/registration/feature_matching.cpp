@@ -45,19 +45,22 @@ constexpr float kFarAway = 1e15f;
 using Vec8f = float __attribute__((vector_size(32)));
 using Vec8i = std::int32_t __attribute__((vector_size(32)));
 
+// Vectors go in and out of the helpers by pointer or reference, never by value: clang (14) refuses a 32-byte
+// vector passed or returned by value when the caller lacks AVX (the default clone), even always inlined.
 template <class V, class T>
-CM_ALWAYS_INLINE V LoadVec(const T* p) {
-  V v;
-  std::memcpy(&v, p, sizeof(v));
-  return v;
+CM_ALWAYS_INLINE void LoadVec(const T* p, V* v) {
+  std::memcpy(v, p, sizeof(*v));
 }
 template <class V, class T>
 CM_ALWAYS_INLINE void StoreVec(T* p, const V& v) {
   std::memcpy(p, &v, sizeof(v));
 }
-CM_ALWAYS_INLINE Vec8f Select(Vec8i mask, Vec8f a, Vec8f b) {  // mask ? a : b, lane by lane
-  const Vec8i r = (LoadVec<Vec8i>(&a) & mask) | (LoadVec<Vec8i>(&b) & ~mask);
-  return LoadVec<Vec8f>(&r);
+CM_ALWAYS_INLINE void Select(const Vec8i& mask, const Vec8f& a, const Vec8f& b, Vec8f* out) {  // mask ? a : b
+  Vec8i ia, ib;
+  LoadVec(&a, &ia);
+  LoadVec(&b, &ib);
+  const Vec8i r = (ia & mask) | (ib & ~mask);
+  LoadVec(&r, out);
 }
 
 // All pairs of `queries` (num_queries rows, padded with readable rows to a multiple of kQueryRows) and the
@@ -76,7 +79,8 @@ void ScanAllPairs(const float* queries, std::size_t num_queries, const float* bl
       // Four named accumulators (not an array) so that they live in registers.
       Vec8f a0 = {}, a1 = {}, a2 = {}, a3 = {};
       for (int d = 0; d < kFpfhDims; ++d) {
-        const Vec8f v = LoadVec<Vec8f>(blk + d * kLanes);
+        Vec8f v;
+        LoadVec(blk + d * kLanes, &v);
         const Vec8f e0 = q[d] - v;
         const Vec8f e1 = q[kFpfhDims + d] - v;
         const Vec8f e2 = q[2 * kFpfhDims + d] - v;
@@ -87,11 +91,13 @@ void ScanAllPairs(const float* queries, std::size_t num_queries, const float* bl
         a3 += e3 * e3;
       }
       const Vec8f acc[kQueryRows] = {a0, a1, a2, a3};
-      Vec8f cd = LoadVec<Vec8f>(col_d + b * kLanes);
-      Vec8i ci = LoadVec<Vec8i>(col_i + b * kLanes);
+      Vec8f cd;
+      Vec8i ci;
+      LoadVec(col_d + b * kLanes, &cd);
+      LoadVec(col_i + b * kLanes, &ci);
       for (std::size_t r = 0; r < rows; ++r) {
         const Vec8i closer = acc[r] < cd;
-        cd = Select(closer, acc[r], cd);
+        Select(closer, acc[r], cd, &cd);
         ci = (closer & static_cast<std::int32_t>(q0 + r)) | (ci & ~closer);
         float lane_d[kLanes];
         StoreVec(lane_d, acc[r]);

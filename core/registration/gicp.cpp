@@ -12,7 +12,9 @@
 namespace commerge {
 namespace {
 
-inline Eigen::Vector3d Pos(const PointXYZI& p) { return {p.x, p.y, p.z}; }
+inline Eigen::Vector3d Pos(const PointXYZI& p) {
+  return {static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z)};
+}
 
 // T * [ExpSO3(omega), v]: the right perturbation the Jacobian below is written for.
 Eigen::Isometry3d Perturb(const Eigen::Isometry3d& T, const Vector6d& delta) {

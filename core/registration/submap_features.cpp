@@ -142,13 +142,14 @@ void SubmapFeatures::ComputeGeometry(Span<const PointXYZI> points, Span<const Ei
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (std::size_t j = 0; j < nn; ++j) {
         const PointXYZI& q = points[nb[j]];
-        mean += Eigen::Vector3d(q.x, q.y, q.z);
+        mean += Eigen::Vector3d(static_cast<double>(q.x), static_cast<double>(q.y), static_cast<double>(q.z));
       }
       mean /= static_cast<double>(nn);
       Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
       for (std::size_t j = 0; j < nn; ++j) {
         const PointXYZI& q = points[nb[j]];
-        const Eigen::Vector3d e = Eigen::Vector3d(q.x, q.y, q.z) - mean;
+        const Eigen::Vector3d e =
+            Eigen::Vector3d(static_cast<double>(q.x), static_cast<double>(q.y), static_cast<double>(q.z)) - mean;
         c.noalias() += e * e.transpose();
       }
       c /= static_cast<double>(nn - 1);
@@ -180,13 +181,14 @@ void SubmapFeatures::ComputeGeometry(Span<const PointXYZI> points, Span<const Ei
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (std::size_t j = 0; j < kc; ++j) {
         const PointXYZI& q = points[nb[j]];
-        mean += Eigen::Vector3d(q.x, q.y, q.z);
+        mean += Eigen::Vector3d(static_cast<double>(q.x), static_cast<double>(q.y), static_cast<double>(q.z));
       }
       mean /= static_cast<double>(kc);
       Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
       for (std::size_t j = 0; j < kc; ++j) {
         const PointXYZI& q = points[nb[j]];
-        const Eigen::Vector3d e = Eigen::Vector3d(q.x, q.y, q.z) - mean;
+        const Eigen::Vector3d e =
+            Eigen::Vector3d(static_cast<double>(q.x), static_cast<double>(q.y), static_cast<double>(q.z)) - mean;
         c.noalias() += e * e.transpose();
       }
       c /= static_cast<double>(kc);

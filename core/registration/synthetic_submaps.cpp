@@ -11,7 +11,8 @@ namespace commerge {
 Eigen::Isometry3d ScanPoseToIsometry(const ScanPose& pose) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = Eigen::AngleAxisd(static_cast<double>(pose.yaw_rad), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  T.translation() = Eigen::Vector3d(pose.x_m, pose.y_m, pose.z_m);
+  T.translation() =
+      Eigen::Vector3d(static_cast<double>(pose.x_m), static_cast<double>(pose.y_m), static_cast<double>(pose.z_m));
   return T;
 }
 
@@ -39,7 +40,8 @@ Status MakeSyntheticSubmap(const BoxScene& scene, const SpinningLidar& lidar, Sp
     out->sensor_origins_m.push_back(T_submap_sensor.translation());
     merged.reserve(merged.size() + scan.size());
     for (const PointXYZI& p : scan) {
-      const Eigen::Vector3d q = T_submap_sensor * Eigen::Vector3d(p.x, p.y, p.z);
+      const Eigen::Vector3d q =
+          T_submap_sensor * Eigen::Vector3d(static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z));
       merged.push_back(PointXYZI{static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()),
                                  p.intensity});
     }

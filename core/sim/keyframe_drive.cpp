@@ -22,7 +22,8 @@ Result<SimulatedKeyframes> SimulateStraightDrive(const BoxScene& scene, const Sp
   std::vector<PointXYZI> scan;
   const double c = std::cos(static_cast<double>(drive.yaw_rad)), s = std::sin(static_cast<double>(drive.yaw_rad));
   const Eigen::Isometry3d T_world_start =
-      Eigen::Translation3d(drive.start_x_m, drive.lane_y_m, drive.sensor_height_m) *
+      Eigen::Translation3d(static_cast<double>(drive.start_x_m), static_cast<double>(drive.lane_y_m),
+                           static_cast<double>(drive.sensor_height_m)) *
       Eigen::AngleAxisd(static_cast<double>(drive.yaw_rad), Eigen::Vector3d::UnitZ());
   const Eigen::Isometry3d T_start_world = T_world_start.inverse();
   for (std::size_t k = 0; k < count; ++k) {

@@ -362,7 +362,8 @@ void BuildIndoor(const MissionPlan& plan, World* w) {
   Placer placer(8.0);
   for (const auto& e : net.edges)
     for (std::size_t i = 1; i < e.polyline.size(); ++i) placer.AddClearSegment(e.polyline[i - 1], e.polyline[i]);
-  const double hw = kIndoorCorridorHalfWidthM, wall_t = 0.2, door_w = 1.0, door_pitch = 6.0, room_depth = 4.0;
+  const double hw = static_cast<double>(kIndoorCorridorHalfWidthM);
+  const double wall_t = 0.2, door_w = 1.0, door_pitch = 6.0, room_depth = 4.0;
   const double wall_c = hw + wall_t / 2;  // wall centre line offset
   const float ceiling = kIndoorCeilingM;
   for (std::size_t ei = 0; ei < net.edges.size(); ++ei) {

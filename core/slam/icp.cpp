@@ -40,7 +40,7 @@ Result<IcpResult> PointToPointIcp::Align(Span<const PointXYZI> source, const Eig
     dst_scratch_.clear();
     double sum_sq = 0.0;
     for (const PointXYZI& p : source) {
-      const Eigen::Vector3d ps(p.x, p.y, p.z);
+      const Eigen::Vector3d ps(static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z));
       const Eigen::Vector3d q = T * ps;
       std::uint32_t j = 0;
       float d2 = 0.0f;
@@ -48,7 +48,7 @@ Result<IcpResult> PointToPointIcp::Align(Span<const PointXYZI> source, const Eig
         continue;
       }
       const PointXYZI& t = target_[j];
-      const Eigen::Vector3d pt(t.x, t.y, t.z);
+      const Eigen::Vector3d pt(static_cast<double>(t.x), static_cast<double>(t.y), static_cast<double>(t.z));
       const double e2 = (q - pt).squaredNorm();
       if (!(e2 <= gate_sq)) continue;
       src_scratch_.push_back(ps);

@@ -225,7 +225,8 @@ void RgbImage::DrawLine(float x0, float y0, float x1, float y1, Rgb colour, int 
   const int lo = -(t - 1) / 2, hi = t / 2;  // brush offsets
   // Clip (in double) to the image grown by the brush and a rounding margin, so the integer walk below
   // never leaves a small range.
-  const double ax = x0, ay = y0, dx = double{x1} - ax, dy = double{y1} - ay;
+  const double ax = static_cast<double>(x0), ay = static_cast<double>(y0);
+  const double dx = static_cast<double>(x1) - ax, dy = static_cast<double>(y1) - ay;
   double t0 = 0.0, t1 = 1.0;
   if (!ClipSegment(ax, ay, dx, dy, -3.0, -3.0, width_ + 2.0, height_ + 2.0, &t0, &t1)) return;
   int px = RoundToInt(ax + t0 * dx), py = RoundToInt(ay + t0 * dy);
@@ -254,7 +255,7 @@ void RgbImage::DrawLine(float x0, float y0, float x1, float y1, Rgb colour, int 
 void RgbImage::FillDisc(float cx, float cy, float radius, Rgb colour) noexcept {
   if (!std::isfinite(cx) || !std::isfinite(cy) || !std::isfinite(radius) || radius < 0.0f) return;
   if (width_ == 0 || height_ == 0) return;
-  const double x = cx, y = cy, r = radius;
+  const double x = static_cast<double>(cx), y = static_cast<double>(cy), r = static_cast<double>(radius);
   const double xa = std::max(std::ceil(x - r), 0.0), xb = std::min(std::floor(x + r), width_ - 1.0);
   const double ya = std::max(std::ceil(y - r), 0.0), yb = std::min(std::floor(y + r), height_ - 1.0);
   if (xa > xb || ya > yb) return;

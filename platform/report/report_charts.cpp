@@ -262,7 +262,7 @@ Result<HeatmapLayout> LayoutHeatmap(const HeatmapInput& in) {
   layout.grid_y_px = std::max(TitleAreaH(in.title), kPad + kTextH / 2);
   layout.colour_bar_x_px = layout.grid_x_px + layout.grid_width_px + 16;
   layout.colour_bar_width_px = 18;
-  const double vmin = layout.vmin, vmax = layout.vmax;
+  const double vmin = static_cast<double>(layout.vmin), vmax = static_cast<double>(layout.vmax);
   const int bar_labels_w = std::max({TextW(FormatNumber(vmin)), TextW(FormatNumber(vmax)),
                                      TextW(FormatNumber(0.5 * (vmin + vmax))), TextW("n/a")});
   layout.image_width_px = layout.colour_bar_x_px + layout.colour_bar_width_px + kTickLen + 4 + bar_labels_w + kPad;
@@ -372,9 +372,11 @@ Result<RgbImage> RenderHeatmap(const HeatmapInput& in) {
     image.FillRect(bx1 + 2, y, bx1 + 1 + kTickLen, y, kChartInk);
     image.DrawText(bx1 + 2 + kTickLen + 3, y - kTextH / 2, FormatNumber(value), kChartInk, kTextScale);
   };
-  bar_label(gy0, double{L.vmax});
-  bar_label(gy1, double{L.vmin});
-  if (L.grid_height_px >= 4 * kTextH) bar_label((gy0 + gy1) / 2, 0.5 * (double{L.vmin} + double{L.vmax}));
+  bar_label(gy0, static_cast<double>(L.vmax));
+  bar_label(gy1, static_cast<double>(L.vmin));
+  if (L.grid_height_px >= 4 * kTextH) {
+    bar_label((gy0 + gy1) / 2, 0.5 * (static_cast<double>(L.vmin) + static_cast<double>(L.vmax)));
+  }
   const bool any_nan = std::any_of(in.values.begin(), in.values.end(), [](float v) { return std::isnan(v); });
   if (any_nan) {
     const int y = gy1 + 2 + kTickLen + 3;
@@ -519,10 +521,10 @@ Result<MetricLayout> LayoutTrajectories(const TrajectoryPlotInput& in) {
     }
     for (const PlotPointM& p : r.path) {
       if (!std::isfinite(p.x_m) || !std::isfinite(p.y_m)) continue;
-      bx0 = std::min(bx0, double{p.x_m});
-      bx1 = std::max(bx1, double{p.x_m});
-      by0 = std::min(by0, double{p.y_m});
-      by1 = std::max(by1, double{p.y_m});
+      bx0 = std::min(bx0, static_cast<double>(p.x_m));
+      bx1 = std::max(bx1, static_cast<double>(p.x_m));
+      by0 = std::min(by0, static_cast<double>(p.y_m));
+      by1 = std::max(by1, static_cast<double>(p.y_m));
     }
   }
   return LayoutMetric("trajectories", in.width_px, in.height_px, in.title, TrajectoryLegend(in), bx0, by0, bx1, by1,
@@ -538,8 +540,12 @@ Result<RgbImage> RenderTrajectories(const TrajectoryPlotInput& in) {
   RgbImage image = std::move(*created);
   DrawMetricFrame(&image, L);
   // Pixel centres (lines round their ends anyway; discs become symmetric).
-  auto px = [&](const PlotPointM& p) { return static_cast<float>(std::floor(L.PixelX(double{p.x_m}) + 0.5)); };
-  auto py = [&](const PlotPointM& p) { return static_cast<float>(std::floor(L.PixelY(double{p.y_m}) + 0.5)); };
+  auto px = [&](const PlotPointM& p) {
+    return static_cast<float>(std::floor(L.PixelX(static_cast<double>(p.x_m)) + 0.5));
+  };
+  auto py = [&](const PlotPointM& p) {
+    return static_cast<float>(std::floor(L.PixelY(static_cast<double>(p.y_m)) + 0.5));
+  };
   for (const TrajectorySeries& r : in.robots) {
     const Rgb colour = RobotColour(r.robot_index);
     for (std::size_t i = 1; i < r.path.size(); ++i) {
@@ -571,22 +577,23 @@ Result<MetricLayout> LayoutTopView(const TopViewInput& in) {
     const BoundsM& b = in.bounds;
     if (!std::isfinite(b.min_x_m) || !std::isfinite(b.min_y_m) || !std::isfinite(b.max_x_m) ||
         !std::isfinite(b.max_y_m) || !(b.max_x_m > b.min_x_m) || !(b.max_y_m > b.min_y_m)) {
-      return InvalidArgument("top view: bounds x " + FormatNumber(double{b.min_x_m}) + ".." +
-                             FormatNumber(double{b.max_x_m}) + " m, y " + FormatNumber(double{b.min_y_m}) + ".." +
-                             FormatNumber(double{b.max_y_m}) + " m are empty or not finite");
+      return InvalidArgument("top view: bounds x " + FormatNumber(static_cast<double>(b.min_x_m)) + ".." +
+                             FormatNumber(static_cast<double>(b.max_x_m)) + " m, y " +
+                             FormatNumber(static_cast<double>(b.min_y_m)) + ".." +
+                             FormatNumber(static_cast<double>(b.max_y_m)) + " m are empty or not finite");
     }
-    bx0 = b.min_x_m;
-    bx1 = b.max_x_m;
-    by0 = b.min_y_m;
-    by1 = b.max_y_m;
+    bx0 = static_cast<double>(b.min_x_m);
+    bx1 = static_cast<double>(b.max_x_m);
+    by0 = static_cast<double>(b.min_y_m);
+    by1 = static_cast<double>(b.max_y_m);
     pad = 0.0;
   } else {
     for (const PointXYZI& p : in.points) {
       if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-      bx0 = std::min(bx0, double{p.x});
-      bx1 = std::max(bx1, double{p.x});
-      by0 = std::min(by0, double{p.y});
-      by1 = std::max(by1, double{p.y});
+      bx0 = std::min(bx0, static_cast<double>(p.x));
+      bx1 = std::max(bx1, static_cast<double>(p.x));
+      by0 = std::min(by0, static_cast<double>(p.y));
+      by1 = std::max(by1, static_cast<double>(p.y));
     }
   }
   return LayoutMetric("top view", in.width_px, in.height_px, in.title, TopViewLegend(in), bx0, by0, bx1, by1, pad);
@@ -603,7 +610,7 @@ Result<RgbImage> RenderTopView(const TopViewInput& in) {
   for (std::size_t i = 0; i < in.points.size(); ++i) {
     const PointXYZI& p = in.points[i];
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-    const double fx = L.PixelX(double{p.x}), fy = L.PixelY(double{p.y});
+    const double fx = L.PixelX(static_cast<double>(p.x)), fy = L.PixelY(static_cast<double>(p.y));
     if (!(fx > -1.0 && fy > -1.0 && fx < L.image_width_px && fy < L.image_height_px)) continue;
     const int x = Round(fx), y = Round(fy);
     if (!InPlot(L, x, y)) continue;

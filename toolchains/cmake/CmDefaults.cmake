@@ -13,11 +13,28 @@ if(CM_SANITIZE)
   set(CM_SANITIZE_FLAGS -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all)
 endif()
 
+# CM_FUZZ (tests/fuzz): every target gets ASan + UBSan and libFuzzer's coverage instrumentation
+# (-fsanitize=fuzzer-no-link: no libFuzzer main), so the fuzzers see and check the libraries' code too; the
+# cm_fuzz_* executables add CM_FUZZ_TARGET_FLAGS, which link libFuzzer's driver. libFuzzer is clang's.
+if(CM_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "CM_FUZZ needs clang (libFuzzer is part of clang's compiler-rt), not "
+                        "${CMAKE_CXX_COMPILER_ID}: configure with CC=clang CXX=clang++ (Debian: apt-get install "
+                        "clang libclang-rt-14-dev, or toolchains/install-deps.sh)")
+  endif()
+  if(CMAKE_CROSSCOMPILING)
+    message(FATAL_ERROR "CM_FUZZ is for host builds")
+  endif()
+  set(CM_SANITIZE_FLAGS -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer
+                        -fno-sanitize-recover=all)
+  set(CM_FUZZ_TARGET_FLAGS -fsanitize=fuzzer,address,undefined)
+endif()
+
 function(cm_set_target_defaults target)
   target_compile_features(${target} PUBLIC cxx_std_17)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wshadow -Wdouble-promotion -Wnon-virtual-dtor
                          $<$<BOOL:${CM_WERROR}>:-Werror>)
-  if(CM_SANITIZE)
+  if(CM_SANITIZE OR CM_FUZZ)
     target_compile_options(${target} PRIVATE ${CM_SANITIZE_FLAGS})
     target_link_options(${target} PRIVATE ${CM_SANITIZE_FLAGS})
   endif()

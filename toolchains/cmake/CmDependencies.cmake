@@ -37,8 +37,9 @@ if(NOT TARGET cm_cli11)
   target_include_directories(cm_cli11 SYSTEM INTERFACE "${CLI11_INCLUDE_DIR}")
 endif()
 
-# mimalloc interposes malloc process-wide when linked. Not with the sanitizers: ASan must own malloc.
-if(CM_SANITIZE)
+# mimalloc interposes malloc process-wide when linked. Not with the sanitizers (CM_SANITIZE, CM_FUZZ): ASan must
+# own malloc.
+if(CM_SANITIZE OR CM_FUZZ)
   set(CM_WITH_MIMALLOC OFF)
 else()
   find_package(mimalloc 2.0 REQUIRED)
