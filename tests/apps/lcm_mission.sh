@@ -15,6 +15,9 @@
 #   dup-reorder     every process sends 20 % of its messages twice and holds each up to 300 ms at random
 #   robot-restart   robot 1 is killed (SIGKILL) mid-mission and started again (a new session)
 #   server-restart  the server is killed (SIGKILL) mid-mission and started again (a new session)
+#   hostile         cm_lcm_sampler --hostile (give --sampler) publishes, during the mission, messages the daemons
+#                   must refuse and count: truncated, foreign fingerprint, random, 100 kB random, another type, and
+#                   keyframes / poses of robot 40 (not one of --robots 2); server and robots must count all of them
 #   live            robot 1 maps live input: `commerge feed` plays its directory as lidar_scan_t + odometry_t at
 #                   20 Hz on the board-local input URL, and `commerge robot --live` synchronises and maps it
 #   replay          a clean mission recorded with lcm-logger, then played back with lcm-logplayer into a fresh
@@ -27,20 +30,21 @@
 set -euo pipefail
 
 usage() { sed -n '3,23p' "$0"; exit 2; }
-bin="" data="" work="" scenario=""
+bin="" data="" work="" scenario="" sampler=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --commerge) bin=$2; shift 2 ;;
     --data) data=$2; shift 2 ;;
     --work) work=$2; shift 2 ;;
     --scenario) scenario=$2; shift 2 ;;
+    --sampler) sampler=$2; shift 2 ;;
     -h|--help) usage ;;
     *) echo "lcm_mission.sh: unknown argument '$1'" >&2; usage ;;
   esac
 done
 [ -n "$bin" ] && [ -n "$data" ] && [ -n "$work" ] && [ -n "$scenario" ] || usage
 case "$scenario" in
-  clean|loss10|loss50|tbf2mbit|delay2s|dup-reorder|robot-restart|server-restart|live|replay) ;;
+  clean|loss10|loss50|tbf2mbit|delay2s|dup-reorder|robot-restart|server-restart|hostile|live|replay) ;;
   *) echo "lcm_mission.sh: unknown scenario '$scenario'" >&2; exit 2 ;;
 esac
 for f in "$data/robot_0/poses.txt" "$data/robot_1/poses.txt" "$data/start_transforms.txt"; do
@@ -54,7 +58,8 @@ if [ "${CM_MISSION_IN_NETNS:-0}" != 1 ]; then
     echo "CM-SKIP: cannot create a private network namespace (unshare -n needs root or user namespaces)"; exit 0
   fi
   export CM_MISSION_IN_NETNS=1
-  exec unshare -n bash "$0" --commerge "$bin" --data "$data" --work "$work" --scenario "$scenario"
+  exec unshare -n bash "$0" --commerge "$bin" --data "$data" --work "$work" --scenario "$scenario" \
+       ${sampler:+--sampler "$sampler"}
 fi
 
 bin=$(readlink -f "$bin")
@@ -124,6 +129,13 @@ sleep 0.5
 start_robot 0 robot0
 start_robot 1 robot1
 case "$scenario" in
+  hostile)
+    [ -x "$sampler" ] || { echo "lcm_mission.sh: hostile needs --sampler (cm_lcm_sampler)" >&2; exit 2; }
+    sleep 1
+    "$sampler" --hostile --count 20 --rate-hz 10 >"$work/sampler.out" 2>"$work/sampler.err" &
+    sampler_pid=$!
+    pids+=("$sampler_pid")
+    ;;
   live)
     # The robot's map frame is its first mapped scan: start the feed once the robot listens.
     for _ in $(seq 100); do grep -q "live input" "$work/robot1.err" 2>/dev/null && break; sleep 0.1; done
@@ -165,6 +177,7 @@ wait_for "$robot0_pid" robot0
 wait_for "$robot1_pid" "$robot1_log"
 wait_for "$server_pid" "$server_log"
 [ "$scenario" = live ] && wait_for "$feed_pid" feed
+[ "$scenario" = hostile ] && wait_for "$sampler_pid" sampler
 elapsed=$((SECONDS - start))
 [ "$rc" = 0 ] || { echo "lcm_mission.sh: $scenario: a process failed" >&2; exit 1; }
 
@@ -227,6 +240,26 @@ done
 dropped=""
 if [ "$scenario" = loss10 ] || [ "$scenario" = loss50 ]; then
   dropped=" nftables dropped $(nft list table ip cmloss | sed -n 's/.*counter packets \([0-9]*\).*/\1/p') packets;"
+fi
+
+if [ "$scenario" = hostile ]; then
+  expected=$(sed -n 's/.*hostile: \([0-9]*\) messages the server must refuse.*/\1/p' "$work/sampler.out")
+  counted=$(sed -n 's/.*; \([0-9]*\) messages rejected.*/\1/p' "$work/$server_log.out")
+  if [ -z "$expected" ] || [ -z "$counted" ] || [ "$counted" -lt "$expected" ]; then
+    echo "lcm_mission.sh: the server counted ${counted:-?} rejected messages, fewer than the ${expected:-?} hostile ones" >&2
+    exit 1
+  fi
+  expected_robot=$(sed -n 's/.*, \([0-9]*\) each robot must refuse.*/\1/p' "$work/sampler.out")
+  robot_counts=""
+  for id in 0 1; do
+    n=$(sed -n 's/.*rejected messages \([0-9]*\).*/\1/p' "$work/robot$id.out")
+    if [ -z "$n" ] || [ -z "$expected_robot" ] || [ "$n" -lt "$expected_robot" ]; then
+      echo "lcm_mission.sh: robot $id counted ${n:-?} rejected messages, fewer than the ${expected_robot:-?} hostile ones" >&2
+      exit 1
+    fi
+    robot_counts+=" $n"
+  done
+  dropped+=" hostile: server rejected $counted (>= $expected sent), robots rejected$robot_counts;"
 fi
 
 if [ "$scenario" = replay ]; then

@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <random>
 #include <string>
 #include <thread>
 #include <utility>
@@ -280,13 +281,63 @@ std::uint64_t FirstEightBytesBigEndian(const Bytes& b) {
   return v;
 }
 
+// --hostile: for every channel a daemon listens on, messages it must refuse and count: the sample truncated to
+// half, its fingerprint changed, random bytes, 100 kB of random bytes, and another channel's sample; on the
+// server's keyframe and pose channels also the sample from robot 40 (outside any --robots). Returns how many of
+// one round go to the server and how many to each robot.
+struct HostileRound {
+  std::vector<std::pair<const char*, Bytes>> messages;
+  std::size_t to_server = 0, to_each_robot = 0;
+};
+
+HostileRound MakeHostile(const std::vector<Sample>& samples, int round, std::uint32_t seed) {
+  std::mt19937 rng(seed + static_cast<std::uint32_t>(round));
+  auto random_bytes = [&rng](std::size_t n) {
+    Bytes b(n);
+    for (auto& x : b) x = static_cast<std::uint8_t>(rng());
+    return b;
+  };
+  const char* const server_channels[] = {platform::kKeyframesChannel, platform::kPosesChannel, platform::kScansChannel};
+  const char* const robot_channels[] = {platform::kPolicyChannel, platform::kStatusChannel,
+                                        platform::kMergeResultChannel};
+  HostileRound h;
+  Bytes own, foreign;
+  for (const Sample& s : samples) {
+    const std::string channel = s.channel;
+    bool to_server = false, to_robot = false;
+    for (const char* c : server_channels) to_server = to_server || channel == c;
+    for (const char* c : robot_channels) to_robot = to_robot || channel == c;
+    if (!to_server && !to_robot) continue;
+    if (!s.encode(round, &own).ok()) continue;
+    // Another channel's sample: a foreign fingerprint here.
+    const Sample& other = samples[(static_cast<std::size_t>(&s - samples.data()) + 1) % samples.size()];
+    if (!other.encode(round, &foreign).ok()) continue;
+    Bytes fingerprint = own;
+    fingerprint[3] ^= 0x5a;
+    const std::vector<Bytes> bad = {Bytes(own.begin(), own.begin() + static_cast<std::ptrdiff_t>(own.size() / 2)),
+                                    fingerprint, random_bytes(200), random_bytes(100000), foreign};
+    for (const Bytes& b : bad) h.messages.push_back({s.channel, b});
+    (to_server ? h.to_server : h.to_each_robot) += bad.size();
+    if (channel == platform::kKeyframesChannel || channel == platform::kPosesChannel) {
+      Bytes unknown = own;  // int16 robot_id right after the fingerprint and utime: robot 40
+      unknown[16] = 0;
+      unknown[17] = 40;
+      h.messages.push_back({s.channel, unknown});
+      ++h.to_server;
+    }
+  }
+  return h;
+}
+
 int Usage(const char* message) {
   if (message != nullptr) std::fprintf(stderr, "%s: %s\n", kTag, message);
   std::fprintf(stderr,
-               "usage: %s [--count N] [--rate-hz R]\n"
+               "usage: %s [--count N] [--rate-hz R] [--hostile]\n"
                "  publishes one sample of every commerge message on its channel, N rounds (default 5) at R rounds\n"
                "  per second (default 10); the LCM URL is $LCM_DEFAULT_URL (udpm: only inside a private network\n"
-               "  namespace, PLATFORM.md 4.1)\n",
+               "  namespace, PLATFORM.md 4.1). --hostile publishes instead, on the daemons' channels, messages they\n"
+               "  must refuse and count (truncated, foreign fingerprint, random, 100 kB random, another type, robot\n"
+               "  40), and prints how many go to the server and to each robot\n",
                kTag);
   return message != nullptr ? 2 : 0;
 }
@@ -300,9 +351,14 @@ bool ParseNumber(const char* text, double* out) {
 int Run(int argc, char** argv) {
   double count = 5.0;
   double rate_hz = 10.0;
+  bool hostile = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "-h" || arg == "--help") return Usage(nullptr);
+    if (arg == "--hostile") {
+      hostile = true;
+      continue;
+    }
     if ((arg == "--count" || arg == "--rate-hz") && i + 1 < argc) {
       double v = 0.0;
       if (!ParseNumber(argv[++i], &v)) return Usage((arg + ": not a number: " + argv[i]).c_str());
@@ -351,6 +407,28 @@ int Run(int argc, char** argv) {
   const int rounds = static_cast<int>(count);
   const auto period = std::chrono::duration<double>(1.0 / rate_hz);
   auto next = std::chrono::steady_clock::now();
+  std::size_t hostile_to_server = 0, hostile_to_robot = 0;
+  for (int round = 0; round < rounds && hostile; ++round) {
+    const HostileRound h = MakeHostile(samples, round, static_cast<std::uint32_t>(robot_session));
+    for (const auto& [channel, bytes] : h.messages) {
+      if (Status st = (*bus)->Publish(channel, bytes); !st.ok()) {
+        std::fprintf(stderr, "%s: round %d, %s: %s\n", kTag, round, channel, st.message().c_str());
+        return 1;
+      }
+      // Paced, so the receivers' kernel buffers (about 200 KiB by default) never overflow: the test counts
+      // refusals, and UDP would silently drop a burst of 100 kB messages.
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    hostile_to_server += h.to_server;
+    hostile_to_robot += h.to_each_robot;
+    next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    if (round + 1 < rounds) std::this_thread::sleep_until(next);
+  }
+  if (hostile) {
+    std::printf("%s: hostile: %zu messages the server must refuse, %zu each robot must refuse\n", kTag,
+                hostile_to_server, hostile_to_robot);
+    return (*bus)->stats().publish_errors == 0 ? 0 : 1;
+  }
   for (int round = 0; round < rounds; ++round) {
     for (const Sample& s : samples) {
       Status st = s.encode(round, &buffer);
