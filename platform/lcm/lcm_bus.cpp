@@ -38,19 +38,21 @@ Result<std::unique_ptr<LcmBus>> LcmBus::Create(const LcmBusParams& params) {
 }
 
 Status LcmBus::Subscribe(const std::string& regex) {
-  if (lcm_->subscribe(regex, &LcmBus::OnMessage, this) == nullptr) {
+  if (lcm_subscribe(lcm_->getUnderlyingLCM(), regex.c_str(), &LcmBus::OnMessageC, this) == nullptr) {
     return InvalidArgument("cannot subscribe to LCM channels '" + regex + "'");
   }
   return Status::Ok();
 }
 
-void LcmBus::OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-  const std::size_t n = rbuf->data_size;
+void LcmBus::OnMessageC(const _lcm_recv_buf_t* rbuf, const char* channel, void* user) {
+  static_cast<LcmBus*>(user)->OnMessage(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, channel);
+}
+
+void LcmBus::OnMessage(const std::uint8_t* data, std::size_t n, const char* channel) {
   if (queue_.size() >= params_.max_queued_messages || queued_bytes_ + n > params_.max_queued_bytes) {
     ++stats_.dropped_queue_full;
     return;
   }
-  const auto* data = static_cast<const std::uint8_t*>(rbuf->data);
   queue_.push_back(BusMessage{channel, std::vector<std::uint8_t>(data, data + n)});
   queued_bytes_ += n;
   ++stats_.received;

@@ -22,8 +22,8 @@
 
 namespace lcm {
 class LCM;
-class ReceiveBuffer;
 }  // namespace lcm
+struct _lcm_recv_buf_t;
 
 namespace commerge::platform {
 
@@ -70,7 +70,10 @@ class LcmBus {
 
  private:
   explicit LcmBus(const LcmBusParams& params);
-  void OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  // Subscribed through LCM's C API: the C++ member-handler template of LCM 1.3.1 fails UBSan's vptr check inside
+  // LCM's own header (reproduced with a ten-line program), which aborts the sanitizer build.
+  static void OnMessageC(const _lcm_recv_buf_t* rbuf, const char* channel, void* user);
+  void OnMessage(const std::uint8_t* data, std::size_t size, const char* channel);
   Status PublishNow(const std::string& channel, const std::vector<std::uint8_t>& bytes);
   void FlushDelayed();
 

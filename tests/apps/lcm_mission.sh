@@ -25,11 +25,12 @@
 # Passes (exit 0) when every final process exits 0 and
 #   - each robot's descriptor digest line equals the server's line for that robot and session (every keyframe
 #     and every descriptor delivered, bit for bit: 100 %),
-#   - robot 1's T_world_map in transforms.txt is within 0.5 m / 2 deg of the truth from start_transforms.txt.
+#   - robot 1's T_world_map in transforms.txt is within 0.5 m / 2 deg of the truth from start_transforms.txt,
+#   - the server wrote merged_map.pcd and .ply, readable by `commerge voxelize`, with at least 1000 points.
 # Prints one summary line with the bytes each robot sent, the share re-sent, and the transform error.
 set -euo pipefail
 
-usage() { sed -n '3,23p' "$0"; exit 2; }
+usage() { sed -n '3,/^set -euo/p' "$0" | sed '$d'; exit 2; }
 bin="" data="" work="" scenario="" sampler=""
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -227,6 +228,17 @@ if ! awk -v m="$err_m" -v d="$err_deg" 'BEGIN { exit !(m < 0.5 && d < 2.0) }'; t
   exit 1
 fi
 
+# The server's map files: the scans it holds of both robots, in the world frame (robot id per point).
+for f in merged_map.pcd merged_map.ply; do
+  [ -s "$work/server/$f" ] || { echo "lcm_mission.sh: the server wrote no $f" >&2; exit 1; }
+done
+map_points=$("$bin" voxelize "$work/server/merged_map.pcd" "$work/map_check.ply" --voxel-size-m 1 |
+             sed -n 's/.*merged_map.pcd: \([0-9]*\) points.*/\1/p')
+if [ -z "$map_points" ] || [ "$map_points" -lt 1000 ]; then
+  echo "lcm_mission.sh: the server's merged_map.pcd holds ${map_points:-no} points" >&2
+  exit 1
+fi
+
 bytes_text=""
 for id in 0 1; do
   log=robot$id
@@ -288,4 +300,4 @@ if [ "$scenario" = replay ]; then
 fi
 
 echo "lcm mission $scenario: merged in ${elapsed} s; descriptors delivered 100 % (digests equal);$bytes_text$dropped" \
-     "robot 1 within $err_m m / $err_deg deg of the truth"
+     "robot 1 within $err_m m / $err_deg deg of the truth; server map $map_points points"
