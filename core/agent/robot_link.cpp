@@ -129,8 +129,11 @@ void RobotLink::ApplyPoseAcks(const TransferStatus& status, std::int64_t now_us)
 
 void RobotLink::ApplyChunkAcks(const TransferStatus& status, std::int64_t now_us) {
   if (request_.request_id < 0 || request_done_) return;
-  if (status.request_id == -1) {  // the server no longer wants anything (it merged, or gave up on the round)
-    DropRequest();
+  if (status.request_id == -1) {
+    // The server no longer wants anything (it merged, or gave up on the round) - unless the status is older than
+    // the request: a status delayed or reordered past the next round's policy (same server clock) says nothing
+    // about that request. Dropping on it left the request unanswered until the server's request timeout.
+    if (status.utime_us >= request_.utime_us) DropRequest();
     return;
   }
   if (status.request_id != request_.request_id) return;  // a newer request is on its way; or an old status

@@ -10,7 +10,7 @@ endif()
 set(CM_MISSION_DATA "${CMAKE_CURRENT_BINARY_DIR}/lcm-mission/data")
 add_test(NAME "lcm mission: generate the two-robot urban dataset"
          COMMAND $<TARGET_FILE:commerge> sim --world urban --robots 2 --overlap complete --keyframes 200 --lidar vlp16
-                 --direction same --wobble-deg 0 --seed 11 --out "${CM_MISSION_DATA}")
+                 --direction same --wobble-deg 0 --seed 11 --force --out "${CM_MISSION_DATA}")
 set_tests_properties("lcm mission: generate the two-robot urban dataset"
                      PROPERTIES FIXTURES_SETUP lcm_mission_data LABELS heavy TIMEOUT 300)
 

@@ -494,6 +494,35 @@ TEST_CASE("Reliable transfer: a refused message of a newer session neither reset
   m.CheckAllKeyframesDelivered();
 }
 
+TEST_CASE("Reliable transfer: a status older than the robot's request does not withdraw it") {
+  // Seen in the dup-reorder fault test: a status from before a round (no request) arrived after that round's
+  // policy and made the robot drop the request, which then stayed unanswered until the server's timeout.
+  Mission m(2, 4, LinkModel{}, 5, SendAllParams());
+  m.RunUntil(600000);
+  RobotLink& link = *m.robots_[0]->link;
+  REQUIRE(m.robots_[0]->agent->mapper().num_keyframes() > 0);
+  ScanRequest request;
+  request.utime_us = m.now_us_;
+  request.robot_id = 0;
+  request.server_session = m.server_->session();
+  request.request_id = 99;
+  request.keyframes = {0};
+  REQUIRE(link.OnScanRequest(request, m.now_us_).ok());
+  REQUIRE(link.queued_chunks() > 0);
+  TransferStatus stale = m.server_->MakeStatus(0, m.now_us_ - 200000);
+  stale.request_id = -1;
+  stale.request_complete = false;
+  stale.missing.clear();
+  REQUIRE(stale.utime_us < request.utime_us);
+  CHECK(link.OnTransferStatus(stale, m.now_us_).ok());
+  CHECK(link.active_request() == 99);
+  CHECK(link.queued_chunks() > 0);
+  TransferStatus later = stale;  // the server withdrew the request after issuing it: drop it
+  later.utime_us = request.utime_us + 1000000;
+  CHECK(link.OnTransferStatus(later, m.now_us_ + 1000000).ok());
+  CHECK(link.queued_chunks() == 0);
+}
+
 TEST_CASE("Reliable transfer: chunks outside the active request and statuses for other robots are refused") {
   Mission m(2, 4, LinkModel{}, 5, SendAllParams());
   m.RunUntil(300000);
