@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "apps/app_common.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 #include "core/common/bytes.hpp"
@@ -26,6 +27,82 @@ std::vector<ModuleMemory> StatusModules(const BudgetTable& table, const std::vec
     }
     out.push_back(std::move(m));
   }
+  return out;
+}
+
+void AddAuthFlags(CLI::App* cmd, AuthFlags* flags) {
+  cmd->add_option("--auth-key", flags->key_file,
+                  "team key file (mode 0600, from `commerge keygen`): every message is signed and every received one "
+                  "verified; without it nothing is authenticated")
+      ->check(CLI::ExistingFile);
+  cmd->add_flag("--check", flags->check,
+                "check the flags, the key file and the memory budget, print the configuration and exit (0 = it would "
+                "start) without touching the network");
+}
+
+int SetUpAuth(const char* tag, const AuthFlags& flags, std::uint16_t sender, std::int64_t session, int robots,
+              platform::LcmBusParams* bus) {
+  bus->authenticate = false;
+  if (flags.key_file.empty()) return kExitOk;
+  auto ring = platform::LoadTeamKeyring(flags.key_file);
+  if (!ring.ok()) {
+    std::fprintf(stderr, "%s: --auth-key: %s\n", tag, ring.status().message().c_str());
+    return kExitUsage;
+  }
+  bus->authenticate = true;
+  bus->auth.keyring = std::move(*ring);
+  bus->auth.sender = sender;
+  bus->auth.session = session;
+  bus->auth.max_robots = static_cast<std::uint16_t>(std::clamp(robots, 1, int{platform::kAuthMaxRobots}));
+  if (auto check = platform::MessageAuthenticator::Create(bus->auth); !check.ok()) {
+    std::fprintf(stderr, "%s: --auth-key %s: %s\n", tag, flags.key_file.c_str(), check.status().message().c_str());
+    return kExitUsage;
+  }
+  return kExitOk;
+}
+
+std::string AuthDescription(const AuthFlags& flags, const platform::LcmBusParams& bus) {
+  if (!bus.authenticate) {
+    return "WARNING: messages are NOT authenticated (no --auth-key): anyone on the network can publish on the "
+           "commerge channels";
+  }
+  return "messages signed with key id " + std::to_string(bus.auth.keyring.keys.front().id) + " (" +
+         std::to_string(bus.auth.keyring.keys.size()) + " key(s) accepted) from " + flags.key_file;
+}
+
+Status CheckSigner(const platform::BusMessage& message, int expected) {
+  if (message.sender < 0 || message.sender == expected) return Status::Ok();
+  auto name = [](int id) {
+    return id == platform::kAuthServerSender ? std::string("the server") : "robot " + std::to_string(id);
+  };
+  return InvalidArgument("signed by " + name(message.sender) + " but speaks for " + name(expected));
+}
+
+std::uint64_t AuthRejected(const platform::LcmBus& bus) {
+  return bus.auth_stats() != nullptr ? bus.auth_stats()->rejected() : 0;
+}
+
+std::string AuthSummary(const platform::LcmBus& bus) {
+  const platform::AuthStats* a = bus.auth_stats();
+  if (a == nullptr) return "auth: off";
+  const double sent = static_cast<double>(bus.stats().published_bytes);
+  char head[256];
+  std::snprintf(head, sizeof(head), "auth: %llu messages signed, %zu B each = %s (%.1f %% of %s sent); %llu refused",
+                static_cast<unsigned long long>(a->signed_messages), platform::kAuthTrailerBytes,
+                FormatBytes(static_cast<std::int64_t>(a->trailer_bytes)).c_str(),
+                sent > 0 ? 100.0 * static_cast<double>(a->trailer_bytes) / sent : 0.0,
+                FormatBytes(static_cast<std::int64_t>(bus.stats().published_bytes)).c_str(), static_cast<unsigned long long>(a->rejected()));
+  std::string out = head;
+  std::string detail;
+  for (std::size_t v = 0; v < platform::kAuthVerdictCount; ++v) {
+    const auto verdict = static_cast<platform::AuthVerdict>(v);
+    if (verdict == platform::AuthVerdict::kOk || verdict == platform::AuthVerdict::kOwnEcho || a->verdicts[v] == 0) {
+      continue;
+    }
+    detail += (detail.empty() ? "" : ", ") + std::string(platform::AuthVerdictName(verdict)) + " " +
+              std::to_string(a->verdicts[v]);
+  }
+  if (!detail.empty()) out += " (" + detail + ")";
   return out;
 }
 
@@ -117,6 +194,49 @@ int SetUpMemory(AppKind app, const MemoryFlags& f, MemorySetup* s, bool print_ta
 std::string PeakRssLine() {
   const platform::RssFigures rss = platform::ReadRss();
   return "peak RSS " + FormatBytes(rss.peak_bytes) + " (allocator: " + platform::AllocatorDescription() + ")";
+}
+
+std::string MemorySummary(const BudgetTable& table, const std::vector<ModuleMemory>& measured,
+                          std::int64_t peak_rss_bytes) {
+  auto mib = [](std::int64_t bytes) {
+    char text[32];
+    if (bytes < 0) return std::string("-");
+    std::snprintf(text, sizeof text, "%.2f MiB", static_cast<double>(bytes) / static_cast<double>(kMiB));
+    return std::string(text);
+  };
+  std::string out;
+  char line[512];
+  std::snprintf(line, sizeof line, "memory: %-18s %12s %12s %12s\n", "module", "budget", "used", "high-water");
+  out += line;
+  std::int64_t pools_bytes = 0;
+  for (const BudgetEntry& e : table.entries()) {
+    std::int64_t used = -1, high_water = -1;
+    for (const ModuleMemory& m : measured) {
+      if (m.name != e.module) continue;
+      used = m.used_bytes;
+      high_water = std::max(m.high_water_bytes, m.used_bytes);
+    }
+    if (high_water > 0) pools_bytes += high_water;
+    std::snprintf(line, sizeof line, "memory: %-18s %12s %12s %12s  [%lld %lld %lld]\n", e.module.c_str(),
+                  mib(e.bytes).c_str(), mib(used).c_str(), mib(high_water).c_str(), static_cast<long long>(e.bytes),
+                  static_cast<long long>(used), static_cast<long long>(high_water));
+    out += line;
+  }
+  const std::int64_t total = table.total_bytes();
+  char rest[32] = "-";
+  if (peak_rss_bytes >= 0) {
+    std::snprintf(rest, sizeof rest, "%.2f MiB",
+                  static_cast<double>(peak_rss_bytes - pools_bytes) / static_cast<double>(kMiB));
+  }
+  std::snprintf(line, sizeof line,
+                "memory: peak RSS %s of the budget total %s (%.0f %%); the measured pools' high-water marks %s, the "
+                "rest %s (runtime: code, libraries, stacks, allocator; pool pages reserved but not in use)  [%lld %lld]\n",
+                mib(peak_rss_bytes).c_str(), mib(total).c_str(),
+                total > 0 ? 100.0 * static_cast<double>(peak_rss_bytes) / static_cast<double>(total) : 0.0,
+                mib(pools_bytes).c_str(), rest,
+                static_cast<long long>(peak_rss_bytes), static_cast<long long>(total));
+  out += line;
+  return out;
 }
 
 }  // namespace commerge::app

@@ -9,6 +9,7 @@
 
 #include "core/agent/messages.hpp"
 #include "core/memory/budget.hpp"
+#include "platform/lcm/lcm_bus.hpp"
 
 namespace commerge::app {
 
@@ -42,6 +43,29 @@ void AddMemoryFlags(CLI::App* cmd, MemoryFlags* flags);
 /// --jitter-ms (reorders), --duplicate-pct, in their own help group.
 void AddFaultFlags(CLI::App* cmd, double* delay_ms, double* jitter_ms, double* duplicate_pct);
 
+/// The daemons' message authentication and dry-run flags: --auth-key FILE (the team key file; without it,
+/// messages are neither signed nor verified, and a warning says so) and --check.
+struct AuthFlags {
+  std::string key_file;
+  bool check = false;  ///< validate everything, print the configuration, exit 0 without opening the network
+};
+void AddAuthFlags(CLI::App* cmd, AuthFlags* flags);
+
+/// Loads --auth-key into `bus` (sender = robot id or platform::kAuthServerSender, session, robot ids
+/// 0..robots-1 accepted). Returns kExitOk, or kExitUsage with the reason (naming the file) on stderr.
+int SetUpAuth(const char* tag, const AuthFlags& flags, std::uint16_t sender, std::int64_t session, int robots,
+              platform::LcmBusParams* bus);
+/// One line for --check and the start-up banner: "messages signed with key 1 of 2 from FILE" or the warning.
+std::string AuthDescription(const AuthFlags& flags, const platform::LcmBusParams& bus);
+/// Refuses a message whose authenticated signer is not `expected` (a robot id, or kAuthServerSender): a team
+/// member speaking for another. Unauthenticated messages (sender -1) pass.
+Status CheckSigner(const platform::BusMessage& message, int expected);
+/// Messages the bus refused for authentication (0 without authentication).
+std::uint64_t AuthRejected(const platform::LcmBus& bus);
+/// "auth: 1234 messages signed, 40 B each = 48.2 KiB (3.1 % of 1.5 MiB sent); 7 refused (bad MAC 3, replayed 4)"
+/// or "auth: off".
+std::string AuthSummary(const platform::LcmBus& bus);
+
 /// Result of the start-up memory check of one app.
 struct MemorySetup {
   BoardProfile board = BoardProfile::kDesktop;
@@ -64,5 +88,14 @@ int SetUpMemory(AppKind app, const MemoryFlags& flags, MemorySetup* setup, bool 
 
 /// "peak RSS 123.4 MiB (allocator mimalloc 2.0.9)".
 std::string PeakRssLine();
+
+/// The daemons' exit summary of memory (printed on stderr, also with --quiet): one row per module of `table`
+/// with its budget, used and high-water bytes from `measured` ("-" = not measured, e.g. runtime), then the
+/// process's peak RSS against the budget total and what remains after the measured pools' high-water marks (the
+/// runtime, and pool pages that are resident but not in use, e.g. a pool zeroed at start-up). Every line
+/// starts with "memory:"; each row ends with its exact figures "[budget used high-water]" in bytes (-1 = not
+/// measured) for scripts (profiling/profile_town.sh).
+std::string MemorySummary(const BudgetTable& table, const std::vector<ModuleMemory>& measured,
+                          std::int64_t peak_rss_bytes);
 
 }  // namespace commerge::app

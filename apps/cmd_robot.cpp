@@ -18,6 +18,7 @@
 
 #include "apps/app_common.hpp"
 #include "apps/commands.hpp"
+#include "core/common/bytes.hpp"
 #include "core/agent/delivery_digest.hpp"
 #include "core/agent/robot_link.hpp"
 #include "core/agent/scan_odometry_sync.hpp"
@@ -62,6 +63,7 @@ struct RobotOptions {
   double delay_ms = 0.0, jitter_ms = 0.0, duplicate_pct = 0.0;
   bool quiet = false;
   MemoryFlags memory;
+  AuthFlags auth;
 };
 
 // Decoded traffic for this robot; everything else is ignored, malformed messages are counted.
@@ -136,6 +138,19 @@ int RunRobot(const RobotOptions& o) {
   bus_params.jitter_ms = o.jitter_ms;
   bus_params.duplicate_pct = o.duplicate_pct;
   bus_params.fault_seed = static_cast<std::uint32_t>(session) ^ static_cast<std::uint32_t>(o.id);
+  if (int rc = SetUpAuth(tag, o.auth, static_cast<std::uint16_t>(o.id), session, setup.config.max_robots, &bus_params);
+      rc != kExitOk) {
+    return rc;
+  }
+  if (o.auth.check) {
+    const std::string input = o.live ? "live on " + o.input_lcm_url
+                                     : std::to_string(data.scan_files.size()) + " scans from " + o.data;
+    std::printf("%s %d: configuration OK (--check): board %s, memory budget %s of %s; input %s; LCM %s; %s\n", tag,
+                o.id, o.memory.board.c_str(), FormatBytes(setup.table.total_bytes()).c_str(),
+                FormatBytes(setup.limit_bytes).c_str(), input.c_str(),
+                o.lcm_url.empty() ? "LCM_DEFAULT_URL" : o.lcm_url.c_str(), AuthDescription(o.auth, bus_params).c_str());
+    return kExitOk;
+  }
   auto bus = platform::OpenLcmBus(bus_params, {platform::kPolicyChannel, platform::kStatusChannel, platform::kMergeResultChannel});
   if (!bus.ok()) {
     std::fprintf(stderr, "%s: %s\n", tag, bus.status().message().c_str());
@@ -176,6 +191,9 @@ int RunRobot(const RobotOptions& o) {
       std::fprintf(stderr, "%s %d: session %lld, %zu scans from %s at %.1f Hz\n", tag, o.id,
                    static_cast<long long>(session), data.scan_files.size(), o.data.c_str(), o.rate_hz);
     }
+  }
+  if (!o.quiet || !bus_params.authenticate) {
+    std::fprintf(stderr, "%s %d: %s\n", tag, o.id, AuthDescription(o.auth, bus_params).c_str());
   }
 
   TokenBucket bucket(o.bandwidth_kbps * 1000.0 / 8.0, 16384.0);
@@ -284,16 +302,17 @@ int RunRobot(const RobotOptions& o) {
     }
     while ((*bus)->Take(&message)) {
       const Span<const std::uint8_t> bytes(message.bytes.data(), message.bytes.size());
-      Status st;
-      if (message.channel == platform::kPolicyChannel) {
+      // Every channel this robot reads is the server's: a robot's signature there is a team member misbehaving.
+      Status st = CheckSigner(message, platform::kAuthServerSender);
+      if (st.ok() && message.channel == platform::kPolicyChannel) {
         auto request = platform::DecodeScanRequest(bytes);
         st = !request.ok() ? request.status()
                            : (request->robot_id == o.id ? link.OnScanRequest(*request, wall) : Status::Ok());
-      } else if (message.channel == platform::kStatusChannel) {
+      } else if (st.ok() && message.channel == platform::kStatusChannel) {
         auto status = platform::DecodeTransferStatus(bytes);
         st = !status.ok() ? status.status()
                           : (status->robot_id == o.id ? link.OnTransferStatus(*status, wall) : Status::Ok());
-      } else if (message.channel == platform::kMergeResultChannel) {
+      } else if (st.ok() && message.channel == platform::kMergeResultChannel) {
         auto result = platform::DecodeMergeResult(bytes);
         if (!result.ok()) {
           st = result.status();
@@ -360,9 +379,7 @@ int RunRobot(const RobotOptions& o) {
       status.peak_rss_bytes = platform::ReadRss().peak_bytes;
       status.budget_total_bytes = static_cast<std::int64_t>(setup.table.total_bytes());
       status.budget_limit_bytes = setup.limit_bytes;
-      const ScanStoreStats store_stats = (*store)->stats();
-      status.modules = StatusModules(setup.table, {ModuleMemory{"scan_store", 0, static_cast<std::int64_t>(store_stats.used_bytes),
-                                                                static_cast<std::int64_t>(store_stats.high_water_bytes)}});
+      status.modules = StatusModules(setup.table, agent.MemoryUse());
       status.keyframes = static_cast<std::uint32_t>(agent.mapper().num_keyframes());
       status.keyframes_acked = link.stats().keyframes_acked;
       status.queued_keyframes = static_cast<std::uint32_t>(agent.unsent_keyframes() + agent.queued_resends());
@@ -377,7 +394,7 @@ int RunRobot(const RobotOptions& o) {
         std::fprintf(stderr, "%s %d: %s, %u/%u keyframes acknowledged, %lld bytes sent (%lld resent), %llu rejected\n",
                      tag, o.id, status.state.c_str(), status.keyframes_acked, status.keyframes,
                      static_cast<long long>(bytes_sent), static_cast<long long>(bytes_resent),
-                     static_cast<unsigned long long>(inbox.rejected));
+                     static_cast<unsigned long long>(inbox.rejected + AuthRejected(**bus)));
       }
     }
     if (done) break;
@@ -390,8 +407,10 @@ int RunRobot(const RobotOptions& o) {
               "rejected messages %llu%s%s\n",
               o.id, ok ? "merged" : "NOT merged", agent.mapper().num_keyframes(), link.stats().keyframes_acked,
               static_cast<long long>(bytes_sent), static_cast<long long>(bytes_resent),
-              static_cast<long long>(publish_failures), static_cast<unsigned long long>(inbox.rejected),
+              static_cast<long long>(publish_failures),
+              static_cast<unsigned long long>(inbox.rejected + AuthRejected(**bus)),
               inbox.last_rejection.empty() ? "" : "; last: ", inbox.last_rejection.c_str());
+  std::printf("robot %d %s\n", o.id, AuthSummary(**bus).c_str());
   if (o.live) {
     const ScanOdometrySyncStats& s = sync->stats();
     std::printf("robot %d live input: %llu scans received, %llu mapped, %llu dropped (no odometry yet %llu, odometry "
@@ -415,6 +434,7 @@ int RunRobot(const RobotOptions& o) {
   std::printf("robot %d session %lld: %s\n", o.id, static_cast<long long>(session),
               digest.ok() ? digest->ToText().c_str() : digest.status().message().c_str());
   std::printf("%s\n", PeakRssLine().c_str());
+  std::fprintf(stderr, "%s", MemorySummary(setup.table, agent.MemoryUse(), platform::ReadRss().peak_bytes).c_str());
   return ok ? kExitOk : kExitFailure;
 }
 
@@ -455,6 +475,7 @@ Command AddRobotCommand(CLI::App& root) {
   cmd->add_option("--linger-s", o->linger_s, "after the last scan, wait this long for the merge [s]")->capture_default_str();
   cmd->add_option("--exit-when-merged", o->exit_when_merged, "end once this many robots, this one among them, are in "
                   "the world frame (0 = run until SIGINT)")->check(CLI::Range(0, 64))->capture_default_str();
+  AddAuthFlags(cmd, &o->auth);
   AddFaultFlags(cmd, &o->delay_ms, &o->jitter_ms, &o->duplicate_pct);
   cmd->add_flag("--quiet", o->quiet, "no progress lines on stderr");
   AddMemoryFlags(cmd, &o->memory);

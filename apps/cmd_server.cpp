@@ -21,6 +21,7 @@
 
 #include "apps/app_common.hpp"
 #include "apps/commands.hpp"
+#include "core/common/bytes.hpp"
 #include "core/agent/delivery_digest.hpp"
 #include "core/agent/server_link.hpp"
 #include "core/cloud/scan_codec.hpp"
@@ -55,6 +56,7 @@ struct ServerOptions {
   double delay_ms = 0.0, jitter_ms = 0.0, duplicate_pct = 0.0;
   bool quiet = false;
   MemoryFlags memory;
+  AuthFlags auth;
 };
 
 Status WriteTransforms(const std::string& path, const MergeResultMessage& m) {
@@ -80,8 +82,10 @@ Status WriteTransforms(const std::string& path, const MergeResultMessage& m) {
 }
 
 // The scans the server holds of the robots in the world frame, placed with T_world_map * T_map_sensor: the
-// merged map the server can build (the robots keep the rest). Returns the number of points written.
-Result<std::size_t> WriteServerMap(const std::string& dir, const MergeServer& server, const MergeResultMessage& m) {
+// merged map the server can build (the robots keep the rest). Returns the number of points written; raises
+// *high_water_bytes to the bytes the map's buffers took (the merged_map budget module).
+Result<std::size_t> WriteServerMap(const std::string& dir, const MergeServer& server, const MergeResultMessage& m,
+                                   std::int64_t* high_water_bytes) {
   std::vector<PointXYZI> map, scan;
   std::vector<std::uint16_t> ids;
   for (std::size_t i = 0; i < m.robot_ids.size(); ++i) {
@@ -100,6 +104,8 @@ Result<std::size_t> WriteServerMap(const std::string& dir, const MergeServer& se
       ids.insert(ids.end(), scan.size(), static_cast<std::uint16_t>(r));
     }
   }
+  *high_water_bytes = std::max(*high_water_bytes, static_cast<std::int64_t>((map.capacity() + scan.capacity()) * sizeof(PointXYZI) +
+                                                                            ids.capacity() * sizeof(std::uint16_t)));
   if (Status st = platform::WritePcd(dir + "/merged_map.pcd", Span<const PointXYZI>(map), platform::PcdEncoding::kBinary,
                                      Span<const std::uint16_t>(ids));
       !st.ok()) {
@@ -148,6 +154,24 @@ int RunServer(const ServerOptions& o) {
     std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
     return kExitUsage;
   }
+  const std::int64_t session = platform::WallTimeUs();
+  platform::LcmBusParams bus_params;
+  bus_params.url = o.lcm_url;
+  bus_params.delay_ms = o.delay_ms;
+  bus_params.jitter_ms = o.jitter_ms;
+  bus_params.duplicate_pct = o.duplicate_pct;
+  bus_params.fault_seed = static_cast<std::uint32_t>(session);
+  if (int rc = SetUpAuth(tag, o.auth, platform::kAuthServerSender, session, robots, &bus_params); rc != kExitOk) {
+    return rc;
+  }
+  if (o.auth.check) {
+    std::printf("%s: configuration OK (--check): board %s, memory budget %s of %s; robots 0..%d, mode %s, output %s; "
+                "LCM %s; %s\n",
+                tag, o.memory.board.c_str(), FormatBytes(setup.table.total_bytes()).c_str(),
+                FormatBytes(setup.limit_bytes).c_str(), robots - 1, ExchangeModeName(*mode), o.out_dir.c_str(),
+                o.lcm_url.empty() ? "LCM_DEFAULT_URL" : o.lcm_url.c_str(), AuthDescription(o.auth, bus_params).c_str());
+    return kExitOk;
+  }
   std::error_code ec;
   std::filesystem::create_directories(o.out_dir, ec);
   if (ec) {
@@ -155,15 +179,8 @@ int RunServer(const ServerOptions& o) {
     return kExitFailure;
   }
   MergeServer server(robots, static_cast<std::size_t>(setup.config.max_keyframes_per_robot), server_params);
-  const std::int64_t session = platform::WallTimeUs();
   ServerLink link(session, link_params, &server);
 
-  platform::LcmBusParams bus_params;
-  bus_params.url = o.lcm_url;
-  bus_params.delay_ms = o.delay_ms;
-  bus_params.jitter_ms = o.jitter_ms;
-  bus_params.duplicate_pct = o.duplicate_pct;
-  bus_params.fault_seed = static_cast<std::uint32_t>(session);
   auto bus = o.replay ? platform::OpenLcmBus(bus_params, {platform::kKeyframesChannel, platform::kPosesChannel,
                                                            platform::kScansChannel, platform::kMergeResultChannel})
                       : platform::OpenLcmBus(bus_params, {platform::kKeyframesChannel, platform::kPosesChannel,
@@ -179,7 +196,17 @@ int RunServer(const ServerOptions& o) {
                  static_cast<long long>(session), robots - 1, ExchangeModeName(*mode), o.out_dir.c_str(),
                  o.replay ? " (replay: recorded scan chunks accepted without a request)" : "");
   }
-  std::int64_t bytes_received = 0, rejected = 0, scans_high_water = 0;
+  if (!o.quiet || !bus_params.authenticate) {
+    std::fprintf(stderr, "%s: %s\n", tag, AuthDescription(o.auth, bus_params).c_str());
+  }
+  std::int64_t bytes_received = 0, rejected = 0;
+  // Memory of the budget modules: the merge server's pools and the merged map WriteServerMap builds.
+  std::int64_t merged_map_high_water = 0;
+  auto memory_use = [&server, &merged_map_high_water] {
+    std::vector<ModuleMemory> modules = server.MemoryUse();
+    modules.push_back(ModuleMemory{"merged_map", 0, 0, merged_map_high_water});
+    return modules;
+  };
   // Replay: the recording server's (session, round) pairs already followed, and when the recording last spoke.
   std::set<std::pair<std::int64_t, std::int32_t>> recorded_rounds;
   std::int64_t last_recorded_us = platform::MonotonicUs();
@@ -201,18 +228,21 @@ int RunServer(const ServerOptions& o) {
       Status st;
       if (message.channel == platform::kKeyframesChannel) {
         auto m = platform::DecodeKeyframeBatch(bytes);
-        st = m.ok() ? link.OnKeyframeBatch(*m, wall) : m.status();
+        st = !m.ok() ? m.status() : CheckSigner(message, m->robot_id);
+        if (st.ok()) st = link.OnKeyframeBatch(*m, wall);
       } else if (message.channel == platform::kPosesChannel) {
         auto m = platform::DecodePoseUpdate(bytes);
-        st = m.ok() ? link.OnPoseUpdate(*m, wall) : m.status();
+        st = !m.ok() ? m.status() : CheckSigner(message, m->robot_id);
+        if (st.ok()) st = link.OnPoseUpdate(*m, wall);
       } else if (message.channel == platform::kScansChannel) {
         auto m = platform::DecodeScanChunk(bytes);
-        st = m.ok() ? link.OnScanChunk(*m, wall) : m.status();
+        st = !m.ok() ? m.status() : CheckSigner(message, m->robot_id);
+        if (st.ok()) st = link.OnScanChunk(*m, wall);
       } else if (message.channel == platform::kMergeResultChannel) {
         auto m = platform::DecodeMergeResult(bytes);
         if (!m.ok()) {
           st = m.status();
-        } else if (m->server_session != session && recorded_rounds.size() < 100000 &&
+        } else if (st = CheckSigner(message, platform::kAuthServerSender); st.ok() && m->server_session != session && recorded_rounds.size() < 100000 &&
                    recorded_rounds.insert({m->server_session, m->round}).second) {
           link.RequestRound();  // the recording merged here: merge on the same data
         }
@@ -250,7 +280,7 @@ int RunServer(const ServerOptions& o) {
         if (Status w = WriteTransforms(o.out_dir + "/transforms.txt", o_msg.result); !w.ok()) {
           std::fprintf(stderr, "%s: %s\n", tag, w.message().c_str());
         }
-        auto points = WriteServerMap(o.out_dir, server, o_msg.result);
+        auto points = WriteServerMap(o.out_dir, server, o_msg.result, &merged_map_high_water);
         if (!points.ok()) std::fprintf(stderr, "%s: %s\n", tag, points.status().message().c_str());
         if (!o.quiet) {
           std::fprintf(stderr, "%s: %s; merged_map.pcd/.ply %zu points\n", tag, link.state().c_str(),
@@ -273,14 +303,12 @@ int RunServer(const ServerOptions& o) {
       status.peak_rss_bytes = platform::ReadRss().peak_bytes;
       status.budget_total_bytes = setup.table.total_bytes();
       status.budget_limit_bytes = setup.limit_bytes;
-      scans_high_water = std::max<std::int64_t>(scans_high_water, static_cast<std::int64_t>(server.scan_bytes_held()));
-      status.modules = StatusModules(setup.table, {ModuleMemory{"scan_reassembly", 0,
-                                                                static_cast<std::int64_t>(server.scan_bytes_held()),
-                                                                scans_high_water}});
+      status.modules = StatusModules(setup.table, memory_use());
       status.round = link.rounds_merged();
       status.state = link.state();
       status.bytes_received = bytes_received;
-      status.messages_rejected = rejected + static_cast<std::int64_t>(server.stats().rejected_batches +
+      status.messages_rejected = rejected + static_cast<std::int64_t>(AuthRejected(**bus)) +
+                                 static_cast<std::int64_t>(server.stats().rejected_batches +
                                                                       server.stats().rejected_pose_updates +
                                                                       server.stats().rejected_chunks);
       status.last_rejection = last_rejection;
@@ -329,14 +357,17 @@ int RunServer(const ServerOptions& o) {
   std::printf("server: %d merge rounds, %d of %zu robots in the world frame; %lld bytes received; %lld messages "
               "rejected%s%s\n",
               link.rounds_merged(), in_world, link.last_result().robot_ids.size(),
-              static_cast<long long>(bytes_received), static_cast<long long>(rejected),
+              static_cast<long long>(bytes_received),
+              static_cast<long long>(rejected + static_cast<std::int64_t>(AuthRejected(**bus))),
               last_rejection.empty() ? "" : "; last: ", last_rejection.c_str());
   for (int r = 0; r < robots; ++r) {
     if (link.robot_session(r) == 0) continue;
     std::printf("server: robot %d session %lld: %s\n", r, static_cast<long long>(link.robot_session(r)),
                 ServerDeliveryDigest(server.robot(r)).ToText().c_str());
   }
+  std::printf("server %s\n", AuthSummary(**bus).c_str());
   std::printf("%s\n", PeakRssLine().c_str());
+  std::fprintf(stderr, "%s", MemorySummary(setup.table, memory_use(), platform::ReadRss().peak_bytes).c_str());
   if (o.exit_when_merged > 0 && in_world < o.exit_when_merged) exit_code = kExitFailure;
   return exit_code;
 }
@@ -368,6 +399,7 @@ Command AddServerCommand(CLI::App& root) {
   cmd->add_flag("--replay", o->replay, "serve a recorded mission played back with lcm-logplayer: accept recorded scan "
                                        "chunks that answer the recording server's requests");
   cmd->add_flag("--quiet", o->quiet, "no progress lines on stderr");
+  AddAuthFlags(cmd, &o->auth);
   AddFaultFlags(cmd, &o->delay_ms, &o->jitter_ms, &o->duplicate_pct);
   AddMemoryFlags(cmd, &o->memory);
   return {cmd, [o]() { return RunServer(*o); }};

@@ -21,5 +21,6 @@ Command AddRunCommand(CLI::App& root);
 Command AddRobotCommand(CLI::App& root);
 Command AddServerCommand(CLI::App& root);
 Command AddFeedCommand(CLI::App& root);
+Command AddKeygenCommand(CLI::App& root);
 
 }  // namespace commerge::app

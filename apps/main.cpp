@@ -17,7 +17,8 @@ int main(int argc, char** argv) {
 
   const std::vector<Command> commands = {AddDemoCommand(root), AddBudgetCommand(root), AddVoxelizeCommand(root),
                                        AddSimCommand(root), AddRunCommand(root), AddRobotCommand(root),
-                                       AddServerCommand(root), AddFeedCommand(root)};
+                                       AddServerCommand(root), AddFeedCommand(root),
+                                       AddKeygenCommand(root)};
 
   try {
     root.parse(argc, argv);

@@ -26,14 +26,17 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
 apt_install() { $SUDO apt-get install -y --no-install-recommends "$@"; }
 
+# libsodium: the message MACs (platform/lcm/message_auth). patchelf: the field bundle (`--target bundle`).
+# systemd: `systemd-analyze verify` of the units in apps/deploy.
 # clang (14): the fuzz configuration (CM_FUZZ). libclang-rt-14-dev holds libFuzzer and clang's sanitizer runtimes
 # (-fsanitize=fuzzer,address,undefined); clang only reaches it through a Recommends, which apt_install skips.
 host_pkgs=(cmake make g++ pkg-config ca-certificates
            liblcm-dev liblcm-bin liblcm-java default-jdk-headless
            libeigen3-dev libglpk-dev doctest-dev libmimalloc-dev libnanoflann-dev
-           libcli11-dev zlib1g-dev time
+           libcli11-dev zlib1g-dev libsodium-dev time
            clang libclang-rt-14-dev
-           nftables iproute2 xvfb libjchart2d-java default-jre)
+           nftables iproute2 xvfb libjchart2d-java default-jre
+           patchelf systemd)
 missing=()
 for p in "${host_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
@@ -56,8 +59,9 @@ if [ $cross -eq 1 ]; then
     $SUDO apt-get update -q
   fi
   # glpk, mimalloc and glib are Multi-Arch: same; apt may upgrade matching amd64 packages to keep lock-step.
-  apt_install g++-aarch64-linux-gnu qemu-user libc6-dev:arm64 \
-              libglpk-dev:arm64 libmimalloc-dev:arm64 libglib2.0-0:arm64 zlib1g-dev:arm64
+  # qemu-user-static: a static emulator that runs inside a chroot holding nothing but the aarch64 bundle.
+  apt_install g++-aarch64-linux-gnu qemu-user qemu-user-static libc6-dev:arm64 \
+              libglpk-dev:arm64 libmimalloc-dev:arm64 libglib2.0-0:arm64 zlib1g-dev:arm64 libsodium-dev:arm64
   # LCM has no Multi-Arch field: installing liblcm1:arm64 would remove the host LCM (and make lcm-gen an
   # aarch64 binary). Extract the arm64 packages into a private overlay instead (PLATFORM.md 3.2).
   overlay="$repo/.deps/sysroot-arm64-lcm"

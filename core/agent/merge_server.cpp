@@ -183,6 +183,7 @@ Status MergeServer::OnKeyframeBatch(const KeyframeBatch& batch) {
     db.stored_points[k] = batch.stored_points[i];
     ++stats_.records;
   }
+  NoteMemory();
   return first_error;
 }
 
@@ -224,6 +225,7 @@ Status MergeServer::OnPoseUpdate(const PoseUpdate& update) {
     if (!update.no_descriptor.empty() && update.no_descriptor[i]) db.no_descriptor[k] = 1;
   }
   ++stats_.pose_updates;
+  NoteMemory();
   return Status::Ok();
 }
 
@@ -281,7 +283,9 @@ Status MergeServer::OnScanChunk(const ScanChunk& chunk) {
     fresh.have.assign(chunk.num_chunks, 0);
     fresh.bytes.assign(chunk.total_bytes, 0);
     held_bytes_ += total;
+    partial_flag_bytes_ += fresh.have.capacity();
     it = partial_.emplace(key, std::move(fresh)).first;
+    NoteMemory();
   }
   Partial& p = it->second;
   if (p.total_bytes != chunk.total_bytes || p.num_chunks != chunk.num_chunks) {
@@ -299,6 +303,7 @@ Status MergeServer::OnScanChunk(const ScanChunk& chunk) {
   if (p.received < p.num_chunks) return Status::Ok();
   // Complete: verify the scan before it is used.
   std::vector<std::uint8_t> bytes = std::move(p.bytes);
+  partial_flag_bytes_ -= p.have.capacity();
   partial_.erase(it);
   if (auto header = VerifyEncodedScan(Span<const std::uint8_t>(bytes)); !header.ok() ||
       EncodedScanBytes(header->num_points) != bytes.size()) {
@@ -316,17 +321,21 @@ Status MergeServer::OnScanChunk(const ScanChunk& chunk) {
 }
 
 void MergeServer::ClearScans() {
+  NoteMemory();
   partial_.clear();
   scans_.clear();
   held_bytes_ = 0;
+  partial_flag_bytes_ = 0;
 }
 
 void MergeServer::ResetRobot(int robot) {
   if (robot < 0 || robot >= max_robots()) return;
+  NoteMemory();
   robots_[static_cast<std::size_t>(robot)] = RobotKeyframeDb();
   const std::uint64_t begin = Key(robot, 0), end = Key(robot + 1, 0);
   for (auto it = partial_.lower_bound(begin); it != partial_.end() && it->first < end;) {
     held_bytes_ -= it->second.total_bytes;
+    partial_flag_bytes_ -= it->second.have.capacity();
     it = partial_.erase(it);
   }
   for (auto it = scans_.lower_bound(begin); it != scans_.end() && it->first < end;) {
@@ -366,8 +375,10 @@ const StageCResult* MergeServer::stage_ac(int alpha, int beta) const {
 
 Status MergeServer::RunCascades() {
   if (!params_status_.ok()) return params_status_;
+  NoteMemory();
   pairs_.clear();
-  std::vector<std::vector<Eigen::Vector3d>> positions(robots_.size());
+  std::vector<std::vector<Eigen::Vector3d>>& positions = positions_;
+  positions.resize(robots_.size());
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     positions[r].resize(robots_[r].size());
     for (std::size_t k = 0; k < robots_[r].size(); ++k) positions[r][k] = robots_[r].T_map_sensor[k].translation();
@@ -410,6 +421,7 @@ Status MergeServer::RunCascades() {
       pairs_.push_back(std::move(state));
     }
   }
+  NoteMemory();
   return Status::Ok();
 }
 
@@ -517,6 +529,7 @@ std::size_t MergeServer::BuildSubmap(int robot, Span<const std::uint32_t> keyfra
   VoxelGridParams v;
   v.voxel_size_m = voxel_size_m;
   if (!voxel_grid_.Downsample(Span<const PointXYZI>(union_points_), v, points).ok()) points->clear();
+  NoteMemory();
   return used;
 }
 
@@ -561,6 +574,7 @@ Result<PairMergeResult> MergeServer::MergePair(const PairSelection& pair, Regist
   SubmapView source{Span<const PointXYZI>(beta_points_), Span<const Eigen::Vector3d>(beta_origins_)};
   SubmapView target{Span<const PointXYZI>(alpha_points_), Span<const Eigen::Vector3d>(alpha_origins_)};
   auto result = registration_.Register(source, target, reg, observer);
+  NoteMemory();
   if (!result.ok()) return result.status();
   out.attempted = true;
   out.registration = *result;
@@ -581,6 +595,62 @@ Result<FrameSolution> MergeServer::SolveFrames(Span<const PairMergeResult> pairs
     measurements.push_back(m);
   }
   return SolveRobotFrames(max_robots(), Span<const FrameMeasurement>(measurements), params_.frames);
+}
+
+namespace {
+constexpr const char* kServerMemoryModules[] = {"descriptor_db",   "affinity", "solvers",
+                                                "scan_reassembly", "submaps",  "registration"};
+}  // namespace
+
+std::array<std::int64_t, MergeServer::kMemoryModules> MergeServer::MeasureMemory() const {
+  const auto held = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  std::size_t descriptor_db = held(robots_);
+  for (const RobotKeyframeDb& db : robots_) {
+    descriptor_db += held(db.descriptors) + held(db.valid) + held(db.pose_known) + held(db.no_descriptor) +
+                     held(db.T_map_sensor) + held(db.stored_points);
+  }
+  std::size_t affinity = held(positions_);
+  for (const std::vector<Eigen::Vector3d>& p : positions_) affinity += held(p);
+  std::size_t solvers = held(pairs_);
+  for (const PairState& p : pairs_) {
+    affinity += held(p.cascade.stage_a.cells);
+    const ExchangeCascadeResult& c = p.cascade;
+    solvers += held(c.stage_b.selected_left) + held(c.stage_b.selected_right) + held(c.stage_c.candidate_loops) +
+               held(c.stage_c.selected_loops) + held(c.stage_c.clique.clique) + held(c.policy.alpha.keyframes) +
+               held(c.policy.beta.keyframes) + held(p.stage_ac.candidate_loops) + held(p.stage_ac.selected_loops) +
+               held(p.stage_ac.clique.clique);
+  }
+  // Scan bytes are allocated exactly (assign of total_bytes, moved when complete): held_bytes_ is their sum.
+  const std::size_t scan_reassembly =
+      static_cast<std::size_t>(held_bytes_ + partial_flag_bytes_) +
+      partial_.size() * sizeof(decltype(partial_)::value_type) + scans_.size() * sizeof(decltype(scans_)::value_type);
+  const std::size_t submaps = held(scan_points_) + held(union_points_) + held(alpha_points_) + held(beta_points_) +
+                              held(alpha_origins_) + held(beta_origins_) + voxel_grid_.workspace_capacity_bytes();
+  return {static_cast<std::int64_t>(descriptor_db), static_cast<std::int64_t>(affinity),
+          static_cast<std::int64_t>(solvers),       static_cast<std::int64_t>(scan_reassembly),
+          static_cast<std::int64_t>(submaps),       static_cast<std::int64_t>(registration_.workspace_bytes())};
+}
+
+void MergeServer::NoteMemory() const {
+  const std::array<std::int64_t, kMemoryModules> used = MeasureMemory();
+  for (std::size_t i = 0; i < kMemoryModules; ++i) {
+    memory_high_water_[i] = std::max(memory_high_water_[i], used[i]);
+  }
+}
+
+std::vector<ModuleMemory> MergeServer::MemoryUse() const {
+  const std::array<std::int64_t, kMemoryModules> used = MeasureMemory();
+  std::vector<ModuleMemory> out;
+  out.reserve(kMemoryModules);
+  for (std::size_t i = 0; i < kMemoryModules; ++i) {
+    memory_high_water_[i] = std::max(memory_high_water_[i], used[i]);
+    ModuleMemory m;
+    m.name = kServerMemoryModules[i];
+    m.used_bytes = used[i];
+    m.high_water_bytes = memory_high_water_[i];
+    out.push_back(std::move(m));
+  }
+  return out;
 }
 
 }  // namespace commerge

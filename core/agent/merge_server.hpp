@@ -14,6 +14,7 @@
 //   A+B+C    : the full cascade's exchange policy (the endpoints of L_K)
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -167,7 +168,29 @@ class MergeServer {
   /// The complete, verified encoded scan of keyframe k (nullptr when not held).
   const std::vector<std::uint8_t>* scan_bytes(int robot, std::uint32_t keyframe) const;
 
+  /// Memory of the server's budget modules (core/memory/budget.hpp), named and ordered as in its budget table:
+  /// descriptor_db, affinity, solvers, scan_reassembly, submaps, registration (budget_bytes 0: the caller's table
+  /// has them). Not here: merged_map and inbox (the process builds the map file and owns the message queue) and
+  /// runtime (the process's peak RSS minus the pools). Every figure is capacity x element size of the containers
+  /// that hold the module's data now (they grow on demand and keep their capacity):
+  ///   descriptor_db    per robot: descriptors, flags, poses, point counts (RobotKeyframeDb)
+  ///   affinity         the cascade's inputs built here (keyframe positions) and each pair's L_seq (stage A)
+  ///   solvers          each pair's stage B cover, stage C candidate and selected loops, clique, policy, and the
+  ///                    A+C run; the transient workspaces inside RunExchangeCascade (affinity tiles, labelling,
+  ///                    LP and branch-and-bound buffers) live and die within the call and are not counted
+  ///   scan_reassembly  complete and partial scans (bytes, chunk flags) plus one map entry (value_type) each
+  ///   submaps          decoded scan, union and both submaps, sensor origins, the voxel grid's workspace
+  ///   registration     SubmapRegistration::workspace_bytes (features, k-d trees, matcher, GICP, global search)
+  /// high_water_bytes: the largest used_bytes at the end of any message handler, RunCascades, BuildSubmap,
+  /// MergePair or MemoryUse call, and just before ClearScans, ResetRobot or RunCascades drop data (it stays
+  /// after the data is gone).
+  std::vector<ModuleMemory> MemoryUse() const;
+
  private:
+  static constexpr std::size_t kMemoryModules = 6;
+  std::array<std::int64_t, kMemoryModules> MeasureMemory() const;
+  void NoteMemory() const;
+
   struct Partial {
     std::uint32_t total_bytes = 0;
     std::uint16_t num_chunks = 0;
@@ -202,6 +225,9 @@ class MergeServer {
   VoxelGrid voxel_grid_;
   std::vector<PointXYZI> scan_points_, union_points_, alpha_points_, beta_points_;
   std::vector<Eigen::Vector3d> alpha_origins_, beta_origins_;
+  std::vector<std::vector<Eigen::Vector3d>> positions_;  ///< per robot, the cascade's keyframe positions
+  std::uint64_t partial_flag_bytes_ = 0;                 ///< chunk flags of the partial scans
+  mutable std::array<std::int64_t, kMemoryModules> memory_high_water_{};
 };
 
 }  // namespace commerge

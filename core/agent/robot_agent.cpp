@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <string>
+#include <utility>
 
 #include "core/cloud/scan_codec.hpp"
 
@@ -115,7 +116,54 @@ Result<KeyframeStep> RobotAgent::AddScan(Span<const PointXYZI> raw_scan, const E
   if (!params_status_.ok()) return params_status_;
   auto step = mapper_.AddScan(raw_scan, T_odom_sensor);
   if (step.ok()) QueuePoses(Span<const std::uint32_t>(step->changed_keyframes));
+  NoteMemory();
   return step;
+}
+
+namespace {
+constexpr const char* kRobotMemoryModules[] = {"descriptor_db", "pose_graph",   "scan_store",
+                                               "scan_workspace", "loop_closure", "outbox"};
+}  // namespace
+
+std::array<std::int64_t, RobotAgent::kMemoryModules> RobotAgent::MeasureMemory() const {
+  const auto held = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  const DescriptorDatabase& db = mapper_.descriptor_db();
+  const PoseGraph& graph = mapper_.graph();
+  const std::size_t descriptor_db = db.size() * (db.dimension() * sizeof(float) + sizeof(std::uint8_t));
+  const std::size_t pose_graph = graph.num_nodes() * sizeof(Eigen::Isometry3d) +
+                                 graph.num_edges() * sizeof(PoseGraphEdge) + graph.workspace_bytes();
+  const std::size_t scan_store = store_ != nullptr ? store_->stats().used_bytes : 0;
+  const std::size_t outbox =
+      held(pose_dirty_) + held(resend_) + held(last_sent_us_) + held(sent_pose_) + held(encoded_);
+  return {static_cast<std::int64_t>(descriptor_db), static_cast<std::int64_t>(pose_graph),
+          static_cast<std::int64_t>(scan_store), static_cast<std::int64_t>(mapper_.scan_workspace_bytes()),
+          static_cast<std::int64_t>(mapper_.loop_closure_workspace_bytes()), static_cast<std::int64_t>(outbox)};
+}
+
+void RobotAgent::NoteMemory() const {
+  const std::array<std::int64_t, kMemoryModules> used = MeasureMemory();
+  for (std::size_t i = 0; i < kMemoryModules; ++i) {
+    memory_high_water_[i] = std::max(memory_high_water_[i], used[i]);
+  }
+}
+
+std::vector<ModuleMemory> RobotAgent::MemoryUse() const {
+  const std::array<std::int64_t, kMemoryModules> used = MeasureMemory();
+  std::vector<ModuleMemory> out;
+  out.reserve(kMemoryModules);
+  for (std::size_t i = 0; i < kMemoryModules; ++i) {
+    memory_high_water_[i] = std::max(memory_high_water_[i], used[i]);
+    ModuleMemory m;
+    m.name = kRobotMemoryModules[i];
+    m.used_bytes = used[i];
+    m.high_water_bytes = memory_high_water_[i];
+    out.push_back(std::move(m));
+  }
+  // The scan store keeps its own mark (its used bytes fall when it evicts between two calls here).
+  if (store_ != nullptr) {
+    out[2].high_water_bytes = std::max(out[2].high_water_bytes, static_cast<std::int64_t>(store_->stats().high_water_bytes));
+  }
+  return out;
 }
 
 Status RobotAgent::Finish() {
@@ -123,6 +171,7 @@ Status RobotAgent::Finish() {
   auto moved = mapper_.OptimizePending();
   if (!moved.ok()) return moved.status();
   QueuePoses(Span<const std::uint32_t>(*moved));
+  NoteMemory();
   // Poses that crept away in steps below the threshold: the server ends within it of the final poses.
   for (std::size_t k = 0; k < sent_upto_; ++k) {
     if (!pose_dirty_[k] &&
@@ -259,6 +308,7 @@ Status RobotAgent::MakeScanChunk(std::uint32_t k, std::uint16_t chunk_index, std
     encoded_keyframe_ = -1;
     if (Status st = store_->CopyEncoded(k, &encoded_); !st.ok()) return st;
     encoded_keyframe_ = k;
+    NoteMemory();
   }
   const std::size_t total = encoded_.size();
   const std::uint64_t count = ScanChunkCount(total, params_.chunk_payload_bytes);

@@ -108,7 +108,24 @@ class RobotAgent {
   /// Keyframes already put into batches (or queued as poses).
   std::size_t keyframes_sent() const noexcept { return sent_upto_; }
 
+  /// Memory of the robot's budget modules (core/memory/budget.hpp), named and ordered as in its budget table:
+  /// descriptor_db, pose_graph, scan_store, scan_workspace, loop_closure, outbox (budget_bytes 0: the caller's
+  /// table has them; `runtime` is not measured here: it is the process's peak RSS minus these pools).
+  /// used_bytes: pools reserved at construction for max_keyframes count the elements in use (pages of the unused
+  /// rest are never touched): descriptor database keyframes x (dimension x 4 + 1) B, pose graph nodes x
+  /// sizeof(Isometry3d) + edges x sizeof(PoseGraphEdge) + its solver workspace, scan store live records with their
+  /// headers (ScanStoreStats). Buffers that grow on demand and are kept between calls count capacity x element
+  /// size: the per-scan buffers, the loop-closure buffers (decoded match scan, k-d tree, ICP scratch), and the
+  /// outbox (per-keyframe send bookkeeping, the scan being chunked).
+  /// high_water_bytes: the largest used_bytes at the end of any AddScan, Finish, scan chunk or MemoryUse call
+  /// (for scan_store: the store's own mark, updated on every Put).
+  std::vector<ModuleMemory> MemoryUse() const;
+
  private:
+  static constexpr std::size_t kMemoryModules = 6;
+  std::array<std::int64_t, kMemoryModules> MeasureMemory() const;
+  void NoteMemory() const;
+
   void QueuePoses(Span<const std::uint32_t> keyframes);
   void MarkPoseDirty(std::size_t k);
   Status AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBatch* batch);
@@ -134,6 +151,7 @@ class RobotAgent {
   std::size_t dirty_count_ = 0;
   std::size_t dirty_scan_from_ = 0;       ///< no dirty flag below this keyframe
   std::vector<std::uint8_t> encoded_;
+  mutable std::array<std::int64_t, kMemoryModules> memory_high_water_{};
 };
 
 }  // namespace commerge

@@ -39,6 +39,8 @@ void KdTree3::Build(Span<const PointXYZI> points) {
   }
 }
 
+std::size_t KdTree3::memory_bytes() const { return index_ ? index_->tree.usedMemory(index_->tree) : 0; }
+
 bool KdTree3::Nearest(float x, float y, float z, std::uint32_t* index, float* distance_sq_m2) const {
   return Knn(x, y, z, 1, index, distance_sq_m2) == 1;
 }

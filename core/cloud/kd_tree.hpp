@@ -23,6 +23,8 @@ class KdTree3 {
   void Build(Span<const PointXYZI> points);
 
   std::size_t size() const noexcept { return points_.size(); }
+  /// Bytes the index holds (nanoflann's node pool and index array; 0 before the first non-empty Build()).
+  std::size_t memory_bytes() const;
 
   /// Nearest point to (x, y, z): false when the tree is empty.
   bool Nearest(float x, float y, float z, std::uint32_t* index, float* distance_sq_m2) const;

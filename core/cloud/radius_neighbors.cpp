@@ -128,4 +128,10 @@ void RadiusNeighbors::Compute(Span<const PointXYZI> points, float radius_m, std:
   }
 }
 
+std::size_t RadiusNeighbors::workspace_bytes() const noexcept {
+  const auto held = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  return held(count_) + held(index_) + held(dist_sq_) + held(keyed_) + held(xs_) + held(ys_) + held(zs_) +
+         held(ids_) + held(cell_key_) + held(cell_begin_) + held(runs_) + held(candidates_);
+}
+
 }  // namespace commerge

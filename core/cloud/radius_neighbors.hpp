@@ -32,6 +32,8 @@ class RadiusNeighbors {
   /// Total list length over all points, and how many lists were cut at max_neighbors.
   std::size_t total() const noexcept { return total_; }
   std::size_t num_capped() const noexcept { return capped_; }
+  /// Bytes held: the lists and the scratch (capacities; kept between calls).
+  std::size_t workspace_bytes() const noexcept;
 
  private:
   std::size_t stride_ = 0;

@@ -225,4 +225,10 @@ Status BevSearch::CorrelationForYawStep(Span<const PointXYZI> source, const BevS
   return Status::Ok();
 }
 
+std::size_t BevSearch::workspace_bytes() const noexcept {
+  const auto held = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  return fft_.workspace_bytes() + held(target_spectrum_) + held(work_) + held(structure_a_) + held(structure_b_) +
+         held(zmin_a_) + held(zmin_b_) + held(target_zmin_) + held(zmax_) + held(offsets_);
+}
+
 }  // namespace commerge

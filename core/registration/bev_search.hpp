@@ -87,6 +87,9 @@ class BevSearch {
   Status CorrelationForYawStep(Span<const PointXYZI> source, const BevSearchParams& params, int step,
                                std::vector<float>* scores);
 
+  /// Bytes held: the FFT tables and the grids (capacities; kept between calls).
+  std::size_t workspace_bytes() const noexcept;
+
  private:
   void Rasterise(Span<const PointXYZI> points, double yaw_rad, const BevSearchParams& params,
                  std::vector<float>* structure, std::vector<float>* zmin);

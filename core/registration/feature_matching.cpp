@@ -268,4 +268,11 @@ FeatureMatchingStats FeatureMatcher::Match(const SubmapFeatures& source, const S
   return stats;
 }
 
+std::size_t FeatureMatcher::workspace_bytes() const noexcept {
+  const auto held = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  return held(source_.descriptors) + held(source_.point) + held(target_.descriptors) + held(target_.point) +
+         held(ranking_) + held(scratch_) + held(neighbors_.nearest) + held(neighbors_.d1_sq) + held(neighbors_.d2_sq) +
+         held(neighbors_.reverse_nearest);
+}
+
 }  // namespace commerge

@@ -92,6 +92,9 @@ class FeatureMatcher {
     std::size_t size() const noexcept { return point.size(); }
   };
 
+  /// Bytes held: the selected descriptors, ranking, scratch and neighbour lists (capacities).
+  std::size_t workspace_bytes() const noexcept;
+
  private:
   Selection source_;
   Selection target_;

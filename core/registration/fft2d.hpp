@@ -22,6 +22,10 @@ class Fft2d {
   /// InvalidArgument unless n is a power of two in [2, 4096].
   Status Init(int n);
   int size() const noexcept { return n_; }
+  /// Bytes of the twiddle and bit-reversal tables (capacities).
+  std::size_t workspace_bytes() const noexcept {
+    return twiddles_f_.capacity() * sizeof(std::complex<float>) + bit_reverse_.capacity() * sizeof(std::size_t);
+  }
 
   /// grid.size() must be n * n (checked: InvalidArgument otherwise).
   Status Forward(Span<std::complex<float>> grid);

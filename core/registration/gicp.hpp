@@ -80,6 +80,9 @@ class Gicp {
   GicpResult Align(const SubmapFeatures& source, const SubmapFeatures& target,
                    const Eigen::Isometry3d& T_target_source_guess, const GicpParams& params);
 
+  /// Bytes held by the per-correspondence scratch (capacity).
+  std::size_t workspace_bytes() const noexcept { return factors_.capacity() * sizeof(Factor); }
+
  private:
   struct Factor {
     std::uint32_t source;

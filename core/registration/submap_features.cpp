@@ -271,4 +271,10 @@ void SubmapFeatures::ComputeDescriptors(const SubmapFeatureParams& /*params*/) {
   }
 }
 
+std::size_t SubmapFeatures::workspace_bytes() const {
+  const auto held = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  return tree_.memory_bytes() + neighbors_.workspace_bytes() + held(normals_) + held(normal_valid_) +
+         held(covariances_) + held(keypoints_) + held(keypoint_of_point_) + held(spfh_) + held(descriptors_);
+}
+
 }  // namespace commerge

@@ -101,6 +101,8 @@ class SubmapFeatures {
   /// keypoints().size() x kFpfhDims descriptors, row-major (row k belongs to keypoints()[k]).
   const std::vector<float>& descriptors() const noexcept { return descriptors_; }
   const SubmapFeatureStats& stats() const noexcept { return stats_; }
+  /// Bytes held: k-d tree, neighbour lists, normals, covariances, keypoints, SPFH and descriptors (capacities).
+  std::size_t workspace_bytes() const;
 
   /// Neighbours of point i (itself included), closest first: indices and squared distances [m^2].
   Span<const std::uint32_t> neighbor_indices(std::size_t i) const noexcept { return neighbors_.indices(i); }

@@ -351,4 +351,12 @@ Result<RegistrationResult> RegisterSubmaps(const SubmapView& source, const Subma
   return registration.Register(source, target, params);
 }
 
+std::size_t SubmapRegistration::workspace_bytes() const {
+  const auto held = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  return source_.workspace_bytes() + target_.workspace_bytes() + matcher_.workspace_bytes() + gicp_.workspace_bytes() +
+         bev_.workspace_bytes() + held(bev_candidates_) + held(correspondences_) + held(pruned_) + held(excluded_) +
+         held(active_) + held(corr_a_) + held(corr_b_) + held(active_a_) + held(active_b_) + held(solver_a_) +
+         held(solver_b_);
+}
+
 }  // namespace commerge

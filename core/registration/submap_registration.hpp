@@ -188,6 +188,9 @@ class SubmapRegistration {
   const std::vector<Correspondence>& correspondences() const noexcept { return correspondences_; }
   /// Indices into correspondences() kept by pruning (of the last hypothesis tried).
   const std::vector<std::uint32_t>& pruned() const noexcept { return pruned_; }
+  /// Bytes every buffer of the registration holds (features and k-d trees of both submaps, matcher, GICP,
+  /// global search, correspondences; capacities, kept between calls).
+  std::size_t workspace_bytes() const;
 
  private:
   // Stages 4-6 (pruning, robust solver, GICP and gates) for one hypothesis; fills *out.

@@ -52,6 +52,11 @@ class PointToPointIcp {
   Result<IcpResult> Align(Span<const PointXYZI> source, const Eigen::Isometry3d& T_target_source_guess,
                           const IcpParams& params);
 
+  /// Bytes held: the target's k-d tree and the scratch buffers (their capacities).
+  std::size_t workspace_bytes() const {
+    return tree_.memory_bytes() + (src_scratch_.capacity() + dst_scratch_.capacity()) * sizeof(Eigen::Vector3d);
+  }
+
  private:
   Span<const PointXYZI> target_;
   KdTree3 tree_;

@@ -57,6 +57,8 @@ class DescriptorDatabase {
 
   std::size_t size() const noexcept { return valid_.size(); }
   std::size_t capacity() const noexcept { return valid_.capacity(); }
+  /// Floats per descriptor.
+  std::size_t dimension() const noexcept { return dimension_; }
   Span<const float> Get(std::size_t keyframe) const;
   bool valid(std::size_t keyframe) const { return valid_[keyframe] != 0; }
 
@@ -103,6 +105,9 @@ class LoopVerifier {
   Result<LoopCheck> Verify(std::uint32_t query, std::uint32_t match, double descriptor_distance,
                            Span<const PointXYZI> query_scan, Span<const PointXYZI> match_scan,
                            const Eigen::Isometry3d& T_match_query_odom, const LoopDetectorParams& params);
+
+  /// Bytes held: the ICP's k-d tree and scratch, the yaw restarts' results (capacities).
+  std::size_t workspace_bytes() const { return icp_.workspace_bytes() + screened_.capacity() * sizeof(IcpResult); }
 
  private:
   PointToPointIcp icp_;

@@ -165,6 +165,8 @@ PoseGraph::PoseGraph(std::size_t max_nodes, std::size_t max_edges)
 }
 
 PoseGraph::~PoseGraph() = default;
+
+std::size_t PoseGraph::workspace_bytes() const { return ws_ ? ws_->Bytes() : 0; }
 PoseGraph::PoseGraph(PoseGraph&&) noexcept = default;
 PoseGraph& PoseGraph::operator=(PoseGraph&&) noexcept = default;
 

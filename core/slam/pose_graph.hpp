@@ -127,6 +127,8 @@ class PoseGraph {
   std::size_t num_loop_edges() const { return num_loop_edges_; }
   std::size_t max_nodes() const { return max_nodes_; }
   std::size_t max_edges() const { return max_edges_; }
+  /// Bytes the solver workspace holds now (as PoseGraphResult::workspace_bytes; 0 before the first Optimize()).
+  std::size_t workspace_bytes() const;
 
  private:
   struct Workspace;

@@ -34,6 +34,15 @@ RobotMapper::RobotMapper(const RobotMapperParams& params, const RobotMapperCapac
   encoded_.resize(EncodedScanBytes(capacity.max_points_per_stored_scan));
 }
 
+std::size_t RobotMapper::scan_workspace_bytes() const {
+  return voxel_grid_.workspace_capacity_bytes() + voxels_.capacity() * sizeof(PointXYZI) + encoded_.capacity() +
+         descriptor_scratch_.capacity() * sizeof(float);
+}
+
+std::size_t RobotMapper::loop_closure_workspace_bytes() const {
+  return match_points_.capacity() * sizeof(PointXYZI) + spill_buffer_.capacity() + verifier_.workspace_bytes();
+}
+
 Result<KeyframeStep> RobotMapper::AddScan(Span<const PointXYZI> raw_scan, const Eigen::Isometry3d& T_odom_sensor) {
   if (!params_status_.ok()) return params_status_;
   if (raw_scan.size() > capacity_.max_points_per_raw_scan) {

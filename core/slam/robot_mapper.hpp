@@ -97,6 +97,13 @@ class RobotMapper {
   bool descriptor_valid(std::size_t k) const { return db_.valid(k); }
   const RobotMapperStats& stats() const noexcept { return stats_; }
   const PoseGraph& graph() const noexcept { return graph_; }
+  const DescriptorDatabase& descriptor_db() const noexcept { return db_; }
+  /// Bytes of the per-scan buffers (capacities): the voxel grid's sort workspace, the voxelised and the encoded
+  /// scan, the descriptor scratch.
+  std::size_t scan_workspace_bytes() const;
+  /// Bytes of the loop-closure buffers (capacities): the match's decoded scan and spill buffer, the verifier's
+  /// k-d tree, ICP scratch and yaw restarts.
+  std::size_t loop_closure_workspace_bytes() const;
 
  private:
   Status FindLoop(std::uint32_t query, Span<const float> query_descriptor, KeyframeStep* step);

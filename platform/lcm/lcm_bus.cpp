@@ -2,7 +2,9 @@
 #include "platform/lcm/lcm_bus.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -29,6 +31,11 @@ Result<std::unique_ptr<LcmBus>> LcmBus::Create(const LcmBusParams& params) {
                            "jitter_ms >= 0, duplicate_pct in [0, 100]");
   }
   std::unique_ptr<LcmBus> bus(new LcmBus(params));
+  if (params.authenticate) {
+    auto auth = MessageAuthenticator::Create(params.auth);
+    if (!auth.ok()) return auth.status();
+    bus->auth_ = std::move(*auth);
+  }
   bus->lcm_ = std::make_unique<lcm::LCM>(params.url);
   if (!bus->lcm_->good()) {
     return IoError("cannot open LCM at '" + (params.url.empty() ? std::string("the default URL (LCM_DEFAULT_URL)") : params.url) +
@@ -49,14 +56,23 @@ void LcmBus::OnMessageC(const _lcm_recv_buf_t* rbuf, const char* channel, void* 
 }
 
 void LcmBus::OnMessage(const std::uint8_t* data, std::size_t n, const char* channel) {
+  int sender = -1;
+  const std::size_t wire_bytes = n;
+  if (auth_) {
+    std::size_t payload = 0;
+    std::uint16_t from = 0;
+    if (auth_->Verify(channel, data, n, &payload, &from) != AuthVerdict::kOk) return;  // counted in auth_stats()
+    n = payload;
+    sender = from;
+  }
   if (queue_.size() >= params_.max_queued_messages || queued_bytes_ + n > params_.max_queued_bytes) {
     ++stats_.dropped_queue_full;
     return;
   }
-  queue_.push_back(BusMessage{channel, std::vector<std::uint8_t>(data, data + n)});
+  queue_.push_back(BusMessage{channel, std::vector<std::uint8_t>(data, data + n), sender});
   queued_bytes_ += n;
   ++stats_.received;
-  stats_.received_bytes += n;
+  stats_.received_bytes += wire_bytes;
 }
 
 Status LcmBus::Poll(int timeout_ms) {
@@ -65,8 +81,10 @@ Status LcmBus::Poll(int timeout_ms) {
     const std::int64_t wait_ms = (delayed_.begin()->first - MonotonicUs()) / 1000;
     if (wait_ms < timeout_ms) timeout_ms = static_cast<int>(std::max<std::int64_t>(0, wait_ms));
   }
-  const int rc = lcm_->handleTimeout(timeout_ms);
-  if (rc < 0) return IoError("LCM handle failed");
+  errno = 0;
+  int rc = lcm_->handleTimeout(timeout_ms);
+  if (rc < 0 && errno == EINTR) rc = 0;  // a signal (SIGTERM from systemd, SIGINT) interrupted the wait: not an error
+  if (rc < 0) return IoError(std::string("LCM handle failed: ") + std::strerror(errno));
   while (rc > 0 && lcm_->handleTimeout(0) > 0) {
   }
   FlushDelayed();
@@ -111,13 +129,23 @@ Status LcmBus::Hold(const std::string& channel, const std::vector<std::uint8_t>&
 }
 
 Status LcmBus::Publish(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
-  if (!fault_stage()) return PublishNow(channel, bytes);
-  if (Status st = Hold(channel, bytes); !st.ok()) return st;
+  const std::vector<std::uint8_t>* out = &bytes;
+  if (auth_) {
+    sign_buffer_.assign(bytes.begin(), bytes.end());
+    auth_->Sign(channel, &sign_buffer_);
+    out = &sign_buffer_;
+  }
+  if (!fault_stage()) return PublishNow(channel, *out);
+  if (Status st = Hold(channel, *out); !st.ok()) return st;
   if (params_.duplicate_pct > 0.0 &&
       std::uniform_real_distribution<double>(0.0, 100.0)(fault_rng_) < params_.duplicate_pct) {
-    return Hold(channel, bytes);
+    return Hold(channel, *out);
   }
   return Status::Ok();
+}
+
+Status LcmBus::PublishRaw(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
+  return PublishNow(channel, bytes);
 }
 
 Result<std::unique_ptr<LcmBus>> OpenLcmBus(const LcmBusParams& params, std::initializer_list<const char*> channels) {

@@ -5,7 +5,10 @@
 // cannot grow memory. A test-only fault stage holds outgoing messages for `delay_ms` plus a random jitter of up
 // to `jitter_ms` (which reorders them) and publishes `duplicate_pct` percent of them twice: the delay,
 // duplication and reordering fault tests (sch_netem is unavailable on the CI kernel). It is bounded like the
-// receive queue.
+// receive queue. With `authenticate`, every published message is signed (platform/lcm/message_auth: a 40-byte
+// trailer with sender, session, sequence number and MAC) before the fault stage, and every received one is
+// verified before it is queued: unsigned, forged, tampered, replayed and unknown-sender messages are dropped and
+// counted (auth_stats()); the process's own looped-back messages are dropped silently.
 #pragma once
 
 #include <cstddef>
@@ -19,6 +22,7 @@
 #include <vector>
 
 #include "core/common/status.hpp"
+#include "platform/lcm/message_auth.hpp"
 
 namespace lcm {
 class LCM;
@@ -35,11 +39,14 @@ struct LcmBusParams {
   double jitter_ms = 0.0;              ///< plus a uniform random extra hold in [0, jitter_ms] (reorders)
   double duplicate_pct = 0.0;          ///< publish this percentage of messages twice (independent jitter)
   std::uint32_t fault_seed = 1;        ///< seed of the jitter and duplication draws
+  bool authenticate = false;           ///< sign and verify every message with `auth`
+  MessageAuthParams auth;
 };
 
 struct BusMessage {
   std::string channel;
-  std::vector<std::uint8_t> bytes;
+  std::vector<std::uint8_t> bytes;  ///< the LCM-encoded message (without the MAC trailer)
+  int sender = -1;                  ///< authenticated sender (robot id, or kAuthServerSender); -1: not authenticated
 };
 
 struct LcmBusStats {
@@ -62,8 +69,12 @@ class LcmBus {
   Status Poll(int timeout_ms);
   /// Takes the oldest queued message; false when none.
   bool Take(BusMessage* out);
-  /// Publishes (or holds in the fault stage) one encoded message.
+  /// Publishes (or holds in the fault stage) one encoded message, signed when authenticating.
   Status Publish(const std::string& channel, const std::vector<std::uint8_t>& bytes);
+  /// Publishes `bytes` exactly as given: no signature, no fault stage (tests and tools that inject traffic).
+  Status PublishRaw(const std::string& channel, const std::vector<std::uint8_t>& bytes);
+  /// Verification counters; nullptr when not authenticating.
+  const AuthStats* auth_stats() const noexcept { return auth_ ? &auth_->stats() : nullptr; }
   const LcmBusStats& stats() const noexcept { return stats_; }
   /// Messages held by the fault stage.
   std::size_t delayed() const noexcept { return delayed_.size(); }
@@ -84,6 +95,8 @@ class LcmBus {
 
   LcmBusParams params_;
   std::unique_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<MessageAuthenticator> auth_;
+  std::vector<std::uint8_t> sign_buffer_;
   std::deque<BusMessage> queue_;
   std::size_t queued_bytes_ = 0;
   std::multimap<std::int64_t, BusMessage> delayed_;  ///< by due time [us, monotonic]

@@ -22,6 +22,12 @@
 #                   20 Hz on the board-local input URL, and `commerge robot --live` synchronises and maps it
 #   replay          a clean mission recorded with lcm-logger, then played back with lcm-logplayer into a fresh
 #                   `commerge server --replay`, which must reproduce the recorded merge
+#   attack          cm_lcm_sampler --attack (give --sampler) captures the daemons' signed messages and publishes
+#                   them replayed, tampered, re-signed with another team's key, and signed as robot 40; server and
+#                   robots must refuse and count every one (until the first merge result that places every robot:
+#                   robots leave soon after, so each robot must refuse every kind, the server every message)
+# Every scenario runs with message authentication on: a fresh team key (`commerge keygen`) and --auth-key for the
+# server and the robots (CM_MISSION_AUTH=0 runs without).
 # Passes (exit 0) when every final process exits 0 and
 #   - each robot's descriptor digest line equals the server's line for that robot and session (every keyframe
 #     and every descriptor delivered, bit for bit: 100 %),
@@ -45,7 +51,7 @@ while [ $# -gt 0 ]; do
 done
 [ -n "$bin" ] && [ -n "$data" ] && [ -n "$work" ] && [ -n "$scenario" ] || usage
 case "$scenario" in
-  clean|loss10|loss50|tbf2mbit|delay2s|dup-reorder|robot-restart|server-restart|hostile|live|replay) ;;
+  clean|loss10|loss50|tbf2mbit|delay2s|dup-reorder|robot-restart|server-restart|hostile|live|replay|attack) ;;
   *) echo "lcm_mission.sh: unknown scenario '$scenario'" >&2; exit 2 ;;
 esac
 for f in "$data/robot_0/poses.txt" "$data/robot_1/poses.txt" "$data/start_transforms.txt"; do
@@ -71,6 +77,11 @@ ip link set lo up
 ip link set lo mtu 1500  # a WiFi-sized MTU: larger messages are IP-fragmented, and one lost fragment loses them
 ip route add 224.0.0.0/4 dev lo
 export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
+auth=()
+if [ "${CM_MISSION_AUTH:-1}" != 0 ]; then
+  "$bin" keygen --out "$work/team.key" >/dev/null
+  auth=(--auth-key "$work/team.key")
+fi
 
 pids=()
 cleanup() {
@@ -79,8 +90,8 @@ cleanup() {
 trap cleanup EXIT
 
 server_args=(server --out "$work/server" --robots 2 --tau-area 1000 --round-quiet-s 3 --exit-when-merged 2
-             --max-runtime-s 240 --linger-s 5)
-robot_args=(--lidar vlp-16 --keyframe-spacing-m 0.9 --rate-hz 40 --linger-s 200)
+             --max-runtime-s 240 --linger-s 5 "${auth[@]}")
+robot_args=(--lidar vlp-16 --keyframe-spacing-m 0.9 --rate-hz 40 --linger-s 200 "${auth[@]}")
 fault=()
 case "$scenario" in
   loss10|loss50)
@@ -137,6 +148,13 @@ case "$scenario" in
     sampler_pid=$!
     pids+=("$sampler_pid")
     ;;
+  attack)
+    [ -x "$sampler" ] || { echo "lcm_mission.sh: attack needs --sampler (cm_lcm_sampler)" >&2; exit 2; }
+    [ ${#auth[@]} -gt 0 ] || { echo "lcm_mission.sh: attack needs authentication (CM_MISSION_AUTH=1)" >&2; exit 2; }
+    "$sampler" --attack "$work/team.key" --attack-s 15 --attack-per-s 5 >"$work/sampler.out" 2>"$work/sampler.err" &
+    sampler_pid=$!
+    pids+=("$sampler_pid")
+    ;;
   live)
     # The robot's map frame is its first mapped scan: start the feed once the robot listens.
     for _ in $(seq 100); do grep -q "live input" "$work/robot1.err" 2>/dev/null && break; sleep 0.1; done
@@ -178,7 +196,7 @@ wait_for "$robot0_pid" robot0
 wait_for "$robot1_pid" "$robot1_log"
 wait_for "$server_pid" "$server_log"
 [ "$scenario" = live ] && wait_for "$feed_pid" feed
-[ "$scenario" = hostile ] && wait_for "$sampler_pid" sampler
+[ "$scenario" = hostile ] || [ "$scenario" = attack ] && wait_for "$sampler_pid" sampler
 elapsed=$((SECONDS - start))
 [ "$rc" = 0 ] || { echo "lcm_mission.sh: $scenario: a process failed" >&2; exit 1; }
 
@@ -254,14 +272,17 @@ if [ "$scenario" = loss10 ] || [ "$scenario" = loss50 ]; then
   dropped=" nftables dropped $(nft list table ip cmloss | sed -n 's/.*counter packets \([0-9]*\).*/\1/p') packets;"
 fi
 
-if [ "$scenario" = hostile ]; then
-  expected=$(sed -n 's/.*hostile: \([0-9]*\) messages the server must refuse.*/\1/p' "$work/sampler.out")
+if [ "$scenario" = hostile ] || [ "$scenario" = attack ]; then
+  expected=$(sed -n 's/.*'"$scenario"': \([0-9]*\) messages the server must refuse.*/\1/p' "$work/sampler.out")
   counted=$(sed -n 's/.*; \([0-9]*\) messages rejected.*/\1/p' "$work/$server_log.out")
   if [ -z "$expected" ] || [ -z "$counted" ] || [ "$counted" -lt "$expected" ]; then
     echo "lcm_mission.sh: the server counted ${counted:-?} rejected messages, fewer than the ${expected:-?} hostile ones" >&2
     exit 1
   fi
   expected_robot=$(sed -n 's/.*, \([0-9]*\) each robot must refuse.*/\1/p' "$work/sampler.out")
+  # attack: a robot may leave right after the merge result that ends the attack, before the attacker's last copies
+  # of it arrive; each reason is checked below.
+  [ "$scenario" = attack ] && expected_robot=$((expected_robot > 12 ? expected_robot - 12 : 0))
   robot_counts=""
   for id in 0 1; do
     n=$(sed -n 's/.*rejected messages \([0-9]*\).*/\1/p' "$work/robot$id.out")
@@ -271,7 +292,26 @@ if [ "$scenario" = hostile ]; then
     fi
     robot_counts+=" $n"
   done
-  dropped+=" hostile: server rejected $counted (>= $expected sent), robots rejected$robot_counts;"
+  dropped+=" $scenario: server rejected $counted (>= $expected sent), robots rejected$robot_counts;"
+fi
+if [ "$scenario" = attack ]; then
+  # Each kind of attack reached the server's verifier and was refused for its own reason.
+  for who in "server" "robot 0" "robot 1"; do
+    [ "$who" = server ] && log=$server_log || log=robot${who#robot }
+    summary=$(grep "^$who auth: " "$work/$log.out")
+    for reason in "replayed" "bad MAC" "unknown sender"; do
+      case "$summary" in
+        *"$reason "[1-9]*) ;;
+        *) echo "lcm_mission.sh: attack: $who refused nothing as '$reason': $summary" >&2; exit 1 ;;
+      esac
+    done
+  done
+  dropped+=" $(sed -n 's/.*attack: .*(\(.*\))$/\1/p' "$work/sampler.out");"
+fi
+if [ ${#auth[@]} -gt 0 ]; then
+  overhead=$(sed -n 's/^robot 0 auth: \([0-9]*\) messages signed, \([0-9]*\) B each = [^(]*(\([0-9.]*\) %.*/\1 messages x \2 B = \3 %/p' \
+             "$work/robot0.out")
+  dropped+=" auth on (robot 0: ${overhead:-?} of its bytes);"
 fi
 
 if [ "$scenario" = replay ]; then
@@ -279,7 +319,7 @@ if [ "$scenario" = replay ]; then
   wait "$logger_pid" 2>/dev/null || true
   [ -s "$work/mission.lcmlog" ] || { echo "lcm_mission.sh: lcm-logger wrote nothing" >&2; exit 1; }
   server_args=(server --out "$work/replay" --robots 2 --tau-area 1000 --round-quiet-s 3 --exit-when-merged 2
-               --max-runtime-s 240 --linger-s 0 --replay)
+               --max-runtime-s 240 --linger-s 0 --replay "${auth[@]}")
   start_server replay-server
   sleep 0.5
   lcm-logplayer "$work/mission.lcmlog" >"$work/logplayer.out" 2>&1 &

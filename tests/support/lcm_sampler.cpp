@@ -42,6 +42,7 @@
 #include "core/descriptor/descriptor_codec.hpp"
 #include "platform/lcm/input_codec.hpp"
 #include "platform/lcm/lcm_bus.hpp"
+#include "platform/lcm/message_auth.hpp"
 #include "platform/lcm/message_codec.hpp"
 #include "platform/lcm/status_codec.hpp"
 
@@ -329,15 +330,104 @@ HostileRound MakeHostile(const std::vector<Sample>& samples, int round, std::uin
   return h;
 }
 
+// --attack TEAM_KEY_FILE: during a mission with authentication on, captures the daemons' signed messages and
+// publishes, for some of them (at most --attack-per-s per second to the server and as many to the robots), what an attacker or a broken team member would:
+// the message again (replayed), with one payload byte flipped (tampered), re-signed with another team's key
+// (foreign team), and re-signed with the team key as robot 40 (an unknown robot id). Every one must be refused.
+// It stops after --attack-s, or once a merge result places every robot it names (the mission is over: robots
+// leave soon after, and messages to a robot that has left would not be counted).
+struct AttackCounts {
+  std::size_t to_server = 0, to_each_robot = 0, replayed = 0, tampered = 0, foreign = 0, unknown_robot = 0;
+};
+
+int Attack(const std::string& team_key_file, double seconds, double per_s) {
+  auto team = platform::LoadTeamKeyring(team_key_file);
+  if (!team.ok()) {
+    std::fprintf(stderr, "%s: %s\n", kTag, team.status().message().c_str());
+    return 2;
+  }
+  auto foreign_key = platform::GenerateTeamKey(team->keys.front().id);  // same id, another team's secret
+  if (!foreign_key.ok()) return 1;
+  platform::MessageAuthParams fp;
+  fp.keyring.keys = {*foreign_key};
+  fp.sender = 0;
+  fp.session = platform::WallTimeUs();
+  platform::MessageAuthParams ip;
+  ip.keyring = *team;
+  ip.sender = 40;
+  ip.session = fp.session;
+  ip.max_robots = platform::kAuthMaxRobots;
+  auto foreign = platform::MessageAuthenticator::Create(fp);
+  auto insider = platform::MessageAuthenticator::Create(ip);
+  auto bus = platform::OpenLcmBus(platform::LcmBusParams{}, {"COMMERGE_.*"});
+  if (!foreign.ok() || !insider.ok() || !bus.ok()) {
+    std::fprintf(stderr, "%s: attack set-up failed\n", kTag);
+    return 1;
+  }
+  const char* const server_channels[] = {platform::kKeyframesChannel, platform::kPosesChannel, platform::kScansChannel};
+  const char* const robot_channels[] = {platform::kPolicyChannel, platform::kStatusChannel,
+                                        platform::kMergeResultChannel};
+  AttackCounts n;
+  const std::int64_t end = platform::MonotonicUs() + static_cast<std::int64_t>(seconds * 1e6);
+  std::int64_t next_us[2] = {platform::MonotonicUs(), platform::MonotonicUs()};  // to the server, to the robots
+  platform::BusMessage m;
+  std::vector<std::pair<std::string, Bytes>> out;
+  bool over = false;
+  while (!over && platform::MonotonicUs() < end) {
+    if (!(*bus)->Poll(10).ok()) return 1;
+    out.clear();
+    while ((*bus)->Take(&m)) {
+      if (m.channel == platform::kMergeResultChannel && m.bytes.size() > platform::kAuthTrailerBytes) {
+        auto result = platform::DecodeMergeResult(
+            Span<const std::uint8_t>(m.bytes.data(), m.bytes.size() - platform::kAuthTrailerBytes));
+        if (result.ok() && result->in_world.size() >= 2) {
+          over = true;
+          for (std::uint8_t w : result->in_world) over = over && w != 0;
+          if (over) break;
+        }
+      }
+      bool to_server = false, to_robot = false;
+      for (const char* c : server_channels) to_server = to_server || m.channel == c;
+      for (const char* c : robot_channels) to_robot = to_robot || m.channel == c;
+      if ((!to_server && !to_robot) || m.bytes.size() <= platform::kAuthTrailerBytes + 8) continue;
+      const std::int64_t now = platform::MonotonicUs();
+      std::int64_t& next = next_us[to_server ? 0 : 1];
+      if (now < next) continue;
+      next = now + static_cast<std::int64_t>(1e6 / per_s);
+      Bytes tampered = m.bytes;
+      tampered[8] ^= 0x01;  // the first byte after the fingerprint
+      Bytes payload(m.bytes.begin(), m.bytes.end() - static_cast<std::ptrdiff_t>(platform::kAuthTrailerBytes));
+      Bytes other_team = payload, unknown = payload;
+      (*foreign)->Sign(m.channel, &other_team);
+      (*insider)->Sign(m.channel, &unknown);
+      out.push_back({m.channel, m.bytes});
+      out.push_back({m.channel, tampered});
+      out.push_back({m.channel, other_team});
+      out.push_back({m.channel, unknown});
+      ++n.replayed, ++n.tampered, ++n.foreign, ++n.unknown_robot;
+      (to_server ? n.to_server : n.to_each_robot) += 4;
+    }
+    for (const auto& [channel, bytes] : out) {
+      if (!(*bus)->PublishRaw(channel, bytes).ok()) return 1;
+    }
+  }
+  std::printf("%s: attack: %zu messages the server must refuse, %zu each robot must refuse (replayed %zu, tampered "
+              "%zu, foreign team %zu, unknown robot %zu)\n",
+              kTag, n.to_server, n.to_each_robot, n.replayed, n.tampered, n.foreign, n.unknown_robot);
+  return 0;
+}
+
 int Usage(const char* message) {
   if (message != nullptr) std::fprintf(stderr, "%s: %s\n", kTag, message);
   std::fprintf(stderr,
-               "usage: %s [--count N] [--rate-hz R] [--hostile]\n"
+               "usage: %s [--count N] [--rate-hz R] [--hostile] | --attack TEAM_KEY_FILE [--attack-s S] [--attack-per-s R]\n"
                "  publishes one sample of every commerge message on its channel, N rounds (default 5) at R rounds\n"
                "  per second (default 10); the LCM URL is $LCM_DEFAULT_URL (udpm: only inside a private network\n"
                "  namespace, PLATFORM.md 4.1). --hostile publishes instead, on the daemons' channels, messages they\n"
                "  must refuse and count (truncated, foreign fingerprint, random, 100 kB random, another type, robot\n"
-               "  40), and prints how many go to the server and to each robot\n",
+               "  40), and prints how many go to the server and to each robot. --attack listens S seconds (default 20)\n"
+               "  to a mission with authentication on and, for at most R (default 5) captured messages per second,\n"
+               "  publishes the message replayed, tampered, re-signed by another team and signed as robot 40\n",
                kTag);
   return message != nullptr ? 2 : 0;
 }
@@ -352,9 +442,21 @@ int Run(int argc, char** argv) {
   double count = 5.0;
   double rate_hz = 10.0;
   bool hostile = false;
+  std::string attack_key;
+  double attack_s = 20.0, attack_per_s = 5.0;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "-h" || arg == "--help") return Usage(nullptr);
+    if (arg == "--attack" && i + 1 < argc) {
+      attack_key = argv[++i];
+      continue;
+    }
+    if ((arg == "--attack-s" || arg == "--attack-per-s") && i + 1 < argc) {
+      double v = 0.0;
+      if (!ParseNumber(argv[++i], &v) || v <= 0.0 || v > 3600.0) return Usage((arg + ": in (0, 3600]").c_str());
+      (arg == "--attack-s" ? attack_s : attack_per_s) = v;
+      continue;
+    }
     if (arg == "--hostile") {
       hostile = true;
       continue;
@@ -369,6 +471,7 @@ int Run(int argc, char** argv) {
   }
   if (count < 1.0 || count > 100000.0 || std::floor(count) != count) return Usage("--count: an integer 1..100000");
   if (rate_hz <= 0.0 || rate_hz > 1000.0) return Usage("--rate-hz: in (0, 1000]");
+  if (!attack_key.empty()) return Attack(attack_key, attack_s, attack_per_s);
 
   auto scan = EncodedRingScan();
   if (!scan.ok()) {

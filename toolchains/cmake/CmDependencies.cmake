@@ -30,6 +30,16 @@ if(NOT TARGET cm_zlib)
                         INTERFACE_INCLUDE_DIRECTORIES "${ZLIB_INCLUDE_DIR}")
 endif()
 
+# libsodium (Debian libsodium-dev): HMAC-SHA-256, constant-time compare and the key generator's random bytes for
+# the message MACs (platform/lcm/message_auth). Audited crypto beats writing our own HMAC.
+find_path(SODIUM_INCLUDE_DIR sodium.h REQUIRED)
+find_library(SODIUM_LIBRARY sodium REQUIRED)
+if(NOT TARGET cm_sodium)
+  add_library(cm_sodium UNKNOWN IMPORTED)
+  set_target_properties(cm_sodium PROPERTIES IMPORTED_LOCATION "${SODIUM_LIBRARY}"
+                        INTERFACE_INCLUDE_DIRECTORIES "${SODIUM_INCLUDE_DIR}")
+endif()
+
 # Header-only, from Debian: CLI11 (subcommands, --help, validation), nanoflann (k-d tree, used by registration).
 find_path(CLI11_INCLUDE_DIR CLI/CLI.hpp REQUIRED)
 if(NOT TARGET cm_cli11)
