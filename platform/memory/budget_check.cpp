@@ -12,6 +12,7 @@ StartupBudget CheckStartupBudget(AppKind app, const BoardSpec& board, const Budg
   StartupBudget s;
   s.probed = probed;
   s.limit = EffectiveLimit(board, probed.mem_available_bytes, probed.cgroup_limit_bytes);
+  if (!probed.meminfo_warning.empty()) s.limit.source += "; " + probed.meminfo_warning;
   s.verdict = CheckBudget(app, table, s.limit);
   return s;
 }

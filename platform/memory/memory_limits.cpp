@@ -107,6 +107,9 @@ MemoryLimits ProbeMemoryLimits(const ProbeRoots& roots) {
   MemoryLimits out;
   std::string text;
   if (ReadFile(roots.proc + "/meminfo", &text)) out.mem_available_bytes = ParseMemAvailable(text);
+  if (out.mem_available_bytes < 0) {
+    out.meminfo_warning = "warning: no MemAvailable in " + roots.proc + "/meminfo (is /proc mounted?), not checked";
+  }
 
   out.cgroup_source = "no cgroup memory limit";
   if (!ReadFile(roots.proc + "/self/cgroup", &text)) {

@@ -12,6 +12,7 @@ struct MemoryLimits {
   std::int64_t mem_available_bytes = -1;  ///< /proc/meminfo MemAvailable; -1 when unreadable
   std::int64_t cgroup_limit_bytes = -1;   ///< lowest limit found; -1 when there is none
   std::string cgroup_source;              ///< the file the limit came from, or why there is none
+  std::string meminfo_warning;            ///< why MemAvailable is unknown (e.g. no /proc mounted); empty when read
 };
 
 /// Where to look; tests point these at fake trees.
