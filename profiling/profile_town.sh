@@ -1,0 +1,270 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
+# Peak-RAM profiling of a Town-scale mission with separate processes (issue 8 item 3):
+#
+#   profiling/profile_town.sh --commerge build-host/commerge --work /work/scratch/town
+#
+# 1. sim:     `commerge sim --world urban --robots R --keyframes N --lidar vlp16 --overlap complete
+#             --direction same --wobble-deg 0 --seed 11`: the robots patrol the same town tour (complete overlap:
+#             the largest stage A clusters, so the heaviest cascade and registration rounds), driven the same way
+#             round on a flat road (robots driving the other way round, or with roll/pitch wobble, do not merge in
+#             urban worlds: README "Generated scenarios"; with --overlap moderate, about half of each route
+#             shared, the 3 x 10 000 mission ended with robot 1 unmerged). About 0.4 MB of .bin files per scan:
+#             3 x 10 000 scans take about 12 GB under --work.
+# 2. mission: `commerge server` and R `commerge robot` processes on the --board memory profile (--robots R
+#             --max-keyframes N), each under `/usr/bin/time -f %M` (peak RSS from the kernel), inside a private
+#             network namespace (unshare -n: udpm on loopback only, ttl=0; nothing reaches a real interface).
+#             The robots replay their scans as fast as they map them (--rate-hz 1000); the mission ends when
+#             the server places every robot in the world frame (--exit-when-merged R).
+# Prints the wall time of each phase, then per process its peak RSS against its budget total on jetson-nano and
+# ipc-6000 and the goal (server < 512 MB, robot < 384 MB: decimal MB, on the jetson-nano profile), and per
+# process the budget, used (at exit) and high-water bytes of every budget module, from the daemons' exit summary
+# ("memory:" lines). Samples VmRSS / VmHWM of every process every 2 s into WORK/rss_samples.tsv and prints
+# when each process reached its peak. Progress lines on stderr during the run.
+#
+# Options:
+#   --commerge BIN | --build DIR   the commerge executable (native build: qemu inflates RSS)
+#   --work DIR                     work directory (logs, table; the dataset under DIR/data unless --data)
+#   --keyframes N                  keyframes (scans, 1 m apart) per robot (default 10000)
+#   --robots R                     robots (default 3)
+#   --board B                      memory profile of the processes (default jetson-nano)
+#   --overlap O                    complete | moderate | partial (commerge sim; default complete)
+#   --data DIR                     use this `commerge sim` dataset instead of generating one (kept)
+#   --keep                         keep the generated dataset (default: deleted at the end)
+#   --check                        CI checks: also fail (exit 1) unless every process's peak RSS <= its budget
+#                                  total on --board, every module's high-water <= its budget, and every goal met
+#   --max-runtime-s S              the server gives up after S seconds (default 300 + 0.05 N), a robot
+#                                  60 + 0.02 N s after its last scan; both still print their memory summary (exit 1)
+# Exit status: 0 when every process exited 0 (and, with --check, every check passed); 1 otherwise; 2 usage.
+# Prints "CM-SKIP: ..." and exits 0 when no private network namespace can be created.
+set -euo pipefail
+
+usage() { sed -n '3,/^set -euo/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; exit 2; }
+bin="" work="" keyframes=10000 robots=3 board=jetson-nano data="" keep=0 check=0 max_runtime_s="" overlap=complete
+args=("$@")
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --commerge) bin=$2; shift 2 ;;
+    --build) bin=$2/commerge; shift 2 ;;
+    --work) work=$2; shift 2 ;;
+    --keyframes) keyframes=$2; shift 2 ;;
+    --robots) robots=$2; shift 2 ;;
+    --board) board=$2; shift 2 ;;
+    --overlap) overlap=$2; shift 2 ;;
+    --data) data=$2; shift 2 ;;
+    --keep) keep=1; shift ;;
+    --check) check=1; shift ;;
+    --max-runtime-s) max_runtime_s=$2; shift 2 ;;
+    -h|--help) usage ;;
+    *) echo "profile_town.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+[ -n "$bin" ] && [ -n "$work" ] || usage
+[ -x "$bin" ] || { echo "profile_town.sh: $bin is not an executable (--commerge or --build)" >&2; exit 2; }
+case "$keyframes" in ''|*[!0-9]*) echo "profile_town.sh: --keyframes must be a number" >&2; exit 2 ;; esac
+case "$robots" in 2|3|4|5) ;; *) echo "profile_town.sh: --robots must be 2..5 (commerge sim)" >&2; exit 2 ;; esac
+[ -x /usr/bin/time ] || { echo "profile_town.sh: /usr/bin/time (GNU time) is missing (apt-get install time)" >&2; exit 2; }
+case "$overlap" in complete|moderate|partial) ;; *) echo "profile_town.sh: --overlap: complete, moderate or partial" >&2; exit 2 ;; esac
+[ -n "$max_runtime_s" ] || max_runtime_s=$((300 + keyframes / 20))
+
+# Everything runs inside a private network namespace: multicast must never reach a real interface.
+if [ "${CM_PROFILE_IN_NETNS:-0}" != 1 ]; then
+  if ! command -v unshare >/dev/null; then echo "CM-SKIP: unshare (util-linux) is not installed"; exit 0; fi
+  if ! unshare -n true 2>/dev/null; then
+    echo "CM-SKIP: cannot create a private network namespace (unshare -n needs root or user namespaces)"; exit 0
+  fi
+  export CM_PROFILE_IN_NETNS=1
+  exec unshare -n bash "$0" "${args[@]}"
+fi
+
+bin=$(readlink -f "$bin")
+mkdir -p "$work"
+work=$(readlink -f "$work")
+rm -f "$work"/*.err "$work"/*.out "$work"/*.time "$work/rss_samples.tsv" "$work/summary.txt"
+rm -rf "$work/server"
+ip link set lo up
+ip route add 224.0.0.0/4 dev lo
+export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
+
+log() { printf '[profile_town %5d s] %s\n' "$((SECONDS - t_start))" "$*" >&2; }
+mib() { awk -v b="$1" 'BEGIN { if (b < 0) print "-"; else printf "%.1f MiB", b / 1048576 }'; }
+t_start=$SECONDS
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null || true; done
+  if [ "$keep" = 0 ] && [ -z "$data" ] && [ -d "$work/data" ]; then rm -rf "$work/data"; fi
+}
+trap cleanup EXIT
+
+# ---- Phase 1: the dataset --------------------------------------------------------------------------------
+sim_s=0
+if [ -n "$data" ]; then
+  data=$(readlink -f "$data")
+  log "using the dataset $data (not generated)"
+else
+  data="$work/data"
+  log "sim: urban, $robots robots x $keyframes keyframes, VLP-16, overlap $overlap, same direction, flat road -> $data"
+  sim_start=$SECONDS
+  "$bin" sim --world urban --robots "$robots" --overlap "$overlap" --keyframes "$keyframes" --lidar vlp16 \
+      --direction same --wobble-deg 0 --seed 11 --threads 2 --force --out "$data" >"$work/sim.out" 2>"$work/sim.err" &
+  sim_pid=$!
+  pids+=("$sim_pid")
+  total=$((robots * keyframes))
+  while kill -0 "$sim_pid" 2>/dev/null; do
+    for _ in $(seq 30); do kill -0 "$sim_pid" 2>/dev/null || break; sleep 0.5; done
+    kill -0 "$sim_pid" 2>/dev/null || break
+    n=$(find "$data" -name '*.bin' 2>/dev/null | wc -l)
+    log "sim: $n of $total scans written"
+  done
+  if ! wait "$sim_pid"; then
+    echo "profile_town.sh: commerge sim failed:" >&2; tail -n 5 "$work/sim.err" "$work/sim.out" >&2; exit 1
+  fi
+  sim_s=$((SECONDS - sim_start))
+  log "sim: done in $sim_s s ($(du -sh "$data" | cut -f1))"
+fi
+for ((r = 0; r < robots; r++)); do
+  [ -f "$data/robot_$r/poses.txt" ] || { echo "profile_town.sh: missing $data/robot_$r/poses.txt" >&2; exit 2; }
+done
+
+# ---- Phase 2: the mission ----------------------------------------------------------------------------------
+tau_area=10000                      # the paper's; a short mission's overlap spans fewer cells
+[ "$keyframes" -lt 1000 ] && tau_area=1000
+sizing=(--board "$board" --robots "$robots" --max-keyframes "$keyframes")
+names=(server)
+for ((r = 0; r < robots; r++)); do names+=("robot$r"); done
+declare -A tpid cpid
+start_proc() {  # $1 = name, rest = commerge arguments
+  local name=$1; shift
+  /usr/bin/time -f '%M %e %x' -o "$work/$name.time" "$bin" "$@" >"$work/$name.out" 2>"$work/$name.err" &
+  tpid[$name]=$!
+  pids+=("$!")
+}
+child_of() {  # the commerge process under /usr/bin/time $1
+  local c=""
+  [ -r "/proc/$1/task/$1/children" ] && c=$(cat "/proc/$1/task/$1/children" 2>/dev/null)
+  [ -z "$c" ] && command -v pgrep >/dev/null && c=$(pgrep -P "$1" 2>/dev/null || true)
+  echo "${c%% *}"
+}
+vm() {  # $1 = pid, $2 = field (VmRSS, VmHWM) -> kB or -1
+  local v
+  v=$(awk -v f="$2:" '$1 == f { print $2 }' "/proc/$1/status" 2>/dev/null || true)
+  echo "${v:--1}"
+}
+
+log "mission: server + $robots robots on the $board profile (--max-keyframes $keyframes), tau_area $tau_area"
+mission_start=$SECONDS
+start_proc server server --out "$work/server" "${sizing[@]}" --exit-when-merged "$robots" --tau-area "$tau_area" \
+    --round-quiet-s 3 --max-runtime-s "$max_runtime_s" --linger-s 5
+sleep 0.5
+for ((r = 0; r < robots; r++)); do
+  start_proc "robot$r" robot --id "$r" --data "$data/robot_$r" "${sizing[@]}" --lidar vlp-16 \
+      --keyframe-spacing-m 0.9 --rate-hz 1000 --exit-when-merged "$robots" --linger-s "$((60 + keyframes / 50))"
+done
+printf 'time_s\tprocess\tvmrss_kib\tvmhwm_kib\tstate\n' >"$work/rss_samples.tsv"
+declare -A peak_at last_hwm
+next_log=$SECONDS
+while :; do
+  running=0
+  for name in "${names[@]}"; do
+    kill -0 "${tpid[$name]}" 2>/dev/null || continue
+    running=1
+    [ -n "${cpid[$name]:-}" ] || cpid[$name]=$(child_of "${tpid[$name]}")
+    [ -n "${cpid[$name]}" ] || continue
+    rss=$(vm "${cpid[$name]}" VmRSS)
+    hwm=$(vm "${cpid[$name]}" VmHWM)
+    [ "$hwm" -ge 0 ] || continue
+    state=$(tail -n 1 "$work/$name.err" 2>/dev/null | sed 's/^commerge [a-z]* *[0-9]*: //' | tr '\t' ' ' | cut -c1-120)
+    printf '%d\t%s\t%s\t%s\t%s\n' "$((SECONDS - mission_start))" "$name" "$rss" "$hwm" "$state" >>"$work/rss_samples.tsv"
+    if [ "$hwm" -gt "${last_hwm[$name]:-0}" ]; then last_hwm[$name]=$hwm; peak_at[$name]=$((SECONDS - mission_start)); fi
+  done
+  [ "$running" = 1 ] || break
+  if [ "$SECONDS" -ge "$next_log" ]; then
+    next_log=$((SECONDS + 15))
+    line=""
+    for name in "${names[@]}"; do
+      kill -0 "${tpid[$name]}" 2>/dev/null || { line+=" $name: exited;"; continue; }
+      state=$(tail -n 1 "$work/$name.err" 2>/dev/null | sed 's/^commerge [a-z]* *[0-9]*: //' | cut -c1-60)
+      line+=" $name $(mib $(( ${last_hwm[$name]:-0} * 1024 ))) peak (${state});"
+    done
+    log "mission:${line}"
+  fi
+  sleep 2
+done
+mission_s=$((SECONDS - mission_start))
+rc=0
+declare -A peak_kib exit_code
+for name in "${names[@]}"; do
+  code=0
+  wait "${tpid[$name]}" || code=$?
+  read -r kib _secs _x < <(tail -n 1 "$work/$name.time" 2>/dev/null || echo "- - -")
+  peak_kib[$name]=$kib
+  exit_code[$name]=$code
+  if [ "$code" != 0 ]; then
+    rc=1
+    echo "profile_town.sh: $name exited $code:" >&2
+    tail -n 5 "$work/$name.err" "$work/$name.out" >&2 || true
+  fi
+done
+log "mission: done in $mission_s s"
+
+# ---- The table ---------------------------------------------------------------------------------------------
+budget_total() {  # $1 = robot|server, $2 = board -> bytes (from `commerge budget`'s total line)
+  "$bin" budget --app "$1" --board "$2" --robots "$robots" --max-keyframes "$keyframes" 2>/dev/null |
+    awk '$1 == "total" { v = $2; u = $3; m = (u == "GiB") ? 1073741824 : (u == "MiB") ? 1048576 : (u == "KiB") ? 1024 : 1
+                         printf "%.0f\n", v * m; exit }'
+}
+declare -A total_nano total_ipc
+for app in robot server; do
+  total_nano[$app]=$(budget_total "$app" jetson-nano)
+  total_ipc[$app]=$(budget_total "$app" ipc-6000)
+done
+checks_failed=0
+fail_check() { checks_failed=1; echo "CHECK FAILED: $*"; }
+{
+  echo "Town-scale mission: urban, $robots robots x $keyframes keyframes (VLP-16, overlap $overlap, same direction,"
+  echo "flat road, seed 11); processes on the $board profile (--robots $robots --max-keyframes $keyframes)"
+  echo
+  printf '%-10s %8s\n' phase "wall [s]"
+  printf '%-10s %8s\n' sim "$sim_s" mission "$mission_s"
+  echo
+  printf '%-8s %4s %13s %13s %13s %10s %5s %13s\n' process exit "peak RSS" "jetson-nano" "ipc-6000" goal "" "peak at [s]"
+  for name in "${names[@]}"; do
+    app=robot; goal_mb=384
+    [ "$name" = server ] && { app=server; goal_mb=512; }
+    kib=${peak_kib[$name]}
+    bytes=-1
+    case "$kib" in ''|*[!0-9]*) ;; *) bytes=$((kib * 1024)) ;; esac
+    verdict=miss
+    [ "$bytes" -ge 0 ] && [ "$bytes" -lt $((goal_mb * 1000000)) ] && verdict=pass
+    printf '%-8s %4s %13s %13s %13s %10s %5s %13s\n' "$name" "${exit_code[$name]}" "$(mib "$bytes")" \
+        "$(mib "${total_nano[$app]:--1}")" "$(mib "${total_ipc[$app]:--1}")" "< $goal_mb MB" "$verdict" "${peak_at[$name]:--}"
+    if [ "$check" = 1 ]; then
+      [ "$verdict" = pass ] || fail_check "$name: peak RSS $(mib "$bytes") is not below the goal $goal_mb MB"
+      own_total=$(sed -n 's/^memory: peak RSS .*\[\(-\{0,1\}[0-9]*\) \([0-9]*\)\]$/\2/p' "$work/$name.err" | tail -n 1)
+      if [ -z "$own_total" ]; then
+        fail_check "$name: no memory exit summary on stderr"
+      elif [ "$bytes" -lt 0 ] || [ "$bytes" -gt "$own_total" ]; then
+        fail_check "$name: peak RSS $(mib "$bytes") exceeds its $board budget total $(mib "$own_total")"
+      fi
+    fi
+  done
+  echo "(peak RSS: GNU time's maxrss of each process; goals in decimal MB: 512 MB = 488.3 MiB, 384 MB = 366.2 MiB)"
+  for name in "${names[@]}"; do
+    echo
+    echo "$name modules ($board budget; used at exit; high-water; '-' = not measured):"
+    printf '  %-18s %12s %12s %12s\n' module budget used high-water
+    while read -r module budget used high; do
+      printf '  %-18s %12s %12s %12s\n' "$module" "$(mib "$budget")" "$(mib "$used")" "$(mib "$high")"
+      if [ "$check" = 1 ] && [ "$high" -gt "$budget" ]; then
+        fail_check "$name: module $module high-water $(mib "$high") exceeds its budget $(mib "$budget")"
+      fi
+    done < <(sed -n 's/^memory: \([a-z_.]*\) .*\[\(-\{0,1\}[0-9]*\) \(-\{0,1\}[0-9]*\) \(-\{0,1\}[0-9]*\)\]$/\1 \2 \3 \4/p' \
+               "$work/$name.err")
+    sed -n 's/^memory: \(peak RSS .*\)  \[.*$/  \1/p' "$work/$name.err"
+  done
+  merged=$(grep -h "^server: [0-9]* merge rounds" "$work/server.out" 2>/dev/null || true)
+  echo
+  echo "${merged:-server: no final line (it did not finish)}"
+} | tee "$work/summary.txt"
+[ "$checks_failed" = 0 ] || rc=1
+exit "$rc"
