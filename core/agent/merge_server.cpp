@@ -632,24 +632,11 @@ std::array<std::int64_t, MergeServer::kMemoryModules> MergeServer::MeasureMemory
 }
 
 void MergeServer::NoteMemory() const {
-  const std::array<std::int64_t, kMemoryModules> used = MeasureMemory();
-  for (std::size_t i = 0; i < kMemoryModules; ++i) {
-    memory_high_water_[i] = std::max(memory_high_water_[i], used[i]);
-  }
+  memory_high_water_.Note(MeasureMemory());
 }
 
 std::vector<ModuleMemory> MergeServer::MemoryUse() const {
-  const std::array<std::int64_t, kMemoryModules> used = MeasureMemory();
-  std::vector<ModuleMemory> out;
-  out.reserve(kMemoryModules);
-  for (std::size_t i = 0; i < kMemoryModules; ++i) {
-    memory_high_water_[i] = std::max(memory_high_water_[i], used[i]);
-    ModuleMemory m;
-    m.name = kServerMemoryModules[i];
-    m.used_bytes = used[i];
-    m.high_water_bytes = memory_high_water_[i];
-    out.push_back(std::move(m));
-  }
+  std::vector<ModuleMemory> out = memory_high_water_.Report(kServerMemoryModules, MeasureMemory());
   return out;
 }
 

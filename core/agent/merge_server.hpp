@@ -227,7 +227,7 @@ class MergeServer {
   std::vector<Eigen::Vector3d> alpha_origins_, beta_origins_;
   std::vector<std::vector<Eigen::Vector3d>> positions_;  ///< per robot, the cascade's keyframe positions
   std::uint64_t partial_flag_bytes_ = 0;                 ///< chunk flags of the partial scans
-  mutable std::array<std::int64_t, kMemoryModules> memory_high_water_{};
+  mutable ModuleHighWater<kMemoryModules> memory_high_water_;
 };
 
 }  // namespace commerge

@@ -10,6 +10,8 @@
 // session learns that the server lost everything and announces its keyframes again.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -168,6 +170,26 @@ struct MergeResultMessage {
 struct ModuleMemory {
   std::string name;
   std::int64_t budget_bytes = 0, used_bytes = 0, high_water_bytes = 0;
+};
+
+/// High-water marks of a fixed list of budget modules (RobotAgent, MergeServer): Note() raises each mark to what
+/// is in use now; Report() also returns the named rows (budget_bytes 0: the caller's budget table has them).
+template <std::size_t N>
+struct ModuleHighWater {
+  std::array<std::int64_t, N> marks{};
+  void Note(const std::array<std::int64_t, N>& used) noexcept {
+    for (std::size_t i = 0; i < N; ++i) marks[i] = std::max(marks[i], used[i]);
+  }
+  std::vector<ModuleMemory> Report(const char* const (&names)[N], const std::array<std::int64_t, N>& used) {
+    Note(used);
+    std::vector<ModuleMemory> out(N);
+    for (std::size_t i = 0; i < N; ++i) {
+      out[i].name = names[i];
+      out[i].used_bytes = used[i];
+      out[i].high_water_bytes = marks[i];
+    }
+    return out;
+  }
 };
 
 /// Health of one robot process (robot -> everyone, about once per second; for lcm-spy).

@@ -141,24 +141,11 @@ std::array<std::int64_t, RobotAgent::kMemoryModules> RobotAgent::MeasureMemory()
 }
 
 void RobotAgent::NoteMemory() const {
-  const std::array<std::int64_t, kMemoryModules> used = MeasureMemory();
-  for (std::size_t i = 0; i < kMemoryModules; ++i) {
-    memory_high_water_[i] = std::max(memory_high_water_[i], used[i]);
-  }
+  memory_high_water_.Note(MeasureMemory());
 }
 
 std::vector<ModuleMemory> RobotAgent::MemoryUse() const {
-  const std::array<std::int64_t, kMemoryModules> used = MeasureMemory();
-  std::vector<ModuleMemory> out;
-  out.reserve(kMemoryModules);
-  for (std::size_t i = 0; i < kMemoryModules; ++i) {
-    memory_high_water_[i] = std::max(memory_high_water_[i], used[i]);
-    ModuleMemory m;
-    m.name = kRobotMemoryModules[i];
-    m.used_bytes = used[i];
-    m.high_water_bytes = memory_high_water_[i];
-    out.push_back(std::move(m));
-  }
+  std::vector<ModuleMemory> out = memory_high_water_.Report(kRobotMemoryModules, MeasureMemory());
   // The scan store keeps its own mark (its used bytes fall when it evicts between two calls here).
   if (store_ != nullptr) {
     out[2].high_water_bytes = std::max(out[2].high_water_bytes, static_cast<std::int64_t>(store_->stats().high_water_bytes));

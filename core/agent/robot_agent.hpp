@@ -151,7 +151,7 @@ class RobotAgent {
   std::size_t dirty_count_ = 0;
   std::size_t dirty_scan_from_ = 0;       ///< no dirty flag below this keyframe
   std::vector<std::uint8_t> encoded_;
-  mutable std::array<std::int64_t, kMemoryModules> memory_high_water_{};
+  mutable ModuleHighWater<kMemoryModules> memory_high_water_;
 };
 
 }  // namespace commerge
