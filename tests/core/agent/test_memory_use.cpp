@@ -83,7 +83,7 @@ void DriveBlock(RobotAgent* agent, double length_m, After after) {
   }
 }
 
-const ModuleMemory& Module(const std::vector<ModuleMemory>& modules, const std::string& name) {
+ModuleMemory Module(const std::vector<ModuleMemory>& modules, const std::string& name) {
   for (const ModuleMemory& m : modules) {
     if (m.name == name) return m;
   }
@@ -262,7 +262,7 @@ TEST_CASE("Robot agent memory: the scan store high-water mark stays when it evic
   });
   const ScanStoreStats stats = rig.store->stats();
   REQUIRE(stats.num_evicted > 0);
-  const ModuleMemory& store = Module(rig.agent->MemoryUse(), "scan_store");
+  const ModuleMemory store = Module(rig.agent->MemoryUse(), "scan_store");
   CHECK(store.used_bytes == static_cast<std::int64_t>(stats.used_bytes));
   CHECK(store.high_water_bytes == static_cast<std::int64_t>(stats.high_water_bytes));
   CHECK(store.high_water_bytes >= max_seen);
