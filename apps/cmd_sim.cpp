@@ -113,6 +113,7 @@ std::string InfoText(const SimOptions& o, const MissionPlan& plan, const LidarMo
   line("lidar_min_range_m", FloatText(lidar.min_range_m));
   line("lidar_max_range_m", FloatText(lidar.max_range_m));
   line("lidar_range_noise_std_m", FloatText(lidar.range_noise_std_m));
+  line("lidar_detection_reference_reflectivity", FloatText(lidar.detection_reference_reflectivity));
   line("sensor_height_m", num(plan.sensor_height_m));
   line("lane_offset_m", num(plan.lane_offset_m));
   line("direction", p.same_direction ? "same" : "alternate");
@@ -183,6 +184,7 @@ int RunSim(const SimOptions& o) {
     }
     lidar.points_per_frame = o.livox_points;
   }
+  lidar.detection_reference_reflectivity = o.detection_reflectivity;
 
   auto writer = platform::KittiDatasetWriter::Create(o.out_dir, o.robots, o.force);
   if (!writer.ok()) {
@@ -336,6 +338,11 @@ Command AddSimCommand(CLI::App& root) {
       ->check(CLI::Range(1, 100000));
   cmd->add_option("--livox-points", o->livox_points, "Points per frame of the livox model (default 10000)")
       ->check(CLI::Range(1, 1000000));
+  cmd->add_option("--detection-reflectivity", o->detection_reflectivity,
+                  "Reflectivity at which the lidar reaches its max range; weaker or grazing returns fade sooner "
+                  "(range limit = max range x sqrt(reflectivity x cos incidence / this); 0 = every hit returns)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   return {cmd, [o]() -> int { return RunSim(*o); }};
 }
 

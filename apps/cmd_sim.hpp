@@ -23,6 +23,7 @@ struct SimOptions {
   int threads = 1;
   int azimuth_steps = 0;  // 0 = the model's
   int livox_points = 0;   // 0 = the model's
+  float detection_reflectivity = 0.0f;  // LidarModel::detection_reference_reflectivity (0 = off)
   std::string tag = "commerge sim";
 };
 

@@ -162,6 +162,9 @@ Status ValidateLidarModel(const LidarModel& m) {
     return InvalidArgument("lidar model: range_noise_std_m must be finite and >= 0");
   }
   if (!(m.frame_rate_hz > 0.0f)) return InvalidArgument("lidar model: frame_rate_hz must be > 0");
+  if (!(m.detection_reference_reflectivity >= 0.0f && m.detection_reference_reflectivity <= 1.0f)) {
+    return InvalidArgument("lidar model: detection_reference_reflectivity must be in [0, 1] (0 = off)");
+  }
   return Status::Ok();
 }
 
@@ -243,6 +246,11 @@ Status SimulateLidarScan(const World& world, const LidarModel& model, const Eige
     if (!world.CastRay(origin, dw, 0.0f, cast_max, &ws->rays, &hit)) continue;
     const float range = hit.range_m + noise;
     if (!(range >= model.min_range_m) || !(range <= model.max_range_m)) continue;
+    if (model.detection_reference_reflectivity > 0.0f) {
+      const float limit = model.max_range_m * std::sqrt(std::max(0.0f, hit.reflectivity * hit.cos_incidence) /
+                                                        model.detection_reference_reflectivity);
+      if (range > limit) continue;
+    }
     const float intensity = std::clamp(hit.reflectivity * hit.cos_incidence, 0.0f, 1.0f);
     out->push_back(PointXYZI{range * ds[0], range * ds[1], range * ds[2], intensity});
   }

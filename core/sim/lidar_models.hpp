@@ -41,6 +41,11 @@ struct LidarModel {
   float min_range_m = 0.5f;          ///< returns nearer than this are dropped (sensor blind zone)
   float max_range_m = 100.0f;        ///< no return beyond
   float range_noise_std_m = 0.02f;   ///< Gaussian range noise (1 sigma)
+  /// Detection limit: a surface of reflectivity rho hit at incidence cos c returns only within
+  /// max_range_m * sqrt(rho * c / detection_reference_reflectivity) (received power ~ rho c / r^2; vendors
+  /// quote max range at a reference reflectivity), so ground far away at grazing angles gives no return, as
+  /// on real sensors. 0 disables it (every hit within max_range_m returns).
+  float detection_reference_reflectivity = 0.0f;
 
   int rays_per_frame() const;
 };

@@ -203,6 +203,46 @@ TEST_CASE("lidar models: one workspace serves models with the same ray count (OS
   CHECK(max_elev_deg == doctest::Approx(11.25).epsilon(0.01));
 }
 
+TEST_CASE("lidar models: the detection limit drops far grazing ground returns by the received-power formula") {
+  // Ground only (reflectivity 0.25), sensor 1.8 m above it: beam e hits at r = 1.8 / sin(-e) with incidence
+  // cos = sin(-e); it returns iff r <= max_range * sqrt(0.25 * sin(-e) / rho_ref). Compare the beams that
+  // return with that formula, evaluated here independently of the caster.
+  World w;
+  w.set_ground_z_m(-1.8f);
+  REQUIRE(w.Build().ok());
+  LidarModel m = MakeLidarModel(LidarKind::kVlp16);
+  m.azimuth_steps = 36;
+  m.range_noise_std_m = 0.0f;
+  LidarScanWorkspace ws;
+  std::vector<PointXYZI> off, on;
+  REQUIRE(SimulateLidarScan(w, m, Eigen::Isometry3d::Identity(), 5, 0, &ws, &off).ok());
+  m.detection_reference_reflectivity = 0.8f;
+  REQUIRE(SimulateLidarScan(w, m, Eigen::Isometry3d::Identity(), 5, 0, &ws, &on).ok());
+  auto beams_of = [](const std::vector<PointXYZI>& pts) {
+    std::set<int> beams;
+    for (const PointXYZI& p : pts) {
+      beams.insert(static_cast<int>(std::lround(std::atan2(D(p.z), std::hypot(D(p.x), D(p.y))) * 180 / kPi)));
+    }
+    return beams;
+  };
+  std::set<int> expect_off, expect_on;
+  for (int e = -15; e < 0; e += 2) {
+    const double s = std::sin(-e * kPi / 180), r = 1.8 / s;
+    if (r <= 100.0) expect_off.insert(e);
+    if (r <= 100.0 * std::sqrt(0.25 * s / 0.8)) expect_on.insert(e);
+  }
+  CHECK(beams_of(off) == expect_off);  // -1 deg reaches the ground at 103 m: beyond max range anyway
+  CHECK(beams_of(on) == expect_on);    // -15 .. -7 deg (<= 14.7 m) stay, -5 deg (20.7 m) and flatter fade
+  CHECK(expect_on.size() < expect_off.size());
+  CHECK(on.size() == 36 * expect_on.size());
+  // A wall face-on at 60 m (reflectivity 0.5, cos 1): limit 100 sqrt(0.5 / 0.8) = 79 m, so it stays.
+  std::vector<PointXYZI> wall;
+  REQUIRE(SimulateLidarScan(WallWorld(60.0f), m, Eigen::Isometry3d::Identity(), 5, 0, &ws, &wall).ok());
+  CHECK(!wall.empty());
+  m.detection_reference_reflectivity = 1.5f;
+  CHECK(ValidateLidarModel(m).message().find("detection_reference_reflectivity") != std::string::npos);
+}
+
 TEST_CASE("lidar models: names, SOLiD presets and validation errors") {
   CHECK(*LidarKindFromName("VLP-16") == LidarKind::kVlp16);
   CHECK(*LidarKindFromName("hdl64") == LidarKind::kHdl64e);
