@@ -27,6 +27,10 @@ Status ValidateLoopDetectorParams(const LoopDetectorParams& p) {
                            "yaw_hypotheses], got " + std::to_string(p.yaw_screening_iterations) + " and " +
                            std::to_string(p.yaw_refinements));
   }
+  if (!(p.max_correction_m >= 0.0) || !(p.max_correction_per_travelled >= 0.0)) {
+    return InvalidArgument("loop detector: max_correction_m and max_correction_per_travelled must be >= 0, got " +
+                           std::to_string(p.max_correction_m) + " and " + std::to_string(p.max_correction_per_travelled));
+  }
   if (!(p.prediction_accept_inlier_ratio > 0.0)) {
     return InvalidArgument("loop detector: prediction_accept_inlier_ratio must be > 0 (> 1 disables it), got " +
                            std::to_string(p.prediction_accept_inlier_ratio));
@@ -42,6 +46,7 @@ const char* LoopVerdictName(LoopVerdict v) {
     case LoopVerdict::kIcpFailed: return "ICP did not converge";
     case LoopVerdict::kIcpResidualTooLarge: return "ICP residual above tau_ICP";
     case LoopVerdict::kTooFewInliers: return "too few ICP inliers";
+    case LoopVerdict::kCorrectionTooLarge: return "correction larger than odometry drift allows";
   }
   return "?";
 }

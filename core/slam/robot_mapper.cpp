@@ -143,7 +143,17 @@ Status RobotMapper::FindLoop(std::uint32_t query, Span<const float> query_descri
                                 Span<const PointXYZI>(match_points_), T_match_query_odom, params_.loop);
   if (!check.ok()) return check.status();
   step->loop = *check;
-  if (check->verdict != LoopVerdict::kAccepted) {
+  if (check->verdict == LoopVerdict::kAccepted) {
+    // Odometry plausibility: the path between the two keyframes is about (query - match) keyframe spacings
+    // (more keyframes per metre when turning, so this errs on the lenient side).
+    const double travelled_m = static_cast<double>(query - m.keyframe) * params_.keyframer.keyframe_spacing_m;
+    const double correction_m = (T_match_query_odom.inverse() * check->loop.T_match_query).translation().norm();
+    if (correction_m > params_.loop.max_correction_m + params_.loop.max_correction_per_travelled * travelled_m) {
+      step->loop.verdict = LoopVerdict::kCorrectionTooLarge;
+      ++stats_.loops_implausible;
+    }
+  }
+  if (step->loop.verdict != LoopVerdict::kAccepted) {
     ++stats_.loop_candidates_rejected;
     return Status::Ok();
   }
