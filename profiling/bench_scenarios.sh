@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Usage: profiling/bench_scenarios.sh [--commerge BUILD/commerge] [--keyframes N] [--work DIR] [--quick]
-#                                     [--direction alternate|same] [--wobble-deg D]
+#                                     [--direction alternate|same] [--wobble-deg D] [--detection-reflectivity R]
 # The generated-scenario table of the README: for each world (urban, campus, indoor, cave), 2 and 3 robots,
 # complete and partial overlap, `commerge sim` writes the dataset and `commerge run` (every exchange mode)
 # merges it on the jetson-nano memory profile. Prints one markdown row per scenario: robots merged, worst
-# alignment RMSE, bytes exchanged with the full cascade against sending every scan, server time (cascade +
-# registration), and the process's peak RSS after the robots and at the end. --quick: urban only.
-# --direction/--wobble-deg are passed to `commerge sim` (defaults: alternate, 0.5).
+# alignment RMSE, bytes exchanged with the full cascade against sending every stored scan and against the
+# paper's baseline (every keyframe's raw scan), server time (cascade + registration), and the process's peak RSS
+# after the robots and at the end. --quick: urban only.
+# --direction/--wobble-deg/--detection-reflectivity go to `commerge sim` (defaults: alternate, 0.5, 0 = off).
 set -euo pipefail
 bin=build/commerge
 keyframes=800
@@ -14,6 +15,7 @@ work=${TMPDIR:-/tmp}/commerge-scenarios
 worlds="urban campus indoor cave"
 direction=alternate
 wobble=0.5
+reflectivity=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --commerge) bin=$2; shift 2 ;;
@@ -22,7 +24,8 @@ while [ $# -gt 0 ]; do
     --quick) worlds="urban"; shift ;;
     --direction) direction=$2; shift 2 ;;
     --wobble-deg) wobble=$2; shift 2 ;;
-    -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
+    --detection-reflectivity) reflectivity=$2; shift 2 ;;
+    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
     *) echo "bench_scenarios.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -30,10 +33,10 @@ done
 mkdir -p "$work"
 get() { awk -F'\t' -v k="$1" '$1 == k { print $2 }' "$2"; }
 mib() { awk -v b="$1" 'BEGIN { printf "%.2f MiB", b / 1048576 }'; }
-echo "keyframes per robot: $keyframes, lidar VLP-16, default drift, direction $direction, roll/pitch wobble $wobble deg; board profile jetson-nano"
+echo "keyframes per robot: $keyframes, lidar VLP-16, default drift, direction $direction, roll/pitch wobble $wobble deg, detection reflectivity $reflectivity; board profile jetson-nano"
 echo
-echo "| world | robots | overlap | robots merged | worst e_rmse | A+B+C bytes | send-all bytes | reduction | server s (cascade + merge) | peak RSS after robots / end |"
-echo "|---|---|---|---|---|---|---|---|---|---|"
+echo "| world | robots | overlap | robots merged | worst e_rmse | A+B+C bytes | send-all bytes | reduction | raw keyframe scans | reduction vs raw | server s (cascade + merge) | peak RSS after robots / end |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
 for world in $worlds; do
   for robots in 2 3; do
     for overlap in complete partial; do
@@ -41,7 +44,8 @@ for world in $worlds; do
       data="$work/$name/data"
       out="$work/$name/run"
       "$bin" sim --world "$world" --robots "$robots" --overlap "$overlap" --keyframes "$keyframes" --lidar vlp16 \
-          --seed 11 --threads 2 --direction "$direction" --wobble-deg "$wobble" --out "$data" --force > "$work/$name.sim.log" 2>&1
+          --seed 11 --threads 2 --direction "$direction" --wobble-deg "$wobble" \
+          --detection-reflectivity "$reflectivity" --out "$data" --force > "$work/$name.sim.log" 2>&1
       dirs=()
       for ((r = 0; r < robots; r++)); do dirs+=("$data/robot_$r"); done
       set +e
@@ -51,14 +55,16 @@ for world in $worlds; do
       set -e
       m="$out/report/metrics.tsv"
       if [ ! -f "$m" ]; then
-        echo "| $world | $robots | $overlap | run failed (exit $rc, see $work/$name.run.log) | | | | | | |"
+        echo "| $world | $robots | $overlap | run failed (exit $rc, see $work/$name.run.log) | | | | | | | | |"
         continue
       fi
       all=$(get mode.send-all.total_bytes "$m"); abc=$(get mode.A+B+C.total_bytes "$m")
       red=$(awk -v a="$all" -v b="$abc" 'BEGIN { printf "%.2f %%", 100 * (1 - b / a) }')
+      raw=$(get raw_keyframe_scan_bytes "$m")
+      red_raw=$(awk -v a="$raw" -v b="$abc" 'BEGIN { printf "%.2f %%", 100 * (1 - b / a) }')
       rmse=$(get mode.A+B+C.worst_rmse_m "$m"); [ "$rmse" = "-1.000" ] && rmse="-" || rmse="$rmse m"
       server=$(awk -v c="$(get cascade_s "$m")" -v g="$(get mode.A+B+C.merge_s "$m")" 'BEGIN { printf "%.2f", c + g }')
-      echo "| $world | $robots | $overlap | $(get mode.A+B+C.robots_merged "$m") | $rmse | $(mib "$abc") | $(mib "$all") | $red | $server | $(mib "$(get peak_rss_after_robots_bytes "$m")") / $(mib "$(get peak_rss_end_bytes "$m")") |"
+      echo "| $world | $robots | $overlap | $(get mode.A+B+C.robots_merged "$m") | $rmse | $(mib "$abc") | $(mib "$all") | $red | $(mib "$raw") | $red_raw | $server | $(mib "$(get peak_rss_after_robots_bytes "$m")") / $(mib "$(get peak_rss_end_bytes "$m")") |"
     done
   done
 done
