@@ -953,9 +953,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     kv("robots_s", Fmt("%.3f", robots_s));
     kv("cascade_s", Fmt("%.3f", cascade_s));
     kv("stream_bytes", std::to_string(stream_bytes));
-    std::uint64_t raw_total = 0;
-    for (const RobotRun& r : robots) raw_total += r.raw_keyframe_bytes;
-    kv("raw_keyframe_scan_bytes", std::to_string(raw_total));
+    kv("raw_keyframe_scan_bytes", std::to_string(raw_bytes));
     for (int ri = 0; ri < num_robots; ++ri) {
       const RobotRun& r = robots[static_cast<std::size_t>(ri)];
       kv("robot." + std::to_string(ri) + ".loops", std::to_string(r.loops.size()));
