@@ -23,10 +23,14 @@
 #include "core/descriptor/solid.hpp"
 #include "core/memory/budget.hpp"
 #include "core/sim/synthetic_scan.hpp"
+#include "tests/core/agent/scan_chunk_fixtures.hpp"
 #include "tests/core/registration/registration_test_support.hpp"
 #include "tests/core/slam/block_loop_drive.hpp"
 
 using namespace commerge;
+using commerge::test::ChunksOf;
+using commerge::test::EncodeForTest;
+using commerge::test::LatticePoints;
 
 namespace {
 
@@ -146,40 +150,6 @@ KeyframeBatch MakeBatch(int robot, std::uint32_t first, const std::vector<std::a
     b.stored_points.push_back(1000);
   }
   return b;
-}
-
-std::vector<std::uint8_t> Encode(const std::vector<PointXYZI>& points) {
-  std::vector<std::uint8_t> out(EncodedScanBytes(points.size()));
-  auto info = EncodeScan(Span<const PointXYZI>(points), Span<std::uint8_t>(out));
-  REQUIRE(info.ok());
-  out.resize(info->bytes_written);
-  return out;
-}
-
-std::vector<ScanChunk> Chunks(int robot, std::uint32_t keyframe, const std::vector<std::uint8_t>& bytes) {
-  std::vector<ScanChunk> out;
-  const std::uint64_t n = ScanChunkCount(bytes.size(), kMaxScanChunkPayloadBytes);
-  for (std::uint64_t i = 0; i < n; ++i) {
-    const ChunkRange r = ScanChunkRange(bytes.size(), n, i);
-    ScanChunk c;
-    c.robot_id = robot;
-    c.keyframe = keyframe;
-    c.total_bytes = static_cast<std::uint32_t>(bytes.size());
-    c.chunk_index = static_cast<std::uint16_t>(i);
-    c.num_chunks = static_cast<std::uint16_t>(n);
-    c.payload.assign(bytes.begin() + static_cast<std::ptrdiff_t>(r.offset),
-                     bytes.begin() + static_cast<std::ptrdiff_t>(r.offset + r.size));
-    out.push_back(c);
-  }
-  return out;
-}
-
-std::vector<PointXYZI> SomePoints(std::size_t n) {
-  std::vector<PointXYZI> p;
-  for (std::size_t i = 0; i < n; ++i) {
-    p.push_back({static_cast<float>(i % 37) * 0.5f, static_cast<float>(i % 11), static_cast<float>(i % 5), 0.0f});
-  }
-  return p;
 }
 
 }  // namespace
@@ -314,8 +284,8 @@ TEST_CASE("Merge server memory: the server budget modules, descriptor_db from th
 
 TEST_CASE("Merge server memory: scan_reassembly counts held and partial scans, and its mark stays after ClearScans") {
   MergeServer server(2, 100, MergeServerParams{});
-  const std::vector<std::uint8_t> a = Encode(SomePoints(1000)), b = Encode(SomePoints(3000));
-  const std::vector<ScanChunk> ca = Chunks(0, 4, a), cb = Chunks(1, 9, b);
+  const std::vector<std::uint8_t> a = EncodeForTest(LatticePoints(1000)), b = EncodeForTest(LatticePoints(3000));
+  const std::vector<ScanChunk> ca = ChunksOf(0, 4, a), cb = ChunksOf(1, 9, b);
   REQUIRE(cb.size() > 2);
   for (const ScanChunk& c : ca) REQUIRE(server.OnScanChunk(c).ok());
   REQUIRE(server.OnScanChunk(cb[0]).ok());  // b is partial: all its bytes and one flag per chunk are held
@@ -383,10 +353,10 @@ TEST_CASE("Merge server memory: the cascade, the submaps and the registration co
   update.keyframes = {3};
   update.T_map_sensor = {T_a};
   REQUIRE(server.OnPoseUpdate(update).ok());
-  for (const ScanChunk& c : Chunks(0, 3, Encode(test::Transformed(pair.target.points, T_a.inverse())))) {
+  for (const ScanChunk& c : ChunksOf(0, 3, EncodeForTest(test::Transformed(pair.target.points, T_a.inverse())))) {
     REQUIRE(server.OnScanChunk(c).ok());
   }
-  for (const ScanChunk& c : Chunks(1, 0, Encode(pair.source.points))) REQUIRE(server.OnScanChunk(c).ok());
+  for (const ScanChunk& c : ChunksOf(1, 0, EncodeForTest(pair.source.points))) REQUIRE(server.OnScanChunk(c).ok());
   PairSelection sel;
   sel.alpha = 0;
   sel.beta = 1;

@@ -9,12 +9,16 @@
 #include <random>
 #include <vector>
 
+#include "tests/core/agent/scan_chunk_fixtures.hpp"
 #include "tests/core/registration/registration_test_support.hpp"
 #include "core/agent/merge_server.hpp"
 #include "core/cloud/scan_codec.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
 
 using namespace commerge;
+using commerge::test::ChunksOf;
+using commerge::test::EncodeForTest;
+using commerge::test::LatticePoints;
 
 namespace {
 
@@ -47,41 +51,6 @@ KeyframeBatch MakeBatch(int robot, const std::vector<std::array<float, kKeyframe
     b.stored_points.push_back(points);
   }
   return b;
-}
-
-std::vector<std::uint8_t> Encode(const std::vector<PointXYZI>& points) {
-  std::vector<std::uint8_t> out(EncodedScanBytes(points.size()));
-  auto info = EncodeScan(Span<const PointXYZI>(points), Span<std::uint8_t>(out));
-  REQUIRE(info.ok());
-  out.resize(info->bytes_written);
-  return out;
-}
-
-std::vector<ScanChunk> Chunks(int robot, std::uint32_t keyframe, const std::vector<std::uint8_t>& bytes,
-                              std::size_t max_payload) {
-  std::vector<ScanChunk> out;
-  const std::uint64_t n = ScanChunkCount(bytes.size(), max_payload);
-  for (std::uint64_t i = 0; i < n; ++i) {
-    const ChunkRange r = ScanChunkRange(bytes.size(), n, i);
-    ScanChunk c;
-    c.robot_id = robot;
-    c.keyframe = keyframe;
-    c.total_bytes = static_cast<std::uint32_t>(bytes.size());
-    c.chunk_index = static_cast<std::uint16_t>(i);
-    c.num_chunks = static_cast<std::uint16_t>(n);
-    c.payload.assign(bytes.begin() + static_cast<std::ptrdiff_t>(r.offset),
-                     bytes.begin() + static_cast<std::ptrdiff_t>(r.offset + r.size));
-    out.push_back(c);
-  }
-  return out;
-}
-
-std::vector<PointXYZI> SomePoints(std::size_t n) {
-  std::vector<PointXYZI> p;
-  for (std::size_t i = 0; i < n; ++i) {
-    p.push_back({static_cast<float>(i % 37) * 0.5f, static_cast<float>(i % 11), static_cast<float>(i % 5), 0.0f});
-  }
-  return p;
 }
 
 }  // namespace
@@ -136,8 +105,8 @@ TEST_CASE("Merge server reassembles scan chunks in any order, ignores duplicates
   MergeServerParams params;
   params.max_scan_bytes = 1 << 16;
   MergeServer server(2, 100, params);
-  const std::vector<std::uint8_t> scan = Encode(SomePoints(1000));  // 6012 bytes
-  std::vector<ScanChunk> chunks = Chunks(1, 4, scan, 700);
+  const std::vector<std::uint8_t> scan = EncodeForTest(LatticePoints(1000));  // 6012 bytes
+  std::vector<ScanChunk> chunks = ChunksOf(1, 4, scan, 700);
   REQUIRE(chunks.size() == 9);
   std::reverse(chunks.begin(), chunks.end());
   for (std::size_t i = 0; i < chunks.size(); ++i) {
@@ -152,7 +121,7 @@ TEST_CASE("Merge server reassembles scan chunks in any order, ignores duplicates
   CHECK(server.scan_bytes_held() == scan.size());
 
   // A flipped payload byte: the CRC refuses the scan, which is not kept.
-  std::vector<ScanChunk> bad = Chunks(0, 2, scan, 700);
+  std::vector<ScanChunk> bad = ChunksOf(0, 2, scan, 700);
   bad[3].payload[5] ^= 0x01;
   Status last;
   for (const ScanChunk& c : bad) last = server.OnScanChunk(c);
@@ -162,7 +131,7 @@ TEST_CASE("Merge server reassembles scan chunks in any order, ignores duplicates
   CHECK(server.scan_bytes_held() == scan.size());
 
   // A payload of the wrong size for its index, and an index beyond the count: refused, nothing held for them.
-  std::vector<ScanChunk> odd = Chunks(0, 3, scan, 700);
+  std::vector<ScanChunk> odd = ChunksOf(0, 3, scan, 700);
   odd[1].payload.pop_back();
   CHECK(server.OnScanChunk(odd[1]).code() == StatusCode::kInvalidArgument);
   CHECK(server.scan_bytes_held() == scan.size());
@@ -172,7 +141,7 @@ TEST_CASE("Merge server reassembles scan chunks in any order, ignores duplicates
   // The byte budget: scans beyond max_scan_bytes are refused and counted.
   std::size_t refused = 0;
   for (std::uint32_t k = 10; k < 30; ++k) {
-    for (const ScanChunk& c : Chunks(1, k, scan, 1200)) refused += !server.OnScanChunk(c).ok();
+    for (const ScanChunk& c : ChunksOf(1, k, scan, 1200)) refused += !server.OnScanChunk(c).ok();
   }
   CHECK(refused > 0);
   CHECK(server.stats().chunks_over_budget > 0);
@@ -186,10 +155,10 @@ TEST_CASE("Merge server bounds the number of scans it holds, whatever their size
   MergeServerParams params;
   params.max_scans_held = 3;
   MergeServer server(2, 100, params);
-  const std::vector<std::uint8_t> tiny = Encode(SomePoints(2));
+  const std::vector<std::uint8_t> tiny = EncodeForTest(LatticePoints(2));
   std::size_t accepted = 0;
   for (std::uint32_t k = 0; k < 6; ++k) {
-    for (const ScanChunk& c : Chunks(0, k, tiny, 1200)) accepted += server.OnScanChunk(c).ok();
+    for (const ScanChunk& c : ChunksOf(0, k, tiny, 1200)) accepted += server.OnScanChunk(c).ok();
   }
   CHECK(accepted == 3);
   CHECK(server.scans_received() == 3);
@@ -296,10 +265,10 @@ TEST_CASE("Merge server builds a pair's submaps from received scans and register
   update.keyframes = {3};
   update.T_map_sensor = {T_a};
   REQUIRE(server.OnPoseUpdate(update).ok());
-  for (const ScanChunk& c : Chunks(0, 3, Encode(test::Transformed(pair.target.points, T_a.inverse())), 1200)) {
+  for (const ScanChunk& c : ChunksOf(0, 3, EncodeForTest(test::Transformed(pair.target.points, T_a.inverse())), 1200)) {
     REQUIRE(server.OnScanChunk(c).ok());
   }
-  for (const ScanChunk& c : Chunks(1, 0, Encode(pair.source.points), 1200)) REQUIRE(server.OnScanChunk(c).ok());
+  for (const ScanChunk& c : ChunksOf(1, 0, EncodeForTest(pair.source.points), 1200)) REQUIRE(server.OnScanChunk(c).ok());
 
   PairSelection sel;
   sel.alpha = 0;
