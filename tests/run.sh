@@ -59,8 +59,25 @@ run_config() {
     *) ctest_args+=(-LE heavy) ;;
   esac
   echo "=== [$name] ctest ==="
-  ctest "${ctest_args[@]}"
+  local rc=0
+  ctest "${ctest_args[@]}" || rc=$?
+  if [ $rc -ne 0 ]; then failure_digest "$name" "$dir"; return $rc; fi
   summary+=("$name: passed in $((SECONDS - start)) s")
+}
+
+# After a failed ctest: the failed tests and the lines of their logs that say why, last in the output (a CI log
+# is often read from its tail, and -j2 interleaves the tests' own output).
+failure_digest() {
+  local name=$1 dir=$2 log="$2/Testing/Temporary/LastTest.log"
+  echo "=== [$name] failure digest ==="
+  if [ -f "$dir/Testing/Temporary/LastTestsFailed.log" ]; then
+    sed 's/^/  failed: /' "$dir/Testing/Temporary/LastTestsFailed.log"
+  fi
+  if [ -f "$log" ]; then
+    grep -a -E "^[0-9]+/[0-9]+ Testing:|Test Failed|cm-fuzz:|libFuzzer: |==[0-9]+==ERROR|SUMMARY: |runtime error:|failed \(exit|the failing input|ERROR: CHECK|ERROR: REQUIRE|\[doctest\] test cases:.*[1-9][0-9]* failed|Segmentation|Aborted|Timeout" \
+      "$log" | cut -c1-300 | tail -n 60 | sed 's/^/  /'
+  fi
+  echo "=== [$name] FAILED (full log: $log) ==="
 }
 
 for c in "${configs[@]}"; do
