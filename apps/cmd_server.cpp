@@ -25,6 +25,7 @@
 #include "core/agent/delivery_digest.hpp"
 #include "core/agent/server_link.hpp"
 #include "core/cloud/scan_codec.hpp"
+#include "core/exchange/exchange_policy.hpp"
 #include "platform/io/pcd.hpp"
 #include "platform/io/ply.hpp"
 #include "platform/lcm/lcm_bus.hpp"
@@ -49,6 +50,7 @@ struct ServerOptions {
   std::int64_t round_min_new_keyframes = 200;
   double tau_inter = 0.0;
   std::int64_t tau_area = -1;
+  std::int64_t min_submap_scans = -1;
   int exit_when_merged = 0;
   double max_runtime_s = 0.0;
   double linger_s = 3.0;
@@ -136,6 +138,9 @@ int RunServer(const ServerOptions& o) {
   MergeServerParams server_params;
   if (o.tau_inter > 0.0) server_params.cascade.stage_a.tau_inter = o.tau_inter;
   if (o.tau_area >= 0) server_params.cascade.stage_a.tau_area = static_cast<std::uint64_t>(o.tau_area);
+  if (o.min_submap_scans >= 0) {
+    server_params.cascade.policy.min_scans_per_robot = static_cast<std::uint32_t>(o.min_submap_scans);
+  }
   server_params.max_submap_points =
       static_cast<std::size_t>(std::min<std::int32_t>(setup.config.max_submap_points, 100000));
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) {
@@ -391,6 +396,11 @@ Command AddServerCommand(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--tau-inter", o->tau_inter, "stage A descriptor distance threshold (0 = the paper's)");
   cmd->add_option("--tau-area", o->tau_area, "stage A minimal cluster span area [cells] (-1 = the paper's 10000)");
+  cmd->add_option("--min-submap-scans", o->min_submap_scans,
+                  "fewest scans asked of each robot per pair: L_K's keyframes plus their nearest trajectory "
+                  "neighbours (-1 = the default, " +
+                      std::to_string(ExchangePolicyParams{}.min_scans_per_robot) + "; 0 = exactly L_K's, the paper's)")
+      ->check(CLI::Range(std::int64_t{-1}, std::int64_t{kMaxMinScansPerRobot}));
   cmd->add_option("--exit-when-merged", o->exit_when_merged, "exit 0 once this many robots are in the world frame "
                   "and the last round saw every keyframe delivered (the robots went quiet for --round-quiet-s)");
   cmd->add_option("--max-runtime-s", o->max_runtime_s, "give up (exit 1) after this long [s] (0 = never)");

@@ -22,6 +22,7 @@
 #include "core/agent/robot_agent.hpp"
 #include "core/common/bytes.hpp"
 #include "core/descriptor/sensor_presets.hpp"
+#include "core/exchange/exchange_policy.hpp"
 #include "core/descriptor/solid.hpp"
 #include "core/eval/alignment_metrics.hpp"
 #include "core/eval/byte_ledger.hpp"
@@ -343,6 +344,11 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
   cmd->add_option("--tau-inter", o->tau_inter, "stage A descriptor distance threshold")->capture_default_str();
   cmd->add_option("--tau-area", o->tau_area, "stage A minimal cluster span area [cells]")->capture_default_str();
   cmd->add_option("--tau-con-m", o->tau_con_m, "stage C positional consistency bound [m]")->capture_default_str();
+  cmd->add_option("--min-submap-scans", o->min_submap_scans,
+                  "fewest scans asked of each robot per pair: L_K's keyframes plus their nearest trajectory "
+                  "neighbours (0 = exactly L_K's, the paper's policy)")
+      ->check(CLI::Range(0u, kMaxMinScansPerRobot))
+      ->capture_default_str();
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m,
                   "robots take a keyframe every this many metres (paper 1.0; datasets written at exactly 1 m "
                   "keyframes need a little less, e.g. 0.9, or odometry noise skips every other one)")
@@ -420,6 +426,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
   server_params.cascade.stage_a.tau_inter = o.tau_inter;
   server_params.cascade.stage_a.tau_area = static_cast<std::uint64_t>(std::max<std::int64_t>(0, o.tau_area));
   server_params.cascade.stage_c.tau_con_m = o.tau_con_m;
+  server_params.cascade.policy.min_scans_per_robot = o.min_submap_scans;
   server_params.max_submap_points = static_cast<std::size_t>(std::min<std::int32_t>(setup.config.max_submap_points, 100000));
   MergeServer server(num_robots, static_cast<std::size_t>(setup.config.max_keyframes_per_robot), server_params);
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) {
@@ -589,12 +596,19 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     for (int b = a + 1; b < num_robots; ++b) {
       const ExchangeCascadeResult* c = server.cascade(a, b);
       if (!c) continue;
-      std::printf("  pair %d-%d: %s; L_seq %zu loops (%zu x %zu keyframes), stage B %zu + %zu scans (%s), |L_K| = %zu; "
+      std::string padded;
+      if (c->policy.alpha.padded_scans + c->policy.beta.padded_scans > 0) {
+        padded = " (policy " + std::to_string(c->policy.alpha.keyframes.size()) + " + " +
+                 std::to_string(c->policy.beta.keyframes.size()) + " scans with " +
+                 std::to_string(c->policy.alpha.padded_scans) + " + " + std::to_string(c->policy.beta.padded_scans) +
+                 " trajectory neighbours, --min-submap-scans)";
+      }
+      std::printf("  pair %d-%d: %s; L_seq %zu loops (%zu x %zu keyframes), stage B %zu + %zu scans (%s), |L_K| = %zu%s; "
                   "A %.3f s, B %.3f s, C %.3f s%s%s\n",
                   a, b, CascadeOutcomeName(c->outcome), c->stage_a.cells.size(), c->stage_b_vertices_alpha,
                   c->stage_b_vertices_beta, c->stage_b.selected_left.size(), c->stage_b.selected_right.size(),
-                  BalancedCoverStatusName(c->stage_b.status), c->stage_c.selected_loops.size(), c->stage_a_s,
-                  c->stage_b_s, c->stage_c_s, c->no_candidate_reason.empty() ? "" : "; ",
+                  BalancedCoverStatusName(c->stage_b.status), c->stage_c.selected_loops.size(), padded.c_str(),
+                  c->stage_a_s, c->stage_b_s, c->stage_c_s, c->no_candidate_reason.empty() ? "" : "; ",
                   c->no_candidate_reason.c_str());
     }
   }

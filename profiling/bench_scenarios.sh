@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # Usage: profiling/bench_scenarios.sh [--commerge BUILD/commerge] [--keyframes N] [--work DIR] [--quick]
 #                                     [--direction alternate|same] [--wobble-deg D] [--detection-reflectivity R]
+#                                     [--run-args "ARGS"]
 # The generated-scenario table of the README: for each world (urban, campus, indoor, cave), 2 and 3 robots,
 # complete and partial overlap, `commerge sim` writes the dataset and `commerge run` (every exchange mode)
 # merges it on the jetson-nano memory profile. Prints one markdown row per scenario: robots merged, worst
 # alignment RMSE, bytes exchanged with the full cascade against sending every stored scan and against the
 # paper's baseline (every keyframe's raw scan), server time (cascade + registration), and the process's peak RSS
 # after the robots and at the end. --quick: urban only.
-# --direction/--wobble-deg/--detection-reflectivity go to `commerge sim` (defaults: alternate, 0.5, 0 = off).
+# --direction/--wobble-deg/--detection-reflectivity go to `commerge sim` (defaults: alternate, 0.5, 0 = off);
+# --run-args adds options to every `commerge run` (e.g. "--min-submap-scans 0" for the paper's exact policy).
 set -euo pipefail
 bin=build/commerge
 keyframes=800
@@ -16,6 +18,7 @@ worlds="urban campus indoor cave"
 direction=alternate
 wobble=0.5
 reflectivity=0
+run_args=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --commerge) bin=$2; shift 2 ;;
@@ -25,7 +28,8 @@ while [ $# -gt 0 ]; do
     --direction) direction=$2; shift 2 ;;
     --wobble-deg) wobble=$2; shift 2 ;;
     --detection-reflectivity) reflectivity=$2; shift 2 ;;
-    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+    --run-args) run_args=$2; shift 2 ;;
+    -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
     *) echo "bench_scenarios.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -33,7 +37,7 @@ done
 mkdir -p "$work"
 get() { awk -F'\t' -v k="$1" '$1 == k { print $2 }' "$2"; }
 mib() { awk -v b="$1" 'BEGIN { printf "%.2f MiB", b / 1048576 }'; }
-echo "keyframes per robot: $keyframes, lidar VLP-16, default drift, direction $direction, roll/pitch wobble $wobble deg, detection reflectivity $reflectivity; board profile jetson-nano"
+echo "keyframes per robot: $keyframes, lidar VLP-16, default drift, direction $direction, roll/pitch wobble $wobble deg, detection reflectivity $reflectivity; board profile jetson-nano${run_args:+; run options: $run_args}"
 echo
 echo "| world | robots | overlap | robots merged | worst e_rmse | A+B+C bytes | send-all bytes | reduction | raw keyframe scans | reduction vs raw | server s (cascade + merge) | peak RSS after robots / end |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
@@ -50,7 +54,7 @@ for world in $worlds; do
       for ((r = 0; r < robots; r++)); do dirs+=("$data/robot_$r"); done
       set +e
       "$bin" run "${dirs[@]}" --lidar vlp-16 --keyframe-spacing-m 0.9 --board jetson-nano --no-progress \
-          --max-keyframes $((keyframes + 100)) --out "$out" > "$work/$name.run.log" 2>&1
+          --max-keyframes $((keyframes + 100)) --out "$out" $run_args > "$work/$name.run.log" 2>&1
       rc=$?
       set -e
       m="$out/report/metrics.tsv"

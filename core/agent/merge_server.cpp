@@ -77,6 +77,7 @@ Status ValidateMergeServerParams(const MergeServerParams& params) {
     return InvalidArgument("max_scan_bytes = " + std::to_string(params.max_scan_bytes) + " must be >= 65536");
   }
   if (Status st = ValidateStageCParams(params.cascade.stage_c); !st.ok()) return st;
+  if (Status st = ValidateExchangePolicyParams(params.cascade.policy); !st.ok()) return st;
   SubmapRegistrationParams reg = MakeSubmapRegistrationParams(params.submap_voxel_size_m);
   reg.gates = params.gates;
   reg.max_hypotheses = params.registration_hypotheses;

@@ -38,6 +38,7 @@ const char* CascadeOutcomeName(CascadeOutcome outcome) noexcept {
 Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
                                                  const ExchangeCascadeParams& params) {
   if (Status s = ValidateStageCParams(params.stage_c); !s.ok()) return s;
+  if (Status s = ValidateExchangePolicyParams(params.policy); !s.ok()) return s;
   if (Status s = ValidateDescriptorSet(alpha.descriptors, "alpha"); !s.ok()) return s;
   if (Status s = ValidateDescriptorSet(beta.descriptors, "beta"); !s.ok()) return s;
   if (alpha.positions_m.size() != alpha.descriptors.count() || beta.positions_m.size() != beta.descriptors.count()) {
@@ -111,7 +112,7 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
   // Exchange policy.
   t0 = std::chrono::steady_clock::now();
   auto policy = MakeExchangePolicy(result.stage_c.selected_loops, alpha.stored_points, beta.stored_points,
-                                   params.policy);
+                                   alpha.descriptors.count(), beta.descriptors.count(), params.policy);
   if (!policy.ok()) return policy.status();
   result.policy = std::move(*policy);
   result.policy_s = SecondsSince(t0);

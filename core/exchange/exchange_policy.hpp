@@ -19,13 +19,28 @@ struct ExchangePolicyParams {
   /// Points per stored scan assumed when a robot did not report its stored point counts. 4 300 is what a
   /// 64-beam scan keeps after the 1 m voxel grid (KITTI 00: 124 668 -> 4 273 points).
   std::uint32_t assumed_points_per_scan = 4300;
+  /// Fewest scans asked of each robot (ours, not in the paper; 0 = exactly the scans of L_K, the paper's
+  /// policy). The paper sends raw scans, so a handful of them make a dense submap; our robots keep 1 m voxel
+  /// scans (a few hundred points each), and a submap of 4-6 of them leaves the coarse registration without
+  /// enough features (generated campus, 3 robots: 6 + 4 and 4 + 2 scans failed, 10 + 10 merged). When L_K
+  /// names fewer keyframes of a robot, its trajectory neighbours are added, nearest index distance first
+  /// (k - 1, k + 1, k - 2, ... around each selected keyframe, in order), so the submap grows along the same
+  /// stretch of path.
+  std::uint32_t min_scans_per_robot = 10;
 };
+
+/// Largest min_scans_per_robot accepted (a policy of more scans than this is not "a few scans").
+inline constexpr std::uint32_t kMaxMinScansPerRobot = 1000;
+
+/// InvalidArgument naming the field for assumed_points_per_scan = 0 or min_scans_per_robot above the limit.
+Status ValidateExchangePolicyParams(const ExchangePolicyParams& params);
 
 /// Scans one robot must send, and their predicted size.
 struct RobotScanRequest {
   std::vector<std::uint32_t> keyframes;  ///< unique keyframe indices, ascending
   std::uint64_t predicted_bytes = 0;     ///< sum of encoded scan sizes
   std::size_t estimated_scans = 0;       ///< scans whose size used assumed_points_per_scan (no reported count)
+  std::size_t padded_scans = 0;          ///< keyframes added by min_scans_per_robot (not endpoints of L_K)
 };
 
 struct ExchangePolicy {
@@ -37,10 +52,13 @@ struct ExchangePolicy {
 };
 
 /// Builds the policy from L_K. `alpha_points` / `beta_points`: stored point count per keyframe index as reported by
-/// the robots (an empty span, or an entry of 0, means unknown -> assumed_points_per_scan). Errors
-/// (InvalidArgument): a keyframe index beyond 2^32 - 1, a reported span shorter than a requested index.
+/// the robots (an empty span, or an entry of 0, means unknown -> assumed_points_per_scan). `alpha_keyframes` /
+/// `beta_keyframes`: how many keyframes each robot has (padding stays below them). Errors (InvalidArgument): a
+/// keyframe index beyond 2^32 - 1 or not below the robot's keyframe count, a reported span shorter than a
+/// requested index, bad params.
 Result<ExchangePolicy> MakeExchangePolicy(Span<const SequentialLoopCell> selected_loops,
                                           Span<const std::uint32_t> alpha_points,
-                                          Span<const std::uint32_t> beta_points, const ExchangePolicyParams& params);
+                                          Span<const std::uint32_t> beta_points, std::size_t alpha_keyframes,
+                                          std::size_t beta_keyframes, const ExchangePolicyParams& params);
 
 }  // namespace commerge

@@ -132,6 +132,11 @@ cm_cli_test(NAME "run: an unknown exchange mode is a usage error" RC 2 REGEX "un
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-a/robot_0" "${CM_CLI_OUT}/sim-a/robot_1" --modes A,B
                     --out "${CM_CLI_OUT}/run-bad")
 set_tests_properties("cli: run: an unknown exchange mode is a usage error" PROPERTIES FIXTURES_REQUIRED sim_a)
+cm_cli_test(NAME "run: --min-submap-scans above 1000 is a usage error" RC 2 REGEX "--min-submap-scans: Value 1001 not in range"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/nowhere" "${CM_CLI_OUT}/nowhere2" --min-submap-scans 1001
+                    --out "${CM_CLI_OUT}/run-bad")
+cm_cli_test(NAME "server: --min-submap-scans above 1000 is a usage error" RC 2 REGEX "--min-submap-scans: Value 1001 not in range"
+            COMMAND ${CM_BIN} server --min-submap-scans 1001)
 cm_cli_test(NAME "run: an empty time range is a usage error" RC 2 REGEX "range 5-5 is empty"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-a/robot_0:5-5" "${CM_CLI_OUT}/sim-a/robot_1" --out "${CM_CLI_OUT}/run-bad")
 cm_cli_test(NAME "run: tiny dataset, every mode, no pair merged is exit 1 with the reason" RC 1

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <set>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -60,6 +61,7 @@ TEST_CASE("Cascade: two robots on one street in opposite directions - only true 
 
   ExchangeCascadeParams params;
   params.stage_a.tau_area = 400;  // a 20 x 20 keyframe span: the overlap here is ~50 m (the paper: 100 x 100)
+  params.policy.min_scans_per_robot = 0;  // the paper's policy: exactly L_K's endpoints (padding: below)
   auto r = RunExchangeCascade(Input(alpha), Input(beta), params);
   REQUIRE(r.ok());
   INFO("stage A: clusters ", r->stage_a.num_clusters, ", cells below tau ", r->stage_a.num_cells_below_threshold,
@@ -130,6 +132,23 @@ TEST_CASE("Cascade: two robots on one street in opposite directions - only true 
   for (std::uint32_t k : want_a) bytes += 12 + 6 * std::uint64_t{alpha.raw_points[k]};
   for (std::uint32_t k : want_b) bytes += 12 + 6 * std::uint64_t{beta.raw_points[k]};
   CHECK(r->policy.predicted_bytes() == bytes);
+
+  // With a minimum per robot, the same L_K and its endpoints plus trajectory neighbours (never beyond the 80
+  // keyframes a robot has).
+  for (std::uint32_t min_scans : {12u, 200u}) {
+    ExchangeCascadeParams padded_params = params;
+    padded_params.policy.min_scans_per_robot = min_scans;
+    auto padded = RunExchangeCascade(Input(alpha), Input(beta), padded_params);
+    REQUIRE(padded.ok());
+    REQUIRE(padded->outcome == CascadeOutcome::kPolicy);
+    CHECK(padded->stage_c.selected_loops.size() == r->stage_c.selected_loops.size());
+    for (const auto& [request, want] : {std::make_pair(&padded->policy.alpha, &want_a),
+                                        std::make_pair(&padded->policy.beta, &want_b)}) {
+      CHECK(request->keyframes.size() == std::max<std::size_t>(want->size(), std::min(min_scans, 80u)));
+      CHECK(request->padded_scans == request->keyframes.size() - want->size());
+      CHECK(std::includes(request->keyframes.begin(), request->keyframes.end(), want->begin(), want->end()));
+    }
+  }
 
   // The paper's literal loop set (any endpoint selected) is all of L_seq, since stage B returns a cover; its
   // clique is larger, still true loops only, and asks for more scans.
