@@ -111,8 +111,8 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
 
   // Exchange policy.
   t0 = std::chrono::steady_clock::now();
-  auto policy = MakeExchangePolicy(result.stage_c.selected_loops, alpha.stored_points, beta.stored_points,
-                                   alpha.descriptors.count(), beta.descriptors.count(), params.policy);
+  auto policy = MakeExchangePolicy(result.stage_c.selected_loops, l_seq, alpha.stored_points, beta.stored_points,
+                                   params.policy);
   if (!policy.ok()) return policy.status();
   result.policy = std::move(*policy);
   result.policy_s = SecondsSince(t0);

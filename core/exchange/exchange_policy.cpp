@@ -4,51 +4,46 @@
 #include <algorithm>
 #include <limits>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "core/cloud/scan_codec.hpp"
 
 namespace commerge {
 namespace {
 
-// Adds trajectory neighbours of the (sorted, unique) selected keyframes until there are min(min_scans,
-// num_keyframes) of them: index distance 1 around every selected keyframe in order, then 2, ... Returns how many.
-std::size_t PadWithNeighbours(std::vector<std::uint32_t>* keyframes, std::size_t num_keyframes,
-                              std::uint32_t min_scans) {
-  const std::size_t target = std::min<std::size_t>(min_scans, num_keyframes);
-  if (keyframes->empty() || keyframes->size() >= target) return 0;
-  const std::vector<std::uint32_t> selected = *keyframes;
-  std::vector<bool> taken(num_keyframes, false);
-  for (std::uint32_t k : selected) taken[k] = true;
-  std::size_t added = 0;
-  for (std::size_t d = 1; d < num_keyframes && keyframes->size() < target; ++d) {
-    for (std::uint32_t k : selected) {
-      for (int side = -1; side <= 1 && keyframes->size() < target; side += 2) {
-        if (side < 0 ? k < d : k + d >= num_keyframes) continue;
-        const std::size_t n = side < 0 ? k - d : k + d;
-        if (taken[n]) continue;
-        taken[n] = true;
-        keyframes->push_back(static_cast<std::uint32_t>(n));
-        ++added;
-      }
-      if (keyframes->size() >= target) break;
-    }
+// Adds keyframes of `pool` (endpoints of the overlap loops) to the sorted, unique `keyframes` until there are
+// min_scans of them or the pool is used up: nearest in index to a selected keyframe first, ties to the lower
+// index. Returns how many were added.
+std::size_t PadFromPool(std::vector<std::uint32_t>* keyframes, std::vector<std::uint32_t> pool,
+                        std::uint32_t min_scans) {
+  if (keyframes->empty() || keyframes->size() >= min_scans) return 0;
+  std::sort(pool.begin(), pool.end());
+  pool.erase(std::unique(pool.begin(), pool.end()), pool.end());
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> ranked;  // (index distance to the selection, keyframe)
+  ranked.reserve(pool.size());
+  for (std::uint32_t k : pool) {
+    const auto after = std::lower_bound(keyframes->begin(), keyframes->end(), k);
+    if (after != keyframes->end() && *after == k) continue;  // already selected
+    std::uint32_t d = std::numeric_limits<std::uint32_t>::max();
+    if (after != keyframes->end()) d = *after - k;
+    if (after != keyframes->begin()) d = std::min(d, k - *(after - 1));
+    ranked.emplace_back(d, k);
   }
+  const std::size_t added = std::min<std::size_t>(min_scans - keyframes->size(), ranked.size());
+  std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(added), ranked.end());
+  for (std::size_t i = 0; i < added; ++i) keyframes->push_back(ranked[i].second);
   std::sort(keyframes->begin(), keyframes->end());
   return added;
 }
 
-Status FillRequest(std::vector<std::uint32_t> keyframes, Span<const std::uint32_t> points,
-                   std::size_t num_keyframes, const ExchangePolicyParams& params, const char* robot,
+Status FillRequest(std::vector<std::uint32_t> keyframes, std::vector<std::uint32_t> pool,
+                   Span<const std::uint32_t> points, const ExchangePolicyParams& params, const char* robot,
                    RobotScanRequest* out) {
   const std::uint32_t assumed_points = params.assumed_points_per_scan;
   std::sort(keyframes.begin(), keyframes.end());
   keyframes.erase(std::unique(keyframes.begin(), keyframes.end()), keyframes.end());
-  if (!keyframes.empty() && keyframes.back() >= num_keyframes) {
-    return InvalidArgument(std::string("exchange policy: robot ") + robot + " keyframe " +
-                           std::to_string(keyframes.back()) + " is not below its keyframe count " +
-                           std::to_string(num_keyframes));
-  }
-  out->padded_scans = PadWithNeighbours(&keyframes, num_keyframes, params.min_scans_per_robot);
+  out->padded_scans = PadFromPool(&keyframes, std::move(pool), params.min_scans_per_robot);
   out->predicted_bytes = 0;
   out->estimated_scans = 0;
   for (std::uint32_t k : keyframes) {
@@ -83,29 +78,41 @@ Status ValidateExchangePolicyParams(const ExchangePolicyParams& params) {
   return Status::Ok();
 }
 
-Result<ExchangePolicy> MakeExchangePolicy(Span<const SequentialLoopCell> selected_loops,
-                                          Span<const std::uint32_t> alpha_points,
-                                          Span<const std::uint32_t> beta_points, std::size_t alpha_keyframes,
-                                          std::size_t beta_keyframes, const ExchangePolicyParams& params) {
-  if (Status s = ValidateExchangePolicyParams(params); !s.ok()) return s;
-  std::vector<std::uint32_t> alpha, beta;
-  alpha.reserve(selected_loops.size());
-  beta.reserve(selected_loops.size());
+namespace {
+
+// The alpha and beta endpoints of `loops`, as 32-bit keyframe indices; false when one is beyond 2^32 - 1.
+bool SplitEndpoints(Span<const SequentialLoopCell> loops, std::vector<std::uint32_t>* alpha,
+                    std::vector<std::uint32_t>* beta) {
   constexpr std::size_t kMaxIndex = std::numeric_limits<std::uint32_t>::max();
-  for (const SequentialLoopCell& l : selected_loops) {
-    if (l.alpha_index > kMaxIndex || l.beta_index > kMaxIndex) {
-      return InvalidArgument("exchange policy: keyframe index beyond 2^32 - 1");
-    }
-    alpha.push_back(static_cast<std::uint32_t>(l.alpha_index));
-    beta.push_back(static_cast<std::uint32_t>(l.beta_index));
+  alpha->reserve(loops.size());
+  beta->reserve(loops.size());
+  for (const SequentialLoopCell& l : loops) {
+    if (l.alpha_index > kMaxIndex || l.beta_index > kMaxIndex) return false;
+    alpha->push_back(static_cast<std::uint32_t>(l.alpha_index));
+    beta->push_back(static_cast<std::uint32_t>(l.beta_index));
+  }
+  return true;
+}
+
+}  // namespace
+
+Result<ExchangePolicy> MakeExchangePolicy(Span<const SequentialLoopCell> selected_loops,
+                                          Span<const SequentialLoopCell> overlap_loops,
+                                          Span<const std::uint32_t> alpha_points,
+                                          Span<const std::uint32_t> beta_points, const ExchangePolicyParams& params) {
+  if (Status s = ValidateExchangePolicyParams(params); !s.ok()) return s;
+  std::vector<std::uint32_t> alpha, beta, alpha_pool, beta_pool;
+  if (!SplitEndpoints(selected_loops, &alpha, &beta) ||
+      (params.min_scans_per_robot > 0 && !SplitEndpoints(overlap_loops, &alpha_pool, &beta_pool))) {
+    return InvalidArgument("exchange policy: keyframe index beyond 2^32 - 1");
   }
   ExchangePolicy policy;
   policy.loops = selected_loops.size();
-  if (Status s = FillRequest(std::move(alpha), alpha_points, alpha_keyframes, params, "alpha", &policy.alpha);
+  if (Status s = FillRequest(std::move(alpha), std::move(alpha_pool), alpha_points, params, "alpha", &policy.alpha);
       !s.ok()) {
     return s;
   }
-  if (Status s = FillRequest(std::move(beta), beta_points, beta_keyframes, params, "beta", &policy.beta);
+  if (Status s = FillRequest(std::move(beta), std::move(beta_pool), beta_points, params, "beta", &policy.beta);
       !s.ok()) {
     return s;
   }

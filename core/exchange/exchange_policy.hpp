@@ -23,9 +23,11 @@ struct ExchangePolicyParams {
   /// policy). The paper sends raw scans, so a handful of them make a dense submap; our robots keep 1 m voxel
   /// scans (a few hundred points each), and a submap of 4-6 of them leaves the coarse registration without
   /// enough features (generated campus, 3 robots: 6 + 4 and 4 + 2 scans failed, 10 + 10 merged). When L_K
-  /// names fewer keyframes of a robot, its trajectory neighbours are added, nearest index distance first
-  /// (k - 1, k + 1, k - 2, ... around each selected keyframe, in order), so the submap grows along the same
-  /// stretch of path.
+  /// names fewer keyframes of a robot, keyframes of the same robot that stage A matched to the other robot
+  /// (endpoints of L_seq, so they see the shared place) are added, nearest in trajectory index first (k - 1,
+  /// k + 1, k - 2, ... around each selected keyframe, in order), so the submap grows along the same stretch of
+  /// path and only with scans of the overlap (padding with plain neighbours outside the overlap made a KITTI 00
+  /// pair register 0.4 m off).
   std::uint32_t min_scans_per_robot = 10;
 };
 
@@ -40,7 +42,7 @@ struct RobotScanRequest {
   std::vector<std::uint32_t> keyframes;  ///< unique keyframe indices, ascending
   std::uint64_t predicted_bytes = 0;     ///< sum of encoded scan sizes
   std::size_t estimated_scans = 0;       ///< scans whose size used assumed_points_per_scan (no reported count)
-  std::size_t padded_scans = 0;          ///< keyframes added by min_scans_per_robot (not endpoints of L_K)
+  std::size_t padded_scans = 0;          ///< keyframes added by min_scans_per_robot (L_seq's, not L_K's)
 };
 
 struct ExchangePolicy {
@@ -52,13 +54,13 @@ struct ExchangePolicy {
 };
 
 /// Builds the policy from L_K. `alpha_points` / `beta_points`: stored point count per keyframe index as reported by
-/// the robots (an empty span, or an entry of 0, means unknown -> assumed_points_per_scan). `alpha_keyframes` /
-/// `beta_keyframes`: how many keyframes each robot has (padding stays below them). Errors (InvalidArgument): a
-/// keyframe index beyond 2^32 - 1 or not below the robot's keyframe count, a reported span shorter than a
-/// requested index, bad params.
+/// the robots (an empty span, or an entry of 0, means unknown -> assumed_points_per_scan). `overlap_loops`: the
+/// loops whose endpoints may pad a robot's request up to min_scans_per_robot (L_seq; empty = no padding).
+/// Errors (InvalidArgument): a keyframe index beyond 2^32 - 1, a reported span shorter than a requested index,
+/// bad params.
 Result<ExchangePolicy> MakeExchangePolicy(Span<const SequentialLoopCell> selected_loops,
+                                          Span<const SequentialLoopCell> overlap_loops,
                                           Span<const std::uint32_t> alpha_points,
-                                          Span<const std::uint32_t> beta_points, std::size_t alpha_keyframes,
-                                          std::size_t beta_keyframes, const ExchangePolicyParams& params);
+                                          Span<const std::uint32_t> beta_points, const ExchangePolicyParams& params);
 
 }  // namespace commerge

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <set>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -133,8 +134,13 @@ TEST_CASE("Cascade: two robots on one street in opposite directions - only true 
   for (std::uint32_t k : want_b) bytes += 12 + 6 * std::uint64_t{beta.raw_points[k]};
   CHECK(r->policy.predicted_bytes() == bytes);
 
-  // With a minimum per robot, the same L_K and its endpoints plus trajectory neighbours (never beyond the 80
-  // keyframes a robot has).
+  // With a minimum per robot, the same L_K and its endpoints plus other keyframes of L_seq (stage A's loops:
+  // scans of the overlap), up to all of them.
+  std::set<std::uint32_t> seq_a, seq_b;
+  for (const auto& l : r->stage_a.cells) {
+    seq_a.insert(static_cast<std::uint32_t>(l.alpha_index));
+    seq_b.insert(static_cast<std::uint32_t>(l.beta_index));
+  }
   for (std::uint32_t min_scans : {12u, 200u}) {
     ExchangeCascadeParams padded_params = params;
     padded_params.policy.min_scans_per_robot = min_scans;
@@ -142,11 +148,21 @@ TEST_CASE("Cascade: two robots on one street in opposite directions - only true 
     REQUIRE(padded.ok());
     REQUIRE(padded->outcome == CascadeOutcome::kPolicy);
     CHECK(padded->stage_c.selected_loops.size() == r->stage_c.selected_loops.size());
-    for (const auto& [request, want] : {std::make_pair(&padded->policy.alpha, &want_a),
-                                        std::make_pair(&padded->policy.beta, &want_b)}) {
-      CHECK(request->keyframes.size() == std::max<std::size_t>(want->size(), std::min(min_scans, 80u)));
+    for (const auto& [request, want, seq] : {std::make_tuple(&padded->policy.alpha, &want_a, &seq_a),
+                                             std::make_tuple(&padded->policy.beta, &want_b, &seq_b)}) {
+      CHECK(request->keyframes.size() ==
+            std::max<std::size_t>(want->size(), std::min<std::size_t>(min_scans, seq->size())));
       CHECK(request->padded_scans == request->keyframes.size() - want->size());
       CHECK(std::includes(request->keyframes.begin(), request->keyframes.end(), want->begin(), want->end()));
+      CHECK(std::includes(seq->begin(), seq->end(), request->keyframes.begin(), request->keyframes.end()));
+      for (std::uint32_t k : request->keyframes) {  // every padded scan sees the other robot's path
+        CAPTURE(k);
+        double nearest_m = 1e9;
+        const auto& mine = request == &padded->policy.alpha ? alpha.world_m : beta.world_m;
+        const auto& theirs = request == &padded->policy.alpha ? beta.world_m : alpha.world_m;
+        for (const auto& p : theirs) nearest_m = std::min(nearest_m, (mine[k] - p).norm());
+        CHECK(nearest_m < 5.0);
+      }
     }
   }
 
