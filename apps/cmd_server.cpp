@@ -397,8 +397,8 @@ Command AddServerCommand(CLI::App& root) {
   cmd->add_option("--tau-inter", o->tau_inter, "stage A descriptor distance threshold (0 = the paper's)");
   cmd->add_option("--tau-area", o->tau_area, "stage A minimal cluster span area [cells] (-1 = the paper's 10000)");
   cmd->add_option("--min-submap-scans", o->min_submap_scans,
-                  "fewest scans asked of each robot per pair: L_K's keyframes plus their nearest trajectory "
-                  "neighbours (-1 = the default, " +
+                  "fewest scans asked of each robot per pair: L_K's keyframes plus the nearest other keyframes of "
+                  "stage A's loops (-1 = the default, " +
                       std::to_string(ExchangePolicyParams{}.min_scans_per_robot) + "; 0 = exactly L_K's, the paper's)")
       ->check(CLI::Range(std::int64_t{-1}, std::int64_t{kMaxMinScansPerRobot}));
   cmd->add_option("--exit-when-merged", o->exit_when_merged, "exit 0 once this many robots are in the world frame "

@@ -345,8 +345,8 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
   cmd->add_option("--tau-area", o->tau_area, "stage A minimal cluster span area [cells]")->capture_default_str();
   cmd->add_option("--tau-con-m", o->tau_con_m, "stage C positional consistency bound [m]")->capture_default_str();
   cmd->add_option("--min-submap-scans", o->min_submap_scans,
-                  "fewest scans asked of each robot per pair: L_K's keyframes plus their nearest trajectory "
-                  "neighbours (0 = exactly L_K's, the paper's policy)")
+                  "fewest scans asked of each robot per pair: L_K's keyframes plus the nearest other keyframes of "
+                  "stage A's loops (0 = exactly L_K's, the paper's policy)")
       ->check(CLI::Range(0u, kMaxMinScansPerRobot))
       ->capture_default_str();
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m,
@@ -601,7 +601,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
         padded = " (policy " + std::to_string(c->policy.alpha.keyframes.size()) + " + " +
                  std::to_string(c->policy.beta.keyframes.size()) + " scans with " +
                  std::to_string(c->policy.alpha.padded_scans) + " + " + std::to_string(c->policy.beta.padded_scans) +
-                 " trajectory neighbours, --min-submap-scans)";
+                 " more of stage A's keyframes, --min-submap-scans)";
       }
       std::printf("  pair %d-%d: %s; L_seq %zu loops (%zu x %zu keyframes), stage B %zu + %zu scans (%s), |L_K| = %zu%s; "
                   "A %.3f s, B %.3f s, C %.3f s%s%s\n",
