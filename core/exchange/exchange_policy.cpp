@@ -37,6 +37,20 @@ std::size_t PadFromPool(std::vector<std::uint32_t>* keyframes, std::vector<std::
   return added;
 }
 
+// The alpha and beta endpoints of `loops`, as 32-bit keyframe indices; false when one is beyond 2^32 - 1.
+bool SplitEndpoints(Span<const SequentialLoopCell> loops, std::vector<std::uint32_t>* alpha,
+                    std::vector<std::uint32_t>* beta) {
+  constexpr std::size_t kMaxIndex = std::numeric_limits<std::uint32_t>::max();
+  alpha->reserve(loops.size());
+  beta->reserve(loops.size());
+  for (const SequentialLoopCell& l : loops) {
+    if (l.alpha_index > kMaxIndex || l.beta_index > kMaxIndex) return false;
+    alpha->push_back(static_cast<std::uint32_t>(l.alpha_index));
+    beta->push_back(static_cast<std::uint32_t>(l.beta_index));
+  }
+  return true;
+}
+
 Status FillRequest(std::vector<std::uint32_t> keyframes, std::vector<std::uint32_t> pool,
                    Span<const std::uint32_t> points, const ExchangePolicyParams& params, const char* robot,
                    RobotScanRequest* out) {
@@ -77,24 +91,6 @@ Status ValidateExchangePolicyParams(const ExchangePolicyParams& params) {
   }
   return Status::Ok();
 }
-
-namespace {
-
-// The alpha and beta endpoints of `loops`, as 32-bit keyframe indices; false when one is beyond 2^32 - 1.
-bool SplitEndpoints(Span<const SequentialLoopCell> loops, std::vector<std::uint32_t>* alpha,
-                    std::vector<std::uint32_t>* beta) {
-  constexpr std::size_t kMaxIndex = std::numeric_limits<std::uint32_t>::max();
-  alpha->reserve(loops.size());
-  beta->reserve(loops.size());
-  for (const SequentialLoopCell& l : loops) {
-    if (l.alpha_index > kMaxIndex || l.beta_index > kMaxIndex) return false;
-    alpha->push_back(static_cast<std::uint32_t>(l.alpha_index));
-    beta->push_back(static_cast<std::uint32_t>(l.beta_index));
-  }
-  return true;
-}
-
-}  // namespace
 
 Result<ExchangePolicy> MakeExchangePolicy(Span<const SequentialLoopCell> selected_loops,
                                           Span<const SequentialLoopCell> overlap_loops,

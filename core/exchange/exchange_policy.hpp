@@ -24,10 +24,9 @@ struct ExchangePolicyParams {
   /// scans (a few hundred points each), and a submap of 4-6 of them leaves the coarse registration without
   /// enough features (generated campus, 3 robots: 6 + 4 and 4 + 2 scans failed, 10 + 10 merged). When L_K
   /// names fewer keyframes of a robot, keyframes of the same robot that stage A matched to the other robot
-  /// (endpoints of L_seq, so they see the shared place) are added, nearest in trajectory index first (k - 1,
-  /// k + 1, k - 2, ... around each selected keyframe, in order), so the submap grows along the same stretch of
-  /// path and only with scans of the overlap (padding with plain neighbours outside the overlap made a KITTI 00
-  /// pair register 0.4 m off).
+  /// (endpoints of L_seq, so they see the shared place) are added, nearest in trajectory index to one of L_K's
+  /// first (ties: the lower index), so the submap grows along the same stretch of path and only with scans of
+  /// the overlap (padding with plain neighbours outside the overlap made a KITTI 00 pair register 0.4 m off).
   std::uint32_t min_scans_per_robot = 10;
 };
 
