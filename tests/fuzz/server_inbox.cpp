@@ -46,8 +46,8 @@ MergeServerParams InboxMergeServerParams() {
   p.cascade.stage_b.time_limit_s = 0.5;
   p.cascade.stage_c.time_limit_s = 0.5;
   // The recorded mission's L_K names 4 + 3 keyframes: 5 per robot keeps the padding of the exchange policy in
-  // the fuzzed path while the stream (every requested scan's chunks) and one merge round stay small enough for
-  // libFuzzer (the default 10 would double both).
+  // the fuzzed path while the stream (every requested scan's chunks) and one merge round stay small for
+  // libFuzzer (5 + 5 scans: 142 KB and ~2 s; the default 10 would ask for up to 20 scans).
   p.cascade.policy.min_scans_per_robot = 5;
   // Partial scans are allocated whole on their first chunk: a scan may be kMaxChunksPerScan x 1200 bytes
   // (39.3 MB), and the daemon's 512 MB budget would let a stream of such chunks past -rss_limit_mb. 96 MB holds
