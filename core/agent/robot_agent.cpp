@@ -130,7 +130,8 @@ std::array<std::int64_t, RobotAgent::kMemoryModules> RobotAgent::MeasureMemory()
   const DescriptorDatabase& db = mapper_.descriptor_db();
   const PoseGraph& graph = mapper_.graph();
   const std::size_t descriptor_db = db.size() * (db.dimension() * sizeof(float) + sizeof(std::uint8_t));
-  const std::size_t pose_graph = graph.num_nodes() * sizeof(Eigen::Isometry3d) +
+  // Nodes, edges, the solver's workspace and the mapper's odometry pose per keyframe.
+  const std::size_t pose_graph = 2 * graph.num_nodes() * sizeof(Eigen::Isometry3d) +
                                  graph.num_edges() * sizeof(PoseGraphEdge) + graph.workspace_bytes();
   const std::size_t scan_store = store_ != nullptr ? store_->stats().used_bytes : 0;
   const std::size_t outbox =

@@ -74,9 +74,9 @@ class BudgetTable {
 /// Per-record sizes that the budget formulas use (exact sizes of the structures the modules hold).
 struct BudgetRecordSizes {
   static constexpr std::int64_t kDescriptorRecordBytes = 512;  ///< R-SOLiD + A-SOLiD floats, pose, index
-  /// Node (128 B), ~1 edge (432 B) and the sparse solver's workspace (~2.4 kB per node measured by
-  /// profiling/bench_pose_graph at 2k-20k nodes).
-  static constexpr std::int64_t kPoseGraphBytesPerKeyframe = 3072;
+  /// Node (128 B), the mapper's odometry pose (128 B), ~1 edge (432 B) and the sparse solver's workspace
+  /// (~2.4 kB per node measured by profiling/bench_pose_graph at 2k-20k nodes).
+  static constexpr std::int64_t kPoseGraphBytesPerKeyframe = 3200;
   static constexpr std::int64_t kRawPointWorkBytes = 48;  ///< raw point + voxel key/index + descriptor scratch
   static constexpr std::int64_t kStoredPointBytes = 6;    ///< int16 centimetres x 3
   static constexpr std::int64_t kIcpPointBytes = 256;     ///< points, normals, k-d tree of both scans

@@ -31,6 +31,11 @@ Status ValidateLoopDetectorParams(const LoopDetectorParams& p) {
     return InvalidArgument("loop detector: max_correction_m and max_correction_per_travelled must be >= 0, got " +
                            std::to_string(p.max_correction_m) + " and " + std::to_string(p.max_correction_per_travelled));
   }
+  if (!(p.max_correction_deg >= 0.0) || !(p.max_correction_deg_per_travelled_m >= 0.0)) {
+    return InvalidArgument(
+        "loop detector: max_correction_deg and max_correction_deg_per_travelled_m must be >= 0, got " +
+        std::to_string(p.max_correction_deg) + " and " + std::to_string(p.max_correction_deg_per_travelled_m));
+  }
   if (!(p.prediction_accept_inlier_ratio > 0.0)) {
     return InvalidArgument("loop detector: prediction_accept_inlier_ratio must be > 0 (> 1 disables it), got " +
                            std::to_string(p.prediction_accept_inlier_ratio));

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/slam/robot_mapper.hpp"
 
+#include <cmath>
 #include <string>
 
 namespace commerge {
@@ -31,6 +32,7 @@ RobotMapper::RobotMapper(const RobotMapperParams& params, const RobotMapperCapac
       descriptor_scratch_(descriptor->dimension()) {
   voxels_.reserve(capacity.max_points_per_stored_scan);
   match_points_.reserve(capacity.max_points_per_stored_scan);
+  T_odom_keyframes_.reserve(capacity.max_keyframes);
   encoded_.resize(EncodedScanBytes(capacity.max_points_per_stored_scan));
 }
 
@@ -95,6 +97,7 @@ Result<KeyframeStep> RobotMapper::AddScan(Span<const PointXYZI> raw_scan, const 
   // 4. Pose-graph node and odometry edge.
   if (step.keyframe == 0) {
     if (Status s = graph_.AddNode(Eigen::Isometry3d::Identity()); !s.ok()) return s;
+    T_odom_keyframes_.push_back(T_odom_sensor);  // one per graph node; reserved (capacity checked above)
   } else {
     PoseGraphEdge odom;
     odom.from = step.keyframe - 1;
@@ -106,6 +109,7 @@ Result<KeyframeStep> RobotMapper::AddScan(Span<const PointXYZI> raw_scan, const 
     odom.information.diagonal() << wt, wt, wt, wr, wr, wr;
     odom.kind = EdgeKind::kOdometry;
     if (Status s = graph_.AddNode(graph_.pose(odom.from) * odom.T_from_to); !s.ok()) return s;
+    T_odom_keyframes_.push_back(T_odom_sensor);
     if (Status s = graph_.AddEdge(odom); !s.ok()) return s;
   }
   T_odom_last_keyframe_ = T_odom_sensor;
@@ -138,17 +142,22 @@ Status RobotMapper::FindLoop(std::uint32_t query, Span<const float> query_descri
     ++stats_.loop_candidates_rejected;
     return Status::Ok();
   }
-  const Eigen::Isometry3d T_match_query_odom = graph_.pose(m.keyframe).inverse() * graph_.pose(query);
+  // ICP starts from the graph's estimate (loops already closed make it the better guess) ...
+  const Eigen::Isometry3d T_match_query_graph = graph_.pose(m.keyframe).inverse() * graph_.pose(query);
   auto check = verifier_.Verify(query, m.keyframe, m.distance, Span<const PointXYZI>(voxels_),
-                                Span<const PointXYZI>(match_points_), T_match_query_odom, params_.loop);
+                                Span<const PointXYZI>(match_points_), T_match_query_graph, params_.loop);
   if (!check.ok()) return check.status();
   step->loop = *check;
   if (check->verdict == LoopVerdict::kAccepted) {
-    // Odometry plausibility: the path between the two keyframes is about (query - match) keyframe spacings
-    // (more keyframes per metre when turning, so this errs on the lenient side).
+    // ... but plausibility is judged against the odometry chain alone, which no earlier loop can have bent.
+    const Eigen::Isometry3d T_match_query_odom = T_odom_keyframes_[m.keyframe].inverse() * T_odom_keyframes_[query];
+    const Eigen::Isometry3d correction = T_match_query_odom.inverse() * check->loop.T_match_query;
     const double travelled_m = static_cast<double>(query - m.keyframe) * params_.keyframer.keyframe_spacing_m;
-    const double correction_m = (T_match_query_odom.inverse() * check->loop.T_match_query).translation().norm();
-    if (correction_m > params_.loop.max_correction_m + params_.loop.max_correction_per_travelled * travelled_m) {
+    const double correction_m = correction.translation().norm();
+    const double correction_deg = Eigen::AngleAxisd(correction.rotation()).angle() * 180.0 / M_PI;
+    const LoopDetectorParams& lp = params_.loop;
+    if (correction_m > lp.max_correction_m + lp.max_correction_per_travelled * travelled_m ||
+        correction_deg > lp.max_correction_deg + lp.max_correction_deg_per_travelled_m * travelled_m) {
       step->loop.verdict = LoopVerdict::kCorrectionTooLarge;
       ++stats_.loops_implausible;
     }

@@ -120,6 +120,8 @@ class RobotMapper {
   VoxelGrid voxel_grid_;
   LoopVerifier verifier_;
   Eigen::Isometry3d T_odom_last_keyframe_ = Eigen::Isometry3d::Identity();
+  /// The odometry pose of every keyframe as it came in (loops never change it); reserved to max_keyframes.
+  std::vector<Eigen::Isometry3d> T_odom_keyframes_;
   bool optimised_once_ = false;
   std::uint32_t last_optimisation_keyframe_ = 0;
   std::vector<float> descriptor_scratch_;

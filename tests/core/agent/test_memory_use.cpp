@@ -170,9 +170,11 @@ TEST_CASE("Robot agent memory: the robot budget modules, each counted from its o
   // descriptor_db: K records of (dimension floats + the validity byte) in the fixed-capacity database.
   CHECK(Module(use, "descriptor_db").used_bytes ==
         static_cast<std::int64_t>(keyframes * (rig.solid->dimension() * sizeof(float) + 1)));
-  // pose_graph: K nodes and K - 1 odometry edges, no solver workspace before the first optimisation.
+  // pose_graph: K nodes, the mapper's K odometry poses and K - 1 odometry edges, no solver workspace before the
+  // first optimisation.
   CHECK(Module(use, "pose_graph").used_bytes ==
-        static_cast<std::int64_t>(keyframes * sizeof(Eigen::Isometry3d) + (keyframes - 1) * sizeof(PoseGraphEdge)));
+        static_cast<std::int64_t>(2 * keyframes * sizeof(Eigen::Isometry3d) +
+                                  (keyframes - 1) * sizeof(PoseGraphEdge)));
   // scan_store: every stored record with its 8-byte header.
   std::int64_t records = 0;
   for (std::uint32_t k = 0; k < keyframes; ++k) {
@@ -217,7 +219,7 @@ TEST_CASE("Robot agent memory: loop closure adds the k-d tree, edges and the pos
   CheckHighWaterNotBelowUse(use);
   CHECK(graph.workspace_bytes() > 0);
   CHECK(Module(use, "pose_graph").used_bytes ==
-        static_cast<std::int64_t>(graph.num_nodes() * sizeof(Eigen::Isometry3d) +
+        static_cast<std::int64_t>(2 * graph.num_nodes() * sizeof(Eigen::Isometry3d) +
                                   graph.num_edges() * sizeof(PoseGraphEdge) + graph.workspace_bytes()));
   CHECK(Module(use, "pose_graph").high_water_bytes >= max_pose_graph);
   // The verifier indexed a match scan: its k-d tree now counts.

@@ -149,4 +149,8 @@ TEST_CASE("Robot mapper: loops correcting more than the odometry drift bound are
   RobotMapperParams bad;
   bad.loop.max_correction_m = -1.0;
   CHECK(ValidateLoopDetectorParams(bad.loop).message().find("max_correction_m") != std::string::npos);
+  RobotMapperParams bad_deg;
+  bad_deg.loop.max_correction_deg_per_travelled_m = -0.1;
+  CHECK(ValidateLoopDetectorParams(bad_deg.loop).message().find("max_correction_deg_per_travelled_m") !=
+        std::string::npos);
 }
