@@ -143,8 +143,10 @@ void AddRobotModules(BudgetTable* t, const MemoryConfig& c, const std::string& p
   t->Add(prefix + "scan_store", n * c.scan_store_bytes, "--scan-store-mb" + times);
   t->Add(prefix + "scan_workspace", n * c.max_points_per_raw_scan * R::kRawPointWorkBytes,
          Str(c.max_points_per_raw_scan) + " raw points x " + Str(R::kRawPointWorkBytes) + " B" + times);
-  t->Add(prefix + "loop_closure", n * 2 * c.max_points_per_stored_scan * R::kIcpPointBytes,
-         "2 scans x " + Str(c.max_points_per_stored_scan) + " points x " + Str(R::kIcpPointBytes) + " B" + times);
+  t->Add(prefix + "loop_closure",
+         n * (2 * c.max_points_per_stored_scan * R::kIcpPointBytes + k * R::kLoopPathBytesPerKeyframe),
+         "2 scans x " + Str(c.max_points_per_stored_scan) + " points x " + Str(R::kIcpPointBytes) + " B + " + Str(k) +
+             " keyframes x " + Str(R::kLoopPathBytesPerKeyframe) + " B" + times);
   t->Add(prefix + "outbox", n * c.message_queue_bytes, "--queue-mb" + times);
 }
 

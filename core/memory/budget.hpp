@@ -80,6 +80,8 @@ struct BudgetRecordSizes {
   static constexpr std::int64_t kRawPointWorkBytes = 48;  ///< raw point + voxel key/index + descriptor scratch
   static constexpr std::int64_t kStoredPointBytes = 6;    ///< int16 centimetres x 3
   static constexpr std::int64_t kIcpPointBytes = 256;     ///< points, normals, k-d tree of both scans
+  /// The loop check's path lengths (KeyframeGraphDistance): link 8, CSR 12, steps and frontiers 16 B, rounded.
+  static constexpr std::int64_t kLoopPathBytesPerKeyframe = 40;
   static constexpr std::int64_t kRegistrationPointBytes = 256;  ///< normals, covariances, 33-D features, k-d tree
   static constexpr std::int64_t kRuntimeBytes = 48 * 1024 * 1024;  ///< code, stacks, LCM/glib, allocator segments
 };

@@ -41,21 +41,25 @@ struct LoopDetectorParams {
   double min_inlier_ratio = 0.3;
   /// ICP's information treats thousands of inliers as independent; scale it down to an effective count.
   double effective_correspondences = 50.0;
-  /// Odometry plausibility (ours, not in the paper): a verified loop is refused when it disagrees with the
-  /// robot's own odometry between the two keyframes by more than drift allows. With
-  /// T_odom = T_odom_match^-1 T_odom_query (the odometry chain alone, never the optimised graph) and
-  /// C = T_odom^-1 T_match_query_icp, the loop is refused when
-  ///   |translation of C| > max_correction_m + max_correction_per_travelled * d   or
-  ///   |rotation of C|    > max_correction_deg + max_correction_deg_per_travelled_m * d,
-  /// d = keyframes between match and query x keyframe spacing (about the path length; more keyframes per
-  /// metre when turning, so the bound errs on the lenient side).
+  /// Odometry plausibility (ours, not in the paper): a verified loop is refused when it disagrees with what
+  /// the robot already knows by more than drift allows. For a prior T (match to query) over a path of d
+  /// metres, with C = T^-1 T_match_query_icp, the loop must satisfy
+  ///   |translation of C| <= max_correction_m + max_correction_per_travelled * d   and
+  ///   |rotation of C|    <= max_correction_deg + max_correction_deg_per_travelled_m * d,
+  /// twice (robot_mapper.cpp):
+  ///   1. T from the odometry chain alone (never the optimised graph), d = the whole path since the match
+  ///      (keyframes between them x spacing; more keyframes per metre when turning, so it errs on the
+  ///      lenient side);
+  ///   2. T from the optimised graph, d = the shortest path through the loops already optimised into it
+  ///      (KeyframeGraphDistance): where earlier loops tie the two places together, little drift is left.
   /// Descriptor search ignores position, so repetitive places (corridors, rows of identical doors or trees)
-  /// verify by ICP at the wrong copy: a corridor period away, or turned at a crossing. Measuring against the
-  /// odometry chain, not the graph, matters: one alias that slips through bends the graph, and a check
-  /// against the bent graph then refuses true loops and passes aliases that agree with the bend (in the
-  /// generated indoor world a robot's map collapsed into a 20 m tangle that way, 109 of 198 loops false).
-  /// The defaults allow 5 % translation and 0.1 deg/m heading drift (LiDAR odometry: ~0.5-2 % and
-  /// ~0.001-0.01 deg/m); raise them for worse odometry, huge values disable the check.
+  /// verify by ICP at the wrong copy: a corridor period away, or turned at a crossing. A check against the
+  /// graph with the whole path's allowance (the first version) let aliases in; each bent the graph, and the
+  /// bent graph then refused true loops and passed aliases that agreed with the bend (in the generated indoor
+  /// world a robot's map collapsed into a 20 m tangle that way, 109 of 198 loops false). Check 1 cannot be
+  /// bent by any loop; check 2 is the tight one once loops are closed. The defaults allow 5 % translation and
+  /// 0.1 deg/m heading drift (LiDAR odometry: ~0.5-2 % and ~0.001-0.01 deg/m); raise them for worse
+  /// odometry, huge values disable the checks.
   double max_correction_m = 2.0;
   double max_correction_per_travelled = 0.05;
   double max_correction_deg = 5.0;

@@ -29,6 +29,7 @@ RobotMapper::RobotMapper(const RobotMapperParams& params, const RobotMapperCapac
       db_(*descriptor, capacity.max_keyframes),
       graph_(capacity.max_keyframes, 2 * capacity.max_keyframes),  // odometry + at most one loop per keyframe
       voxel_grid_(capacity.max_points_per_raw_scan),
+      graph_distance_(capacity.max_keyframes),
       descriptor_scratch_(descriptor->dimension()) {
   voxels_.reserve(capacity.max_points_per_stored_scan);
   match_points_.reserve(capacity.max_points_per_stored_scan);
@@ -42,7 +43,8 @@ std::size_t RobotMapper::scan_workspace_bytes() const {
 }
 
 std::size_t RobotMapper::loop_closure_workspace_bytes() const {
-  return match_points_.capacity() * sizeof(PointXYZI) + spill_buffer_.capacity() + verifier_.workspace_bytes();
+  return match_points_.capacity() * sizeof(PointXYZI) + spill_buffer_.capacity() + verifier_.workspace_bytes() +
+         graph_distance_.workspace_bytes();
 }
 
 Result<KeyframeStep> RobotMapper::AddScan(Span<const PointXYZI> raw_scan, const Eigen::Isometry3d& T_odom_sensor) {
@@ -149,15 +151,21 @@ Status RobotMapper::FindLoop(std::uint32_t query, Span<const float> query_descri
   if (!check.ok()) return check.status();
   step->loop = *check;
   if (check->verdict == LoopVerdict::kAccepted) {
-    // ... but plausibility is judged against the odometry chain alone, which no earlier loop can have bent.
-    const Eigen::Isometry3d T_match_query_odom = T_odom_keyframes_[m.keyframe].inverse() * T_odom_keyframes_[query];
-    const Eigen::Isometry3d correction = T_match_query_odom.inverse() * check->loop.T_match_query;
-    const double travelled_m = static_cast<double>(query - m.keyframe) * params_.keyframer.keyframe_spacing_m;
-    const double correction_m = correction.translation().norm();
-    const double correction_deg = Eigen::AngleAxisd(correction.rotation()).angle() * 180.0 / M_PI;
+    // ... but it must agree with the odometry chain alone, which no earlier loop can have bent, over the whole
+    // path since the match, and with the graph over the path through the loops already closed.
     const LoopDetectorParams& lp = params_.loop;
-    if (correction_m > lp.max_correction_m + lp.max_correction_per_travelled * travelled_m ||
-        correction_deg > lp.max_correction_deg + lp.max_correction_deg_per_travelled_m * travelled_m) {
+    const double spacing_m = params_.keyframer.keyframe_spacing_m;
+    const auto within_drift = [&](const Eigen::Isometry3d& T_match_query_prior, double path_m) {
+      const Eigen::Isometry3d correction = T_match_query_prior.inverse() * check->loop.T_match_query;
+      const double correction_deg = Eigen::AngleAxisd(correction.rotation()).angle() * 180.0 / M_PI;
+      return correction.translation().norm() <= lp.max_correction_m + lp.max_correction_per_travelled * path_m &&
+             correction_deg <= lp.max_correction_deg + lp.max_correction_deg_per_travelled_m * path_m;
+    };
+    const Eigen::Isometry3d T_match_query_odom = T_odom_keyframes_[m.keyframe].inverse() * T_odom_keyframes_[query];
+    const double chain_m = static_cast<double>(query - m.keyframe) * spacing_m;
+    const double graph_path_m =
+        static_cast<double>(graph_distance_.Steps(m.keyframe, query, graph_.num_nodes())) * spacing_m;
+    if (!within_drift(T_match_query_odom, chain_m) || !within_drift(T_match_query_graph, graph_path_m)) {
       step->loop.verdict = LoopVerdict::kCorrectionTooLarge;
       ++stats_.loops_implausible;
     }
@@ -190,6 +198,12 @@ Result<std::vector<std::uint32_t>> RobotMapper::OptimizePending() {
   if (!optimised.ok()) return optimised.status();
   ++stats_.optimisations;
   stats_.pending_loops = 0;
+  // The loops are in the graph's estimate now: from here on they shorten the graph check's path.
+  for (; linked_edges_ < graph_.num_edges(); ++linked_edges_) {
+    const PoseGraphEdge& e = graph_.edge(linked_edges_);
+    if (e.kind != EdgeKind::kLoop) continue;
+    if (Status s = graph_distance_.AddLink(e.from, e.to); !s.ok()) return s;
+  }
   optimised_once_ = true;
   last_optimisation_keyframe_ = static_cast<std::uint32_t>(graph_.num_nodes() - 1);
   return std::move(optimised->changed_nodes);

@@ -19,6 +19,7 @@
 
 #include "core/cloud/voxel_grid.hpp"
 #include "core/descriptor/place_descriptor.hpp"
+#include "core/slam/keyframe_graph_distance.hpp"
 #include "core/slam/keyframer.hpp"
 #include "core/slam/loop_detector.hpp"
 #include "core/slam/pose_graph.hpp"
@@ -122,6 +123,10 @@ class RobotMapper {
   Eigen::Isometry3d T_odom_last_keyframe_ = Eigen::Isometry3d::Identity();
   /// The odometry pose of every keyframe as it came in (loops never change it); reserved to max_keyframes.
   std::vector<Eigen::Isometry3d> T_odom_keyframes_;
+  /// Path lengths through the loops already optimised into the graph (the graph check's drift bound), and
+  /// how many graph edges it has seen.
+  KeyframeGraphDistance graph_distance_;
+  std::size_t linked_edges_ = 0;
   bool optimised_once_ = false;
   std::uint32_t last_optimisation_keyframe_ = 0;
   std::vector<float> descriptor_scratch_;

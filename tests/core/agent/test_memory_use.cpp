@@ -196,9 +196,11 @@ TEST_CASE("Robot agent memory: the robot budget modules, each counted from its o
         static_cast<std::int64_t>(rig.capacity.max_points_per_stored_scan * sizeof(PointXYZI) +
                                   EncodedScanBytes(rig.capacity.max_points_per_stored_scan) +
                                   2 * rig.capacity.max_points_per_raw_scan * 16));
-  // loop_closure: at least the decoded match scan reserved for the largest stored scan.
+  // loop_closure: at least the decoded match scan reserved for the largest stored scan and the loop check's
+  // path workspace (KeyframeGraphDistance: 36 B per keyframe of capacity, reserved up front).
   CHECK(Module(use, "loop_closure").used_bytes >=
-        static_cast<std::int64_t>(rig.capacity.max_points_per_stored_scan * sizeof(PointXYZI)));
+        static_cast<std::int64_t>(rig.capacity.max_points_per_stored_scan * sizeof(PointXYZI) +
+                                  36 * rig.capacity.max_keyframes));
 }
 
 TEST_CASE("Robot agent memory: loop closure adds the k-d tree, edges and the pose-graph solver workspace") {
