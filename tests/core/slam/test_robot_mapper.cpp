@@ -122,11 +122,13 @@ DriveOutcome DriveBlock(const RobotMapperParams& params, double yaw_drift_deg_pe
 }  // namespace
 
 TEST_CASE("Robot mapper closes the loop of a generated block drive and removes most of the odometry drift") {
-  // 0.1 deg/m of yaw drift and 1 % scale error (ten times what LiDAR odometry drifts), default loop gates.
+  // 0.1 deg/m of yaw drift and 1 % scale error (ten times what LiDAR odometry drifts), default loop gates:
+  // the drift bound (2 %) refuses the loops whose correction exceeds it (9 of 36 here), the rest still close
+  // the loop. With LiDAR-like drift nothing is refused (next test).
   const DriveOutcome out = DriveBlock(RobotMapperParams{}, 0.1, 0.01);
   CHECK(out.accepted >= 5);
   CHECK(out.false_loops == 0);
-  CHECK(out.implausible == 0);
+  CHECK(out.implausible < out.accepted);
   CHECK(out.ate_odometry > 1.5);
   CHECK(out.ate_optimised < out.ate_odometry / 3.0);
 }
