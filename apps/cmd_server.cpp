@@ -51,6 +51,7 @@ struct ServerOptions {
   double tau_inter = 0.0;
   std::int64_t tau_area = -1;
   std::int64_t min_submap_scans = -1;
+  int max_widen_steps = MergeServerParams{}.max_widen_steps;
   int exit_when_merged = 0;
   double max_runtime_s = 0.0;
   double linger_s = 3.0;
@@ -143,6 +144,7 @@ int RunServer(const ServerOptions& o) {
   }
   server_params.max_submap_points =
       static_cast<std::size_t>(std::min<std::int32_t>(setup.config.max_submap_points, 100000));
+  server_params.max_widen_steps = o.max_widen_steps;
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) {
     std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
     return kExitUsage;
@@ -401,6 +403,12 @@ Command AddServerCommand(CLI::App& root) {
                   "stage A's loops (-1 = the default, " +
                       std::to_string(ExchangePolicyParams{}.min_scans_per_robot) + "; 0 = exactly L_K's, the paper's)")
       ->check(CLI::Range(std::int64_t{-1}, std::int64_t{kMaxMinScansPerRobot}));
+  cmd->add_option("--max-widen-steps", o->max_widen_steps,
+                  "when registration refuses a pair, ask again for up to twice its scans (more of stage A's "
+                  "keyframes) and register again, at most this many times per round (0 = the paper's single "
+                  "exchange)")
+      ->check(CLI::Range(0, 8))
+      ->capture_default_str();
   cmd->add_option("--exit-when-merged", o->exit_when_merged, "exit 0 once this many robots are in the world frame "
                   "and the last round saw every keyframe delivered (the robots went quiet for --round-quiet-s)");
   cmd->add_option("--max-runtime-s", o->max_runtime_s, "give up (exit 1) after this long [s] (0 = never)");

@@ -189,7 +189,8 @@ struct ModeOutcome {
   ExchangePlan plan;
   std::unique_ptr<ByteLedger> ledger;
   std::vector<PairMergeResult> pairs;
-  std::vector<double> pair_seconds;
+  std::vector<double> pair_seconds;   ///< registration time of every attempt
+  std::vector<int> pair_widenings;    ///< times the pair's selection was widened after a refusal
   std::vector<PairEval> pair_eval;
   bool frames_ok = false;
   FrameSolution frames;
@@ -349,6 +350,11 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
                   "stage A's loops (0 = exactly L_K's, the paper's policy)")
       ->check(CLI::Range(0u, kMaxMinScansPerRobot))
       ->capture_default_str();
+  cmd->add_option("--max-widen-steps", o->max_widen_steps,
+                  "when registration refuses a pair, ask again for up to twice its scans (more of stage A's "
+                  "keyframes) and register again, at most this many times (0 = the paper's single exchange)")
+      ->check(CLI::Range(0, 8))
+      ->capture_default_str();
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m,
                   "robots take a keyframe every this many metres (paper 1.0; datasets written at exactly 1 m "
                   "keyframes need a little less, e.g. 0.9, or odometry noise skips every other one)")
@@ -427,6 +433,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
   server_params.cascade.stage_a.tau_area = static_cast<std::uint64_t>(std::max<std::int64_t>(0, o.tau_area));
   server_params.cascade.stage_c.tau_con_m = o.tau_con_m;
   server_params.cascade.policy.min_scans_per_robot = o.min_submap_scans;
+  server_params.max_widen_steps = o.max_widen_steps;
   server_params.max_submap_points = static_cast<std::size_t>(std::min<std::int32_t>(setup.config.max_submap_points, 100000));
   MergeServer server(num_robots, static_cast<std::size_t>(setup.config.max_keyframes_per_robot), server_params);
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) {
@@ -627,74 +634,122 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
       return kExitFailure;
     }
     out.plan = std::move(*plan);
-    const auto t_ex = Clock::now();
+    // Policies to the robots, their answers (the requested keyframes' current poses, then the scans) to the server.
     std::vector<ScanChunk> chunks;
-    for (const ScanRequest& req : out.plan.requests) {
-      RobotRun& r = robots[static_cast<std::size_t>(req.robot_id)];
-      ScanRequest delivered = req;
-      if (mode != ExchangeMode::kSendAll) {  // send-all needs no policy: every robot sends everything
-        auto rx = wire.Send(req, req.robot_id, MessageKind::kPolicies, Direction::kServerToRobot,
-                            platform::EncodeScanRequest, platform::DecodeScanRequest);
-        if (!rx.ok()) {
-          std::fprintf(stderr, "%s: policy: %s\n", tag, rx.status().message().c_str());
-          return kExitFailure;
+    auto deliver = [&](const std::vector<ScanRequest>& requests) -> bool {
+      for (const ScanRequest& req : requests) {
+        RobotRun& r = robots[static_cast<std::size_t>(req.robot_id)];
+        ScanRequest delivered = req;
+        if (mode != ExchangeMode::kSendAll) {  // send-all needs no policy: every robot sends everything
+          auto rx = wire.Send(req, req.robot_id, MessageKind::kPolicies, Direction::kServerToRobot,
+                              platform::EncodeScanRequest, platform::DecodeScanRequest);
+          if (!rx.ok()) {
+            std::fprintf(stderr, "%s: policy: %s\n", tag, rx.status().message().c_str());
+            return false;
+          }
+          delivered = std::move(*rx);
         }
-        delivered = std::move(*rx);
+        chunks.clear();
+        PoseUpdate fresh_poses;
+        auto answer = r.agent->AnswerRequest(delivered, 0, &chunks, &fresh_poses, /*remember_poses=*/false);
+        if (!answer.ok()) {
+          std::fprintf(stderr, "%s: robot %d: %s\n", tag, req.robot_id, answer.status().message().c_str());
+          return false;
+        }
+        if (!fresh_poses.keyframes.empty()) {  // current poses of the requested keyframes, before their scans
+          auto rx = wire.Send(fresh_poses, req.robot_id, MessageKind::kPoseUpdates, Direction::kRobotToServer,
+                              platform::EncodePoseUpdate, platform::DecodePoseUpdate);
+          if (!rx.ok()) {
+            std::fprintf(stderr, "%s: pose update: %s\n", tag, rx.status().message().c_str());
+            return false;
+          }
+          if (Status st = server.OnPoseUpdate(*rx); !st.ok()) {
+            std::fprintf(stderr, "%s: server refused a pose update: %s\n", tag, st.message().c_str());
+            return false;
+          }
+        }
+        out.scans_missing += answer->missing.size();
+        for (const ScanChunk& c : chunks) {
+          auto rx = wire.Send(c, req.robot_id, MessageKind::kScans, Direction::kRobotToServer,
+                              platform::EncodeScanChunk, platform::DecodeScanChunk);
+          if (!rx.ok()) {
+            std::fprintf(stderr, "%s: scan chunk: %s\n", tag, rx.status().message().c_str());
+            return false;
+          }
+          if (Status st = server.OnScanChunk(*rx); !st.ok()) {
+            std::fprintf(stderr, "%s: server refused a scan chunk: %s\n", tag, st.message().c_str());
+          }
+        }
       }
-      chunks.clear();
-      PoseUpdate fresh_poses;
-      auto answer = r.agent->AnswerRequest(delivered, 0, &chunks, &fresh_poses, /*remember_poses=*/false);
-      if (!answer.ok()) {
-        std::fprintf(stderr, "%s: robot %d: %s\n", tag, req.robot_id, answer.status().message().c_str());
-        return kExitFailure;
+      return true;
+    };
+    // Registers the pairs of `selections`; a pair already in out.pairs (a widened retry) replaces its result.
+    auto merge = [&](const std::vector<PairSelection>& selections) -> bool {
+      for (const PairSelection& sel : selections) {
+        const auto t0 = Clock::now();
+        auto merged = server.MergePair(sel);
+        if (!merged.ok()) {
+          std::fprintf(stderr, "%s: merge %d-%d: %s\n", tag, sel.alpha, sel.beta, merged.status().message().c_str());
+          return false;
+        }
+        PairEval e;
+        if (merged->attempted && merged->registration.success()) {
+          e = Evaluate(traj[static_cast<std::size_t>(sel.alpha)], traj[static_cast<std::size_t>(sel.beta)],
+                       merged->registration.T_target_source);
+        }
+        std::size_t i = 0;
+        while (i < out.pairs.size() && !(out.pairs[i].alpha == sel.alpha && out.pairs[i].beta == sel.beta)) ++i;
+        if (i == out.pairs.size()) {
+          out.pairs.emplace_back();
+          out.pair_eval.emplace_back();
+          out.pair_seconds.push_back(0.0);
+          out.pair_widenings.push_back(0);
+        } else {
+          ++out.pair_widenings[i];
+        }
+        out.pair_seconds[i] += SecondsSince(t0);
+        out.pair_eval[i] = e;
+        out.pairs[i] = std::move(*merged);
+        progress.Update("mode " + std::string(ExchangeModeName(mode)) + ": merged pair " + std::to_string(sel.alpha) +
+                        "-" + std::to_string(sel.beta));
       }
-      if (!fresh_poses.keyframes.empty()) {  // current poses of the requested keyframes, before their scans
-        auto rx = wire.Send(fresh_poses, req.robot_id, MessageKind::kPoseUpdates, Direction::kRobotToServer,
-                            platform::EncodePoseUpdate, platform::DecodePoseUpdate);
-        if (!rx.ok()) {
-          std::fprintf(stderr, "%s: pose update: %s\n", tag, rx.status().message().c_str());
-          return kExitFailure;
-        }
-        if (Status st = server.OnPoseUpdate(*rx); !st.ok()) {
-          std::fprintf(stderr, "%s: server refused a pose update: %s\n", tag, st.message().c_str());
-          return kExitFailure;
-        }
-      }
-      out.scans_missing += answer->missing.size();
-      for (const ScanChunk& c : chunks) {
-        auto rx = wire.Send(c, req.robot_id, MessageKind::kScans, Direction::kRobotToServer, platform::EncodeScanChunk,
-                            platform::DecodeScanChunk);
-        if (!rx.ok()) {
-          std::fprintf(stderr, "%s: scan chunk: %s\n", tag, rx.status().message().c_str());
-          return kExitFailure;
-        }
-        if (Status st = server.OnScanChunk(*rx); !st.ok()) {
-          std::fprintf(stderr, "%s: server refused a scan chunk: %s\n", tag, st.message().c_str());
-        }
-      }
-    }
+      return true;
+    };
+    const auto t_ex = Clock::now();
+    if (!deliver(out.plan.requests)) return kExitFailure;
     out.exchange_s = SecondsSince(t_ex);
     const auto t_merge = Clock::now();
-    for (const PairSelection& sel : out.plan.pairs) {
-      const auto t0 = Clock::now();
-      auto merged = server.MergePair(sel);
-      if (!merged.ok()) {
-        std::fprintf(stderr, "%s: merge %d-%d: %s\n", tag, sel.alpha, sel.beta, merged.status().message().c_str());
+    if (!merge(out.plan.pairs)) return kExitFailure;
+    // Widening: pairs that registration refused ask for more of stage A's scans and register again.
+    std::vector<PairSelection> current = out.plan.pairs;
+    double widen_exchange_s = 0.0;
+    for (int step = 0; step < server.params().max_widen_steps; ++step) {
+      ExchangePlan last;
+      last.mode = mode;
+      last.pairs = current;
+      auto wider = server.WidenPlan(last, Span<const PairMergeResult>(out.pairs),
+                                    static_cast<std::int32_t>(out.plan.requests.size() + 1));
+      if (!wider.ok()) {
+        std::fprintf(stderr, "%s: widen %s: %s\n", tag, ExchangeModeName(mode), wider.status().message().c_str());
         return kExitFailure;
       }
-      out.pair_seconds.push_back(SecondsSince(t0));
-      PairEval e;
-      if (merged->attempted && merged->registration.success()) {
-        e = Evaluate(traj[static_cast<std::size_t>(sel.alpha)], traj[static_cast<std::size_t>(sel.beta)],
-                     merged->registration.T_target_source);
+      if (wider->pairs.empty()) break;
+      const auto t_wx = Clock::now();
+      if (!deliver(wider->requests)) return kExitFailure;
+      widen_exchange_s += SecondsSince(t_wx);
+      for (ScanRequest& q : wider->requests) out.plan.requests.push_back(std::move(q));
+      out.plan.predicted_scan_bytes += wider->predicted_scan_bytes;
+      if (!merge(wider->pairs)) return kExitFailure;
+      for (const PairSelection& w : wider->pairs) {
+        for (PairSelection& c : current) {
+          if (c.alpha == w.alpha && c.beta == w.beta) c = w;
+        }
       }
-      out.pair_eval.push_back(e);
-      out.pairs.push_back(std::move(*merged));
-      progress.Update("mode " + std::string(ExchangeModeName(mode)) + ": merged pair " + std::to_string(sel.alpha) +
-                      "-" + std::to_string(sel.beta));
     }
+    out.plan.pairs = current;
     auto frames = server.SolveFrames(Span<const PairMergeResult>(out.pairs));
-    out.merge_s = SecondsSince(t_merge);
+    out.exchange_s += widen_exchange_s;
+    out.merge_s = SecondsSince(t_merge) - widen_exchange_s;
     if (frames.ok()) {
       out.frames_ok = true;
       out.frames = std::move(*frames);
@@ -776,6 +831,10 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
            RegistrationVerdictName(g.verdict) + " (coarse inliers " + std::to_string(g.num_coarse_inliers) +
            ", overlap " + Fmt("%.2f", g.overlap_ratio) + ", fitness " + Fmt("%.3f m", g.fitness_rmse_m) + "), " +
            Fmt("%.2f s", final_mode.pair_seconds[i]);
+      if (final_mode.pair_widenings[i] > 0) {
+        s += " (selection widened " + std::to_string(final_mode.pair_widenings[i]) +
+             "x after registration refused it; README \"Server cascade\")";
+      }
       if (g.success()) {
         s += "\n    T_" + std::to_string(p.alpha) + "_" + std::to_string(p.beta) + ": " + PoseText(g.T_target_source);
         if (e.has_gt) {
@@ -977,10 +1036,12 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     kv("peak_rss_end_bytes", std::to_string(rss.peak_bytes));
     for (const ModeOutcome& m : outcomes) {
       const std::string p = std::string("mode.") + ExchangeModeName(m.mode) + ".";
-      std::size_t scans = 0, merged_pairs = 0;
+      std::size_t scans = 0, merged_pairs = 0, widened_pairs = 0;
       for (const ScanRequest& q : m.plan.requests) scans += q.keyframes.size();
       for (const PairMergeResult& pr : m.pairs) merged_pairs += pr.attempted && pr.registration.success();
+      for (int w : m.pair_widenings) widened_pairs += w > 0;
       kv(p + "scans", std::to_string(scans));
+      kv(p + "widened_pairs", std::to_string(widened_pairs));
       kv(p + "scan_bytes", std::to_string(m.scan_bytes()));
       kv(p + "total_bytes", std::to_string(stream_bytes + m.ledger->Total().bytes));
       kv(p + "pairs_merged", std::to_string(merged_pairs) + "/" + std::to_string(m.pairs.size()));

@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 
 #include "apps/app_common.hpp"
+#include "core/agent/merge_server.hpp"
 #include "core/exchange/exchange_policy.hpp"
 
 namespace commerge::app {
@@ -24,6 +25,7 @@ struct RunOptions {
   std::int64_t tau_area = 10000;
   double tau_con_m = 5.0;
   std::uint32_t min_submap_scans = ExchangePolicyParams{}.min_scans_per_robot;
+  int max_widen_steps = MergeServerParams{}.max_widen_steps;
   double keyframe_spacing_m = 1.0;  ///< the robots' keyframe spacing (paper: 1 m)
   int threads = 2;                  ///< robots processed at once
   bool report = true;

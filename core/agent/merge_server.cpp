@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -73,6 +74,9 @@ Status ValidateMergeServerParams(const MergeServerParams& params) {
                            " is outside 1..8");
   }
   if (params.max_scans_held < 1) return InvalidArgument("max_scans_held must be >= 1");
+  if (params.max_widen_steps < 0 || params.max_widen_steps > 8) {
+    return InvalidArgument("max_widen_steps = " + std::to_string(params.max_widen_steps) + " is outside 0..8");
+  }
   if (params.max_scan_bytes < (1u << 16)) {
     return InvalidArgument("max_scan_bytes = " + std::to_string(params.max_scan_bytes) + " must be >= 65536");
   }
@@ -480,11 +484,20 @@ Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
       }
     }
   }
-  std::int32_t request_id = 1;
-  for (std::size_t r = 0; r < robots_.size(); ++r) {
-    auto& w = wanted[r];
+  AddRequests(&wanted, 1, /*skip_held=*/false, &plan);
+  return plan;
+}
+
+void MergeServer::AddRequests(std::vector<std::vector<std::uint32_t>>* wanted, std::int32_t request_id,
+                              bool skip_held, ExchangePlan* plan) const {
+  for (std::size_t r = 0; r < wanted->size(); ++r) {
+    auto& w = (*wanted)[r];
     std::sort(w.begin(), w.end());
     w.erase(std::unique(w.begin(), w.end()), w.end());
+    if (skip_held) {
+      w.erase(std::remove_if(w.begin(), w.end(), [&](std::uint32_t k) { return has_scan(static_cast<int>(r), k); }),
+              w.end());
+    }
     if (w.empty()) continue;
     ScanRequest req;
     req.robot_id = static_cast<int>(r);
@@ -492,11 +505,44 @@ Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
     req.keyframes = w;
     for (std::uint32_t k : w) {
       const std::uint32_t n = k < robots_[r].size() ? robots_[r].stored_points[k] : 0;
-      plan.predicted_scan_bytes += EncodedScanBytes(n > 0 ? n : params_.cascade.policy.assumed_points_per_scan);
+      plan->predicted_scan_bytes += EncodedScanBytes(n > 0 ? n : params_.cascade.policy.assumed_points_per_scan);
     }
-    plan.requests.push_back(std::move(req));
+    plan->requests.push_back(std::move(req));
   }
-  return plan;
+}
+
+Result<ExchangePlan> MergeServer::WidenPlan(const ExchangePlan& plan, Span<const PairMergeResult> results,
+                                            std::int32_t first_request_id) const {
+  if (!params_status_.ok()) return params_status_;
+  ExchangePlan wider;
+  wider.mode = plan.mode;
+  if (plan.mode == ExchangeMode::kSendAll) return wider;
+  std::vector<std::vector<std::uint32_t>> wanted(robots_.size());
+  for (const PairSelection& sel : plan.pairs) {
+    const PairMergeResult* result = nullptr;
+    for (const PairMergeResult& r : results) {
+      if (r.alpha == sel.alpha && r.beta == sel.beta) result = &r;
+    }
+    if (!result || !result->attempted || result->registration.success()) continue;
+    const PairState* p = FindPair(sel.alpha, sel.beta);
+    if (!p || sel.alpha_keyframes.empty() || sel.beta_keyframes.empty()) continue;
+    const Span<const SequentialLoopCell> l_seq(p->cascade.stage_a.cells);
+    PairSelection w = sel;
+    const auto grow = [](std::vector<std::uint32_t>* keyframes, std::vector<std::uint32_t> pool) {
+      const std::size_t target = std::min<std::size_t>(2 * keyframes->size(), std::numeric_limits<std::uint32_t>::max());
+      return PadKeyframesFromPool(keyframes, std::move(pool), static_cast<std::uint32_t>(target));
+    };
+    const std::size_t added = grow(&w.alpha_keyframes, Endpoints(l_seq, true)) +
+                              grow(&w.beta_keyframes, Endpoints(l_seq, false));
+    if (added == 0) continue;
+    auto& wa = wanted[static_cast<std::size_t>(w.alpha)];
+    auto& wb = wanted[static_cast<std::size_t>(w.beta)];
+    wa.insert(wa.end(), w.alpha_keyframes.begin(), w.alpha_keyframes.end());
+    wb.insert(wb.end(), w.beta_keyframes.begin(), w.beta_keyframes.end());
+    wider.pairs.push_back(std::move(w));
+  }
+  AddRequests(&wanted, first_request_id, /*skip_held=*/true, &wider);
+  return wider;
 }
 
 std::size_t MergeServer::BuildSubmap(int robot, Span<const std::uint32_t> keyframes, double voxel_size_m,

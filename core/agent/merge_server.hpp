@@ -55,6 +55,11 @@ struct MergeServerParams {
   std::uint64_t max_scan_bytes = 512ull << 20;
   /// Scans (complete and partial) held at once: bounds the bookkeeping whatever the scans' sizes.
   std::size_t max_scans_held = 200000;
+  /// Widening (ours, not in the paper; WidenPlan): when registration refuses a pair, the server may ask again for
+  /// up to twice the pair's scans per robot, taken from stage A's loops next to the selected keyframes, and register
+  /// once more; at most this many times per pair and round (0 = the paper's single exchange). A refused pair costs
+  /// the extra scans; a pair that merged costs nothing.
+  int max_widen_steps = 2;
 };
 
 Status ValidateMergeServerParams(const MergeServerParams& params);
@@ -136,6 +141,16 @@ class MergeServer {
   /// The plan of one mode from the last RunCascades().
   Result<ExchangePlan> Plan(ExchangeMode mode) const;
 
+  /// The next exchange for the pairs of `plan` whose registration was refused (`results`: MergePair's results,
+  /// matched by robot pair; pairs not attempted, or merged, are left out). Each robot's keyframes of such a pair
+  /// grow to twice their number with endpoints of the pair's stage A loops (L_seq), nearest in index to the
+  /// keyframes already selected (PadKeyframesFromPool); a pair where neither robot can grow (every L_seq endpoint
+  /// is selected already: send-all, A) is left out. The returned plan's pairs are the widened selections (register
+  /// them with MergePair); its requests name, per robot, only the keyframes whose scans the server does not hold,
+  /// with request ids from `first_request_id` upwards (an empty plan: nothing to widen). Send-all is never widened.
+  Result<ExchangePlan> WidenPlan(const ExchangePlan& plan, Span<const PairMergeResult> results,
+                                 std::int32_t first_request_id) const;
+
   /// Drops every received and partial scan (between modes of a comparison run).
   void ClearScans();
   /// Forgets one robot: its keyframes, and its received and partial scans (a new session of that robot).
@@ -159,6 +174,7 @@ class MergeServer {
                           std::size_t* missing);
 
   int max_robots() const noexcept { return static_cast<int>(robots_.size()); }
+  const MergeServerParams& params() const noexcept { return params_; }
   const RobotKeyframeDb& robot(int r) const { return robots_[static_cast<std::size_t>(r)]; }
   const MergeServerStats& stats() const noexcept { return stats_; }
   /// Complete, verified scans held, and their bytes.
@@ -211,6 +227,10 @@ class MergeServer {
   Status CapacityError(int robot, std::uint32_t keyframe) const;
   Status EnsureKeyframe(int robot, std::uint32_t keyframe);
   const PairState* FindPair(int alpha, int beta) const;
+  /// One request per robot with the keyframes of `wanted[r]` (sorted and de-duplicated here; without the scans
+  /// held when skip_held), ids from `request_id` upwards; adds their predicted bytes to the plan.
+  void AddRequests(std::vector<std::vector<std::uint32_t>>* wanted, std::int32_t request_id, bool skip_held,
+                   ExchangePlan* plan) const;
 
   MergeServerParams params_;
   Status params_status_;

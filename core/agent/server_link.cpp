@@ -245,7 +245,16 @@ Status ServerLink::StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* 
     round_keyframes_[static_cast<std::size_t>(r)] = static_cast<std::uint32_t>(DeliveredKeyframes(r));
   }
   round_start_us_ = now_us;
-  for (const ScanRequest& planned : plan->requests) {
+  pending_pairs_ = round_pairs_;
+  round_results_.clear();
+  widen_step_ = 0;
+  SendRequests(*plan, now_us, out);
+  return Status::Ok();
+}
+
+std::size_t ServerLink::SendRequests(const ExchangePlan& plan, std::int64_t now_us, std::vector<ServerOutgoing>* out) {
+  std::size_t sent = 0;
+  for (const ScanRequest& planned : plan.requests) {
     RobotState& r = robots_[static_cast<std::size_t>(planned.robot_id)];
     ScanRequest request;
     request.utime_us = now_us;
@@ -264,6 +273,23 @@ Status ServerLink::StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* 
     o.request = r.request;
     out->push_back(std::move(o));
     ++stats_.policies;
+    ++sent;
+  }
+  return sent;
+}
+
+Status ServerLink::MergePairs(const std::vector<PairSelection>& pairs) {
+  for (const PairSelection& pair : pairs) {
+    auto merged = server_->MergePair(pair);
+    if (!merged.ok()) return merged.status();
+    auto it = std::find_if(round_results_.begin(), round_results_.end(), [&](const PairMergeResult& r) {
+      return r.alpha == pair.alpha && r.beta == pair.beta;
+    });
+    if (it == round_results_.end()) {
+      round_results_.push_back(std::move(*merged));
+    } else {
+      *it = std::move(*merged);
+    }
   }
   return Status::Ok();
 }
@@ -278,12 +304,33 @@ Status ServerLink::FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>*
       r.request.request_id = -1;
     }
   }
-  std::vector<PairMergeResult> results;
-  for (const PairSelection& pair : round_pairs_) {
-    auto merged = server_->MergePair(pair);
-    if (!merged.ok()) return merged.status();
-    results.push_back(std::move(*merged));
+  if (Status st = MergePairs(pending_pairs_); !st.ok()) return st;
+  pending_pairs_.clear();
+  // Widening: pairs that registration refused ask for more of stage A's scans and are registered again.
+  while (widen_step_ < server_->params().max_widen_steps) {
+    ExchangePlan current;
+    current.mode = params_.mode;
+    current.pairs = round_pairs_;
+    auto wider = server_->WidenPlan(current, Span<const PairMergeResult>(round_results_), next_request_id_);
+    if (!wider.ok()) return wider.status();
+    if (wider->pairs.empty()) break;
+    ++widen_step_;
+    stats_.widened_pairs += wider->pairs.size();
+    for (const PairSelection& w : wider->pairs) {
+      for (PairSelection& p : round_pairs_) {
+        if (p.alpha == w.alpha && p.beta == w.beta) p = w;
+      }
+    }
+    if (SendRequests(*wider, now_us, out) > 0) {  // wait for the extra scans, then register these pairs again
+      pending_pairs_ = wider->pairs;
+      round_active_ = true;
+      round_start_us_ = now_us;
+      return Status::Ok();
+    }
+    if (Status st = MergePairs(wider->pairs); !st.ok()) return st;  // every scan is held already
   }
+  std::vector<PairMergeResult> results = std::move(round_results_);
+  round_results_.clear();
   auto frames = server_->SolveFrames(Span<const PairMergeResult>(results));
   if (!frames.ok()) return frames.status();
   ++round_;

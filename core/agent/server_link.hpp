@@ -10,7 +10,10 @@
 //   * Rounds: when enough keyframes arrived (or the robots went quiet with new data), the server runs the
 //     cascade for every pair, asks each robot for the scans it does not hold yet (its exchange policy,
 //     repeated every policy_repeat_s until the scans are complete), and when every request is complete, or after
-//     request_timeout_s, registers every pair, solves the robot frames and emits a MergeResultMessage.
+//     request_timeout_s, registers every pair. A pair that registration refused is widened (MergeServer::WidenPlan,
+//     at most max_widen_steps times): the server asks for the extra scans, waits for them as above (a fresh
+//     request_timeout_s), and registers that pair again. Then it solves the robot frames and emits a
+//     MergeResultMessage.
 //   * Chunks must belong to the robot's active request; others (stale retransmissions, a previous server's
 //     requests) are refused and counted.
 #pragma once
@@ -63,6 +66,7 @@ struct ServerLinkStats {
   std::uint64_t robot_restarts = 0;     ///< newer sessions that replaced a robot's keyframes
   std::uint64_t rounds_started = 0, rounds_merged = 0, rounds_timed_out = 0;
   std::uint64_t statuses = 0, policies = 0;
+  std::uint64_t widened_pairs = 0;      ///< pair selections widened after registration refused them
   std::string last_rejection;
 };
 
@@ -118,6 +122,10 @@ class ServerLink {
   bool RequestComplete(int robot) const;
   Status StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
   Status FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
+  /// Registers `pairs` and keeps the results in round_results_ (a pair registered before is replaced).
+  Status MergePairs(const std::vector<PairSelection>& pairs);
+  /// Sends the scan requests of `plan` for the keyframes not held yet; returns how many it sent.
+  std::size_t SendRequests(const ExchangePlan& plan, std::int64_t now_us, std::vector<ServerOutgoing>* out);
   /// Keyframes delivered by every robot, or by `only_robot` alone.
   std::size_t DeliveredKeyframes(int only_robot = -1) const;
 
@@ -130,7 +138,10 @@ class ServerLink {
   bool round_active_ = false, round_requested_ = false;
   std::int64_t round_start_us_ = -1, last_round_us_ = -1, last_message_us_ = -1, last_round_check_us_ = -1;
   std::size_t delivered_at_last_round_ = 0;
-  std::vector<PairSelection> round_pairs_;
+  std::vector<PairSelection> round_pairs_;    ///< every pair's current selection (widened ones replaced)
+  std::vector<PairSelection> pending_pairs_;  ///< to register when the active requests complete
+  std::vector<PairMergeResult> round_results_;
+  int widen_step_ = 0;
   std::vector<std::uint32_t> round_keyframes_;  ///< per robot: delivered keyframes when the round started
   int round_ = 0;
   MergeResultMessage last_result_;

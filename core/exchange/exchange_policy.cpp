@@ -12,31 +12,6 @@
 namespace commerge {
 namespace {
 
-// Adds keyframes of `pool` (endpoints of the overlap loops) to the sorted, unique `keyframes` until there are
-// min_scans of them or the pool is used up: nearest in index to a selected keyframe first, ties to the lower
-// index. Returns how many were added.
-std::size_t PadFromPool(std::vector<std::uint32_t>* keyframes, std::vector<std::uint32_t> pool,
-                        std::uint32_t min_scans) {
-  if (keyframes->empty() || keyframes->size() >= min_scans) return 0;
-  std::sort(pool.begin(), pool.end());
-  pool.erase(std::unique(pool.begin(), pool.end()), pool.end());
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> ranked;  // (index distance to the selection, keyframe)
-  ranked.reserve(pool.size());
-  for (std::uint32_t k : pool) {
-    const auto after = std::lower_bound(keyframes->begin(), keyframes->end(), k);
-    if (after != keyframes->end() && *after == k) continue;  // already selected
-    std::uint32_t d = std::numeric_limits<std::uint32_t>::max();
-    if (after != keyframes->end()) d = *after - k;
-    if (after != keyframes->begin()) d = std::min(d, k - *(after - 1));
-    ranked.emplace_back(d, k);
-  }
-  const std::size_t added = std::min<std::size_t>(min_scans - keyframes->size(), ranked.size());
-  std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(added), ranked.end());
-  for (std::size_t i = 0; i < added; ++i) keyframes->push_back(ranked[i].second);
-  std::sort(keyframes->begin(), keyframes->end());
-  return added;
-}
-
 // The alpha and beta endpoints of `loops`, as 32-bit keyframe indices; false when one is beyond 2^32 - 1.
 bool SplitEndpoints(Span<const SequentialLoopCell> loops, std::vector<std::uint32_t>* alpha,
                     std::vector<std::uint32_t>* beta) {
@@ -57,7 +32,7 @@ Status FillRequest(std::vector<std::uint32_t> keyframes, std::vector<std::uint32
   const std::uint32_t assumed_points = params.assumed_points_per_scan;
   std::sort(keyframes.begin(), keyframes.end());
   keyframes.erase(std::unique(keyframes.begin(), keyframes.end()), keyframes.end());
-  out->padded_scans = PadFromPool(&keyframes, std::move(pool), params.min_scans_per_robot);
+  out->padded_scans = PadKeyframesFromPool(&keyframes, std::move(pool), params.min_scans_per_robot);
   out->predicted_bytes = 0;
   out->estimated_scans = 0;
   for (std::uint32_t k : keyframes) {
@@ -80,6 +55,28 @@ Status FillRequest(std::vector<std::uint32_t> keyframes, std::vector<std::uint32
 }
 
 }  // namespace
+
+std::size_t PadKeyframesFromPool(std::vector<std::uint32_t>* keyframes, std::vector<std::uint32_t> pool,
+                                 std::uint32_t min_scans) {
+  if (keyframes->empty() || keyframes->size() >= min_scans) return 0;
+  std::sort(pool.begin(), pool.end());
+  pool.erase(std::unique(pool.begin(), pool.end()), pool.end());
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> ranked;  // (index distance to the selection, keyframe)
+  ranked.reserve(pool.size());
+  for (std::uint32_t k : pool) {
+    const auto after = std::lower_bound(keyframes->begin(), keyframes->end(), k);
+    if (after != keyframes->end() && *after == k) continue;  // already selected
+    std::uint32_t d = std::numeric_limits<std::uint32_t>::max();
+    if (after != keyframes->end()) d = *after - k;
+    if (after != keyframes->begin()) d = std::min(d, k - *(after - 1));
+    ranked.emplace_back(d, k);
+  }
+  const std::size_t added = std::min<std::size_t>(min_scans - keyframes->size(), ranked.size());
+  std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(added), ranked.end());
+  for (std::size_t i = 0; i < added; ++i) keyframes->push_back(ranked[i].second);
+  std::sort(keyframes->begin(), keyframes->end());
+  return added;
+}
 
 Status ValidateExchangePolicyParams(const ExchangePolicyParams& params) {
   if (params.assumed_points_per_scan == 0) {

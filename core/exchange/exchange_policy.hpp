@@ -52,6 +52,12 @@ struct ExchangePolicy {
   std::size_t scans() const noexcept { return alpha.keyframes.size() + beta.keyframes.size(); }
 };
 
+/// Adds keyframes of `pool` (e.g. endpoints of the overlap loops L_seq) to the sorted, unique `keyframes` until
+/// there are min_scans of them or the pool is used up: nearest in index to a selected keyframe first, ties to the
+/// lower index. An empty `keyframes` stays empty (nothing to grow from). Returns how many were added.
+std::size_t PadKeyframesFromPool(std::vector<std::uint32_t>* keyframes, std::vector<std::uint32_t> pool,
+                                 std::uint32_t min_scans);
+
 /// Builds the policy from L_K. `alpha_points` / `beta_points`: stored point count per keyframe index as reported by
 /// the robots (an empty span, or an entry of 0, means unknown -> assumed_points_per_scan). `overlap_loops`: the
 /// loops whose endpoints may pad a robot's request up to min_scans_per_robot (L_seq; empty = no padding).

@@ -6,12 +6,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <iterator>
 #include <random>
 #include <vector>
 
 #include "tests/core/agent/scan_chunk_fixtures.hpp"
 #include "tests/core/registration/registration_test_support.hpp"
 #include "core/agent/merge_server.hpp"
+#include "core/agent/server_link.hpp"
 #include "core/cloud/scan_codec.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
 
@@ -51,6 +54,52 @@ KeyframeBatch MakeBatch(int robot, const std::vector<std::array<float, kKeyframe
     b.stored_points.push_back(points);
   }
   return b;
+}
+
+// Two robots of n keyframes: beta's keyframe j sees alpha's place j + shift (its own frame is shifted and
+// rotated), so stage A's loops are (j + shift, j). Alpha reports 2 000 stored points a scan, beta 3 000.
+std::vector<KeyframeBatch> ShiftedPairBatches(int n, int shift, std::int64_t session = 0) {
+  std::mt19937 rng(7);
+  std::vector<std::array<float, kKeyframeDescriptorDim>> da, db;
+  std::vector<Eigen::Vector3d> pa, pb;
+  for (int i = 0; i < n; ++i) {
+    da.push_back(RandomDescriptor(&rng));
+    pa.emplace_back(i, 0.0, 0.0);
+  }
+  for (int j = 0; j < n; ++j) {
+    db.push_back(j + shift < n ? da[static_cast<std::size_t>(j + shift)] : RandomDescriptor(&rng));
+    pb.emplace_back(-static_cast<double>(j), 3.0, 0.0);
+  }
+  std::vector<KeyframeBatch> out = {MakeBatch(0, da, pa, 2000), MakeBatch(1, db, pb, 3000)};
+  for (KeyframeBatch& b : out) b.session = session > 0 ? session + b.robot_id : 0;
+  return out;
+}
+
+// The reference widening: `selected` plus the keyframes of `pool` nearest in index to any of `selected` (ties: the
+// lower index) until there are `target` of them, by brute force over the pool.
+std::vector<std::uint32_t> BruteForceWiden(const std::vector<std::uint32_t>& selected,
+                                           const std::vector<std::uint32_t>& pool, std::size_t target) {
+  std::vector<std::pair<long, std::uint32_t>> ranked;
+  for (std::uint32_t k : pool) {
+    if (std::find(selected.begin(), selected.end(), k) != selected.end()) continue;
+    long d = 1L << 40;
+    for (std::uint32_t s : selected) d = std::min(d, std::labs(static_cast<long>(k) - static_cast<long>(s)));
+    ranked.emplace_back(d, k);
+  }
+  std::sort(ranked.begin(), ranked.end());
+  std::vector<std::uint32_t> out = selected;
+  for (std::size_t i = 0; i < ranked.size() && out.size() < target; ++i) out.push_back(ranked[i].second);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+PairMergeResult Refused(int alpha, int beta, RegistrationVerdict verdict = RegistrationVerdict::kOverlapTooLow) {
+  PairMergeResult r;
+  r.alpha = alpha;
+  r.beta = beta;
+  r.attempted = true;
+  r.registration.verdict = verdict;
+  return r;
 }
 
 }  // namespace
@@ -166,24 +215,11 @@ TEST_CASE("Merge server bounds the number of scans it holds, whatever their size
 }
 
 TEST_CASE("Merge server plans per exchange mode: stage A's loops equal the brute-force threshold cells") {
-  std::mt19937 rng(7);
   const int n = 40, shift = 5;
-  std::vector<std::array<float, kKeyframeDescriptorDim>> da, db;
-  std::vector<Eigen::Vector3d> pa, pb;
-  for (int i = 0; i < n; ++i) {
-    da.push_back(RandomDescriptor(&rng));
-    pa.emplace_back(i, 0.0, 0.0);
-  }
-  // Beta's keyframe j sees alpha's place j + shift (its own frame is shifted and rotated).
-  for (int j = 0; j < n; ++j) {
-    db.push_back(j + shift < n ? da[static_cast<std::size_t>(j + shift)] : RandomDescriptor(&rng));
-    pb.emplace_back(-static_cast<double>(j), 3.0, 0.0);
-  }
   MergeServerParams params;
   params.cascade.stage_a.tau_area = 100;
   MergeServer server(2, 100, params);
-  REQUIRE(server.OnKeyframeBatch(MakeBatch(0, da, pa, 2000)).ok());
-  REQUIRE(server.OnKeyframeBatch(MakeBatch(1, db, pb, 3000)).ok());
+  for (const KeyframeBatch& b : ShiftedPairBatches(n, shift)) REQUIRE(server.OnKeyframeBatch(b).ok());
   REQUIRE(server.RunCascades().ok());
   const ExchangeCascadeResult* cascade = server.cascade(0, 1);
   REQUIRE(cascade != nullptr);
@@ -297,4 +333,182 @@ TEST_CASE("Merge server builds a pair's submaps from received scans and register
   REQUIRE(skipped.ok());
   CHECK_FALSE(skipped->attempted);
   CHECK_FALSE(skipped->reason.empty());
+}
+
+TEST_CASE("Merge server widens a refused pair with stage A's keyframes nearest its selection, asking only for scans it lacks") {
+  const int n = 40, shift = 5;
+  MergeServerParams params;
+  params.cascade.stage_a.tau_area = 100;
+  MergeServer server(2, 100, params);
+  for (const KeyframeBatch& b : ShiftedPairBatches(n, shift)) REQUIRE(server.OnKeyframeBatch(b).ok());
+  REQUIRE(server.RunCascades().ok());
+  std::vector<std::uint32_t> pool_a, pool_b;  // L_seq's endpoints: alpha shift..n-1, beta 0..n-shift-1
+  for (int i = shift; i < n; ++i) pool_a.push_back(static_cast<std::uint32_t>(i));
+  for (int j = 0; j + shift < n; ++j) pool_b.push_back(static_cast<std::uint32_t>(j));
+  auto plan = server.Plan(ExchangeMode::kStageABC);
+  REQUIRE(plan.ok());
+  REQUIRE(plan->pairs.size() == 1);
+  const PairSelection sel = plan->pairs[0];
+  REQUIRE_FALSE(sel.alpha_keyframes.empty());
+  REQUIRE(sel.alpha_keyframes.size() * 2 < pool_a.size());
+
+  const std::vector<std::uint32_t> want_a = BruteForceWiden(sel.alpha_keyframes, pool_a, 2 * sel.alpha_keyframes.size());
+  const std::vector<std::uint32_t> want_b = BruteForceWiden(sel.beta_keyframes, pool_b, 2 * sel.beta_keyframes.size());
+  REQUIRE(want_a.size() == 2 * sel.alpha_keyframes.size());
+  // The server already holds one scan the widening adds and one of the first selection: neither is asked again.
+  std::uint32_t added_held = 0;
+  for (std::uint32_t k : want_a) {
+    if (!std::binary_search(sel.alpha_keyframes.begin(), sel.alpha_keyframes.end(), k)) added_held = k;
+  }
+  for (std::uint32_t k : {added_held, sel.alpha_keyframes[0]}) {
+    for (const ScanChunk& c : ChunksOf(0, k, EncodeForTest(LatticePoints(20)))) REQUIRE(server.OnScanChunk(c).ok());
+  }
+  const PairMergeResult refused = Refused(0, 1);
+  auto wider = server.WidenPlan(*plan, Span<const PairMergeResult>(&refused, 1), 7);
+  REQUIRE(wider.ok());
+  REQUIRE(wider->pairs.size() == 1);
+  CHECK(wider->pairs[0].alpha_keyframes == want_a);
+  CHECK(wider->pairs[0].beta_keyframes == want_b);
+  std::vector<std::uint32_t> ask_a;
+  for (std::uint32_t k : want_a) {
+    if (k != added_held && k != sel.alpha_keyframes[0]) ask_a.push_back(k);
+  }
+  REQUIRE(wider->requests.size() == 2);
+  CHECK(wider->requests[0].robot_id == 0);
+  CHECK(wider->requests[0].request_id == 7);
+  CHECK(wider->requests[0].keyframes == ask_a);
+  CHECK(wider->requests[1].robot_id == 1);
+  CHECK(wider->requests[1].request_id == 8);
+  CHECK(wider->requests[1].keyframes == want_b);
+  CHECK(wider->predicted_scan_bytes == ask_a.size() * EncodedScanBytes(2000) + want_b.size() * EncodedScanBytes(3000));
+
+  // Widening again doubles again until stage A's loops are used up; then there is nothing left to widen.
+  ExchangePlan current = *wider;
+  std::size_t steps = 1;
+  for (;; ++steps) {
+    REQUIRE(steps < 10);
+    auto next = server.WidenPlan(current, Span<const PairMergeResult>(&refused, 1), 1);
+    REQUIRE(next.ok());
+    if (next->pairs.empty()) {
+      CHECK(next->requests.empty());
+      break;
+    }
+    const PairSelection& was = current.pairs[0];
+    CHECK(next->pairs[0].alpha_keyframes == BruteForceWiden(was.alpha_keyframes, pool_a, 2 * was.alpha_keyframes.size()));
+    CHECK(next->pairs[0].beta_keyframes == BruteForceWiden(was.beta_keyframes, pool_b, 2 * was.beta_keyframes.size()));
+    current = *next;
+  }
+  CHECK(current.pairs[0].alpha_keyframes == pool_a);
+  CHECK(current.pairs[0].beta_keyframes == pool_b);
+
+  // A merged pair, one not attempted (nothing received), stage A's plan (every L_seq endpoint already) and the
+  // send-all baseline are not widened.
+  PairMergeResult merged = refused;
+  merged.registration.verdict = RegistrationVerdict::kSuccess;
+  PairMergeResult not_attempted = refused;
+  not_attempted.attempted = false;
+  for (const PairMergeResult& r : {merged, not_attempted}) {
+    auto none = server.WidenPlan(*plan, Span<const PairMergeResult>(&r, 1), 1);
+    REQUIRE(none.ok());
+    CHECK(none->pairs.empty());
+    CHECK(none->requests.empty());
+  }
+  for (ExchangeMode mode : {ExchangeMode::kStageA, ExchangeMode::kSendAll}) {
+    auto other = server.Plan(mode);
+    REQUIRE(other.ok());
+    auto none = server.WidenPlan(*other, Span<const PairMergeResult>(&refused, 1), 1);
+    REQUIRE(none.ok());
+    CHECK(none->pairs.empty());
+  }
+  MergeServerParams bad = params;
+  bad.max_widen_steps = 9;
+  CHECK_FALSE(ValidateMergeServerParams(bad).ok());
+}
+
+namespace {
+
+// Answers every scan request in `out` with scans of 2 points each (too few for registration: it refuses the pair)
+// and returns the requests it answered.
+std::vector<ScanRequest> AnswerWithTinyScans(ServerLink* link, const std::vector<ServerOutgoing>& out,
+                                             std::int64_t now_us) {
+  std::vector<ScanRequest> answered;
+  for (const ServerOutgoing& o : out) {
+    if (o.kind != ServerOutgoing::Kind::kScanRequest) continue;
+    for (std::uint32_t k : o.request.keyframes) {
+      for (ScanChunk c : ChunksOf(o.request.robot_id, k, EncodeForTest(LatticePoints(2)))) {
+        c.request_id = o.request.request_id;
+        REQUIRE(link->OnScanChunk(c, now_us).ok());
+      }
+    }
+    answered.push_back(o.request);
+  }
+  return answered;
+}
+
+const MergeResultMessage* FindResult(const std::vector<ServerOutgoing>& out) {
+  for (const ServerOutgoing& o : out) {
+    if (o.kind == ServerOutgoing::Kind::kMergeResult) return &o.result;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+TEST_CASE("Server link: a refused pair is widened, the extra scans are asked for, and it is registered again") {
+  const int n = 40, shift = 5;
+  std::vector<std::uint32_t> pool_a, pool_b;  // L_seq's endpoints
+  for (int i = shift; i < n; ++i) pool_a.push_back(static_cast<std::uint32_t>(i));
+  for (int j = 0; j + shift < n; ++j) pool_b.push_back(static_cast<std::uint32_t>(j));
+  for (int steps : {0, 1, 2}) {
+    CAPTURE(steps);
+    MergeServerParams mp;
+    mp.cascade.stage_a.tau_area = 100;
+    mp.max_widen_steps = steps;
+    MergeServer server(2, 100, mp);
+    ServerLinkParams lp;
+    lp.automatic_rounds = false;
+    ServerLink link(500, lp, &server);
+    std::int64_t now = 1000000;
+    for (const KeyframeBatch& b : ShiftedPairBatches(n, shift, 1000)) REQUIRE(link.OnKeyframeBatch(b, now).ok());
+    link.RequestRound();
+    std::vector<ServerOutgoing> out;
+    REQUIRE(link.Poll(now, &out).ok());
+    std::vector<ScanRequest> asked = AnswerWithTinyScans(&link, out, now);
+    REQUIRE(asked.size() == 2);
+    std::vector<std::uint32_t> selected_a = asked[0].keyframes, selected_b = asked[1].keyframes;
+    std::size_t scans_sent = selected_a.size() + selected_b.size();
+    for (int step = 1; step <= steps; ++step) {
+      CAPTURE(step);
+      out.clear();
+      now += 100000;
+      REQUIRE(link.Poll(now, &out).ok());
+      CHECK(FindResult(out) == nullptr);
+      CHECK(link.round_active());
+      CHECK(link.stats().widened_pairs == static_cast<std::uint64_t>(step));
+      // The new requests name exactly the keyframes the doubled selection adds.
+      const std::vector<std::uint32_t> wider_a = BruteForceWiden(selected_a, pool_a, 2 * selected_a.size());
+      const std::vector<std::uint32_t> wider_b = BruteForceWiden(selected_b, pool_b, 2 * selected_b.size());
+      asked = AnswerWithTinyScans(&link, out, now);
+      REQUIRE(asked.size() == 2);
+      std::vector<std::uint32_t> new_a, new_b;
+      std::set_difference(wider_a.begin(), wider_a.end(), selected_a.begin(), selected_a.end(), std::back_inserter(new_a));
+      std::set_difference(wider_b.begin(), wider_b.end(), selected_b.begin(), selected_b.end(), std::back_inserter(new_b));
+      CHECK(asked[0].keyframes == new_a);
+      CHECK(asked[1].keyframes == new_b);
+      selected_a = wider_a;
+      selected_b = wider_b;
+      scans_sent += new_a.size() + new_b.size();
+    }
+    out.clear();
+    now += 100000;
+    REQUIRE(link.Poll(now, &out).ok());
+    const MergeResultMessage* result = FindResult(out);
+    REQUIRE(result != nullptr);
+    CHECK_FALSE(link.round_active());
+    CHECK(link.stats().widened_pairs == static_cast<std::uint64_t>(steps));
+    REQUIRE(result->pairs.size() == 1);
+    CHECK_FALSE(result->pairs[0].success);
+    CHECK(result->pairs[0].alpha_scans + result->pairs[0].beta_scans == scans_sent);
+    CHECK(result->pairs[0].alpha_scans == selected_a.size());
+  }
 }
