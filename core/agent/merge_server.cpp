@@ -269,7 +269,7 @@ Status MergeServer::OnScanChunk(const ScanChunk& chunk) {
   const ChunkRange range = ScanChunkRange(total, chunk.num_chunks, chunk.chunk_index);
   if (chunk.payload.size() != range.size) {
     return Reject(&stats_.rejected_chunks, InvalidArgument(what + ": payload of " + std::to_string(chunk.payload.size()) +
-                                                           " bytes where the protocol puts " +
+                                                           " bytes where the protocol expects " +
                                                            std::to_string(range.size)));
   }
   auto it = partial_.find(key);

@@ -5,7 +5,7 @@
 //     last sent more than resend_timeout_s ago is announced again (record with its current pose, or its pose when
 //     it has no valid descriptor), so every keyframe's descriptor eventually reaches the server;
 //   * poses: pose updates stay "in flight" until the status acknowledges their sequence; an unacknowledged one
-//     older than resend_timeout_s puts its keyframes' current poses back in the queue;
+//     older than resend_timeout_s re-queues its keyframes' current poses;
 //   * scans: the active scan request (the newest from the server) is answered chunk by chunk; the status's
 //     missing-chunk ranges are sent again once the chunks are older than resend_timeout_s;
 //   * a new server session (the server restarted) re-announces everything; a new request replaces the old one.

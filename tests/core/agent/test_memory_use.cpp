@@ -23,6 +23,7 @@
 #include "core/descriptor/solid.hpp"
 #include "core/memory/budget.hpp"
 #include "core/sim/synthetic_scan.hpp"
+#include "tests/core/agent/keyframe_batch_fixtures.hpp"
 #include "tests/core/agent/scan_chunk_fixtures.hpp"
 #include "tests/core/registration/registration_test_support.hpp"
 #include "tests/core/slam/block_loop_drive.hpp"
@@ -31,6 +32,9 @@ using namespace commerge;
 using commerge::test::ChunksOf;
 using commerge::test::EncodeForTest;
 using commerge::test::LatticePoints;
+using commerge::test::MakeBatch;
+using commerge::test::RandomDescriptor;
+using commerge::test::ShiftedPairBatches;
 
 namespace {
 
@@ -119,37 +123,6 @@ void CheckHighWaterNotBelowUse(const std::vector<ModuleMemory>& modules) {
 template <class V>
 std::int64_t Held(const V& v) {
   return static_cast<std::int64_t>(v.capacity() * sizeof(typename V::value_type));
-}
-
-// A random unit descriptor with non-negative entries (as SOLiD's).
-std::array<float, kKeyframeDescriptorDim> RandomDescriptor(std::mt19937* rng) {
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::array<float, kKeyframeDescriptorDim> d{};
-  double n = 0.0;
-  for (float& v : d) {
-    v = u(*rng);
-    n += static_cast<double>(v) * static_cast<double>(v);
-  }
-  for (float& v : d) v = static_cast<float>(static_cast<double>(v) / std::sqrt(n));
-  return d;
-}
-
-KeyframeBatch MakeBatch(int robot, std::uint32_t first, const std::vector<std::array<float, kKeyframeDescriptorDim>>& d,
-                        const std::vector<Eigen::Vector3d>& positions) {
-  KeyframeBatch b;
-  b.robot_id = robot;
-  for (std::size_t k = 0; k < d.size(); ++k) {
-    KeyframeRecord r;
-    r.keyframe_index = first + static_cast<std::uint32_t>(k);
-    r.T_world_sensor.translation() = positions[k];
-    r.descriptor = d[k];
-    r.descriptor_valid = true;
-    const std::size_t at = b.records.size();
-    b.records.resize(at + kKeyframeRecordBytes);
-    REQUIRE(EncodeKeyframeRecord(r, Span<std::uint8_t>(b.records.data() + at, kKeyframeRecordBytes)).ok());
-    b.stored_points.push_back(1000);
-  }
-  return b;
 }
 
 }  // namespace
@@ -258,7 +231,7 @@ TEST_CASE("Merge server memory: the server budget modules, descriptor_db from th
       d.push_back(RandomDescriptor(&rng));
       p.emplace_back(first + i, 0.0, 0.0);
     }
-    REQUIRE(server.OnKeyframeBatch(MakeBatch(1, first, d, p)).ok());
+    REQUIRE(server.OnKeyframeBatch(MakeBatch(1, first, d, p, 1000)).ok());
   }
   const std::vector<ModuleMemory> use = server.MemoryUse();
   CheckHighWaterNotBelowUse(use);
@@ -318,21 +291,9 @@ TEST_CASE("Merge server memory: the cascade, the submaps and the registration co
   MergeServerParams params;
   params.cascade.stage_a.tau_area = 100;
   MergeServer server(2, 100, params);
-  // Stage A: beta's keyframe j sees alpha's place j + 5 (as in test_merge_server.cpp).
-  std::mt19937 rng(7);
+  // Stage A: beta's keyframe j sees alpha's place j + 5.
   const int n = 40;
-  std::vector<std::array<float, kKeyframeDescriptorDim>> da, db;
-  std::vector<Eigen::Vector3d> pa, pb;
-  for (int i = 0; i < n; ++i) {
-    da.push_back(RandomDescriptor(&rng));
-    pa.emplace_back(i, 0.0, 0.0);
-  }
-  for (int j = 0; j < n; ++j) {
-    db.push_back(j + 5 < n ? da[static_cast<std::size_t>(j + 5)] : RandomDescriptor(&rng));
-    pb.emplace_back(-static_cast<double>(j), 3.0, 0.0);
-  }
-  REQUIRE(server.OnKeyframeBatch(MakeBatch(0, 0, da, pa)).ok());
-  REQUIRE(server.OnKeyframeBatch(MakeBatch(1, 0, db, pb)).ok());
+  for (const KeyframeBatch& b : ShiftedPairBatches(n, 5)) REQUIRE(server.OnKeyframeBatch(b).ok());
   REQUIRE(server.RunCascades().ok());
   const ExchangeCascadeResult* cascade = server.cascade(0, 1);
   REQUIRE(cascade != nullptr);

@@ -8,9 +8,11 @@
 #include <cmath>
 #include <cstdlib>
 #include <iterator>
+#include <memory>
 #include <random>
 #include <vector>
 
+#include "tests/core/agent/keyframe_batch_fixtures.hpp"
 #include "tests/core/agent/scan_chunk_fixtures.hpp"
 #include "tests/core/registration/registration_test_support.hpp"
 #include "core/agent/merge_server.hpp"
@@ -22,58 +24,11 @@ using namespace commerge;
 using commerge::test::ChunksOf;
 using commerge::test::EncodeForTest;
 using commerge::test::LatticePoints;
+using commerge::test::MakeBatch;
+using commerge::test::RandomDescriptor;
+using commerge::test::ShiftedPairBatches;
 
 namespace {
-
-// A random unit descriptor with non-negative entries (as SOLiD's).
-std::array<float, kKeyframeDescriptorDim> RandomDescriptor(std::mt19937* rng) {
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::array<float, kKeyframeDescriptorDim> d{};
-  double n = 0.0;
-  for (float& v : d) {
-    v = u(*rng);
-    n += static_cast<double>(v) * static_cast<double>(v);
-  }
-  for (float& v : d) v = static_cast<float>(static_cast<double>(v) / std::sqrt(n));
-  return d;
-}
-
-KeyframeBatch MakeBatch(int robot, const std::vector<std::array<float, kKeyframeDescriptorDim>>& descriptors,
-                        const std::vector<Eigen::Vector3d>& positions, std::uint32_t points) {
-  KeyframeBatch b;
-  b.robot_id = robot;
-  for (std::size_t k = 0; k < descriptors.size(); ++k) {
-    KeyframeRecord r;
-    r.keyframe_index = static_cast<std::uint32_t>(k);
-    r.T_world_sensor.translation() = positions[k];
-    r.descriptor = descriptors[k];
-    r.descriptor_valid = true;
-    const std::size_t at = b.records.size();
-    b.records.resize(at + kKeyframeRecordBytes);
-    REQUIRE(EncodeKeyframeRecord(r, Span<std::uint8_t>(b.records.data() + at, kKeyframeRecordBytes)).ok());
-    b.stored_points.push_back(points);
-  }
-  return b;
-}
-
-// Two robots of n keyframes: beta's keyframe j sees alpha's place j + shift (its own frame is shifted and
-// rotated), so stage A's loops are (j + shift, j). Alpha reports 2 000 stored points a scan, beta 3 000.
-std::vector<KeyframeBatch> ShiftedPairBatches(int n, int shift, std::int64_t session = 0) {
-  std::mt19937 rng(7);
-  std::vector<std::array<float, kKeyframeDescriptorDim>> da, db;
-  std::vector<Eigen::Vector3d> pa, pb;
-  for (int i = 0; i < n; ++i) {
-    da.push_back(RandomDescriptor(&rng));
-    pa.emplace_back(i, 0.0, 0.0);
-  }
-  for (int j = 0; j < n; ++j) {
-    db.push_back(j + shift < n ? da[static_cast<std::size_t>(j + shift)] : RandomDescriptor(&rng));
-    pb.emplace_back(-static_cast<double>(j), 3.0, 0.0);
-  }
-  std::vector<KeyframeBatch> out = {MakeBatch(0, da, pa, 2000), MakeBatch(1, db, pb, 3000)};
-  for (KeyframeBatch& b : out) b.session = session > 0 ? session + b.robot_id : 0;
-  return out;
-}
 
 // The reference widening: `selected` plus the keyframes of `pool` nearest in index to any of `selected` (ties: the
 // lower index) until there are `target` of them, by brute force over the pool.
@@ -93,6 +48,16 @@ std::vector<std::uint32_t> BruteForceWiden(const std::vector<std::uint32_t>& sel
   return out;
 }
 
+// A server (stage A's tau_area 100) holding ShiftedPairBatches(n, shift), its cascades run.
+std::unique_ptr<MergeServer> ShiftedPairServer(int n, int shift) {
+  MergeServerParams params;
+  params.cascade.stage_a.tau_area = 100;
+  auto server = std::make_unique<MergeServer>(2, 100, params);
+  for (const KeyframeBatch& b : ShiftedPairBatches(n, shift)) REQUIRE(server->OnKeyframeBatch(b).ok());
+  REQUIRE(server->RunCascades().ok());
+  return server;
+}
+
 PairMergeResult Refused(int alpha, int beta, RegistrationVerdict verdict = RegistrationVerdict::kOverlapTooLow) {
   PairMergeResult r;
   r.alpha = alpha;
@@ -109,7 +74,7 @@ TEST_CASE("Merge server refuses malformed keyframe batches and pose updates and 
   std::mt19937 rng(1);
   std::vector<std::array<float, kKeyframeDescriptorDim>> d = {RandomDescriptor(&rng), RandomDescriptor(&rng)};
   std::vector<Eigen::Vector3d> pos = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0)};
-  KeyframeBatch good = MakeBatch(0, d, pos, 1000);
+  KeyframeBatch good = MakeBatch(0, 0, d, pos, 1000);
 
   KeyframeBatch foreign = good;
   foreign.robot_id = 2;  // the server was sized for robots 0 and 1
@@ -216,11 +181,9 @@ TEST_CASE("Merge server bounds the number of scans it holds, whatever their size
 
 TEST_CASE("Merge server plans per exchange mode: stage A's loops equal the brute-force threshold cells") {
   const int n = 40, shift = 5;
-  MergeServerParams params;
-  params.cascade.stage_a.tau_area = 100;
-  MergeServer server(2, 100, params);
-  for (const KeyframeBatch& b : ShiftedPairBatches(n, shift)) REQUIRE(server.OnKeyframeBatch(b).ok());
-  REQUIRE(server.RunCascades().ok());
+  const std::unique_ptr<MergeServer> owned = ShiftedPairServer(n, shift);
+  MergeServer& server = *owned;
+  const MergeServerParams& params = server.params();
   const ExchangeCascadeResult* cascade = server.cascade(0, 1);
   REQUIRE(cascade != nullptr);
   REQUIRE(cascade->stage_a.found);
@@ -294,8 +257,8 @@ TEST_CASE("Merge server builds a pair's submaps from received scans and register
   std::vector<std::array<float, kKeyframeDescriptorDim>> d4 = {RandomDescriptor(&rng), RandomDescriptor(&rng),
                                                                RandomDescriptor(&rng), RandomDescriptor(&rng)};
   std::vector<Eigen::Vector3d> p4(4, Eigen::Vector3d::Zero());
-  REQUIRE(server.OnKeyframeBatch(MakeBatch(0, d4, p4, 0)).ok());
-  REQUIRE(server.OnKeyframeBatch(MakeBatch(1, {d4[0]}, {Eigen::Vector3d::Zero()}, 0)).ok());
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(0, 0, d4, p4, 0)).ok());
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(1, 0, {d4[0]}, {Eigen::Vector3d::Zero()}, 0)).ok());
   PoseUpdate update;
   update.robot_id = 0;
   update.keyframes = {3};
@@ -337,11 +300,9 @@ TEST_CASE("Merge server builds a pair's submaps from received scans and register
 
 TEST_CASE("Merge server widens a refused pair with stage A's keyframes nearest its selection, asking only for scans it lacks") {
   const int n = 40, shift = 5;
-  MergeServerParams params;
-  params.cascade.stage_a.tau_area = 100;
-  MergeServer server(2, 100, params);
-  for (const KeyframeBatch& b : ShiftedPairBatches(n, shift)) REQUIRE(server.OnKeyframeBatch(b).ok());
-  REQUIRE(server.RunCascades().ok());
+  const std::unique_ptr<MergeServer> owned = ShiftedPairServer(n, shift);
+  MergeServer& server = *owned;
+  const MergeServerParams& params = server.params();
   std::vector<std::uint32_t> pool_a, pool_b;  // L_seq's endpoints: alpha shift..n-1, beta 0..n-shift-1
   for (int i = shift; i < n; ++i) pool_a.push_back(static_cast<std::uint32_t>(i));
   for (int j = 0; j + shift < n; ++j) pool_b.push_back(static_cast<std::uint32_t>(j));
