@@ -517,8 +517,25 @@ Result<ExchangePlan> MergeServer::WidenPlan(const ExchangePlan& plan, Span<const
   ExchangePlan wider;
   wider.mode = plan.mode;
   if (plan.mode == ExchangeMode::kSendAll) return wider;
+  // Robots already joined by merged pairs (union-find): a refused pair between them is not widened.
+  std::vector<int> root(robots_.size());
+  for (std::size_t r = 0; r < root.size(); ++r) root[r] = static_cast<int>(r);
+  const auto find = [&root](int r) {
+    while (root[static_cast<std::size_t>(r)] != r) r = root[static_cast<std::size_t>(r)];
+    return r;
+  };
+  for (const PairMergeResult& r : results) {
+    if (r.attempted && r.registration.success() && r.alpha >= 0 && r.beta >= 0 && r.alpha < max_robots() &&
+        r.beta < max_robots()) {
+      root[static_cast<std::size_t>(find(r.alpha))] = find(r.beta);
+    }
+  }
   std::vector<std::vector<std::uint32_t>> wanted(robots_.size());
   for (const PairSelection& sel : plan.pairs) {
+    if (sel.alpha < 0 || sel.beta < 0 || sel.alpha >= max_robots() || sel.beta >= max_robots() ||
+        find(sel.alpha) == find(sel.beta)) {
+      continue;
+    }
     const PairMergeResult* result = nullptr;
     for (const PairMergeResult& r : results) {
       if (r.alpha == sel.alpha && r.beta == sel.beta) result = &r;

@@ -145,7 +145,8 @@ class MergeServer {
   /// matched by robot pair; pairs not attempted, or merged, are left out). Each robot's keyframes of such a pair
   /// grow to twice their number with endpoints of the pair's stage A loops (L_seq), nearest in index to the
   /// keyframes already selected (PadKeyframesFromPool); a pair where neither robot can grow (every L_seq endpoint
-  /// is selected already: send-all, A) is left out. The returned plan's pairs are the widened selections (register
+  /// is selected already: send-all, A) is left out, and so is a pair whose robots the merged pairs of `results`
+  /// already join (through other robots): widening is for connecting robots, and its scans cost bytes. The returned plan's pairs are the widened selections (register
   /// them with MergePair); its requests name, per robot, only the keyframes whose scans the server does not hold,
   /// with request ids from `first_request_id` upwards (an empty plan: nothing to widen). Send-all is never widened.
   Result<ExchangePlan> WidenPlan(const ExchangePlan& plan, Span<const PairMergeResult> results,

@@ -383,6 +383,7 @@ TEST_CASE("Merge server widens a refused pair with stage A's keyframes nearest i
   }
   MergeServerParams bad = params;
   bad.max_widen_steps = 9;
+  CHECK(ValidateMergeServerParams(params).ok());
   CHECK_FALSE(ValidateMergeServerParams(bad).ok());
 }
 
@@ -472,4 +473,42 @@ TEST_CASE("Server link: a refused pair is widened, the extra scans are asked for
     CHECK(result->pairs[0].alpha_scans + result->pairs[0].beta_scans == scans_sent);
     CHECK(result->pairs[0].alpha_scans == selected_a.size());
   }
+}
+
+TEST_CASE("Merge server does not widen a refused pair whose robots merged pairs already join") {
+  MergeServerParams params;
+  params.cascade.stage_a.tau_area = 100;
+  MergeServer server(3, 100, params);
+  for (const KeyframeBatch& b : ShiftedPairBatches(40, 5)) REQUIRE(server.OnKeyframeBatch(b).ok());
+  std::mt19937 rng(11);
+  std::vector<std::array<float, kKeyframeDescriptorDim>> d;
+  std::vector<Eigen::Vector3d> p;
+  for (int i = 0; i < 40; ++i) {
+    d.push_back(RandomDescriptor(&rng));
+    p.emplace_back(0.0, i, 0.0);
+  }
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(2, 0, d, p, 1000)).ok());
+  REQUIRE(server.RunCascades().ok());
+  auto plan = server.Plan(ExchangeMode::kStageABC);
+  REQUIRE(plan.ok());
+  REQUIRE(plan->pairs.size() == 3);
+  // Pairs 0-2 and 1-2 found no loops here; as results they stand for merges through robot 2.
+  const auto merged = [](int a, int b) {
+    PairMergeResult r = Refused(a, b);
+    r.registration.verdict = RegistrationVerdict::kSuccess;
+    return r;
+  };
+  const std::vector<PairMergeResult> joined = {Refused(0, 1), merged(0, 2), merged(1, 2)};
+  auto none = server.WidenPlan(*plan, Span<const PairMergeResult>(joined), 1);
+  REQUIRE(none.ok());
+  CHECK(none->pairs.empty());
+  CHECK(none->requests.empty());
+  // Robot 2 joined to robot 0 only: robots 0 and 1 are not joined, so pair 0-1 is widened.
+  const std::vector<PairMergeResult> apart = {Refused(0, 1), merged(0, 2), Refused(1, 2)};
+  auto wider = server.WidenPlan(*plan, Span<const PairMergeResult>(apart), 1);
+  REQUIRE(wider.ok());
+  REQUIRE(wider->pairs.size() == 1);
+  CHECK(wider->pairs[0].alpha == 0);
+  CHECK(wider->pairs[0].beta == 1);
+  CHECK(wider->pairs[0].alpha_keyframes.size() == 2 * plan->pairs[0].alpha_keyframes.size());
 }
