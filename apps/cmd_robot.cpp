@@ -206,6 +206,9 @@ int RunRobot(const RobotOptions& o) {
   const std::int64_t period_us = static_cast<std::int64_t>(1e6 / o.rate_hz);
   std::int64_t next_scan_us = platform::MonotonicUs(), next_status_us = next_scan_us, data_end_us = -1;
   std::size_t scan = 0;
+  // The server session whose merge result placed this robot (0: none yet). Kept once set: a duplicated or late
+  // copy of an earlier result must not undo it; a new server session (a restarted server) starts over.
+  std::int64_t merged_session = 0;
   bool merged = false;
   std::vector<std::uint8_t> buffer;
   RobotOutgoing out;
@@ -326,7 +329,7 @@ int RunRobot(const RobotOptions& o) {
             ++placed;
             self = self || (result->robot_ids[i] == o.id && result->keyframes[i] == agent.mapper().num_keyframes());
           }
-          merged = self && o.exit_when_merged > 0 && placed >= o.exit_when_merged;
+          if (self && o.exit_when_merged > 0 && placed >= o.exit_when_merged) merged_session = result->server_session;
         }
       }
       if (!st.ok()) {
@@ -369,6 +372,7 @@ int RunRobot(const RobotOptions& o) {
     }
     const bool all_acked = data_end_us >= 0 && link.stats().keyframes_acked >= agent.mapper().num_keyframes() &&
                            agent.queued_resends() == 0 && agent.queued_poses() == 0 && link.queued_chunks() == 0;
+    merged = merged_session != 0 && merged_session == link.server_session();
     const bool done = merged && all_acked;
     if (now >= next_status_us || done) {
       next_status_us = now + 1000000;
@@ -389,7 +393,11 @@ int RunRobot(const RobotOptions& o) {
       status.bytes_resent = bytes_resent;
       status.request_id = link.active_request();
       status.state = done ? "merged" : data_end_us < 0 ? "mapping" : link.queued_chunks() > 0 ? "sending scans" : "waiting";
-      if (platform::EncodeRobotStatus(status, &buffer).ok()) (void)(*bus)->Publish(platform::kRobotStatusChannel, buffer);
+      // The server lingers until every placed robot said "merged": the last status goes out three times, so one
+      // lost datagram does not keep the server waiting for --linger-s.
+      if (platform::EncodeRobotStatus(status, &buffer).ok()) {
+        for (int copy = 0; copy < (done ? 3 : 1); ++copy) (void)(*bus)->Publish(platform::kRobotStatusChannel, buffer);
+      }
       if (!o.quiet) {
         std::fprintf(stderr, "%s %d: %s, %u/%u keyframes acknowledged, %lld bytes sent (%lld resent), %llu rejected\n",
                      tag, o.id, status.state.c_str(), status.keyframes_acked, status.keyframes,
