@@ -25,10 +25,11 @@ LcmBus::LcmBus(const LcmBusParams& params) : params_(params), fault_rng_(params.
 LcmBus::~LcmBus() = default;
 
 Result<std::unique_ptr<LcmBus>> LcmBus::Create(const LcmBusParams& params) {
-  if (params.max_queued_messages < 1 || params.max_queued_bytes < 65536 || !(params.delay_ms >= 0.0) ||
+  if (params.max_queued_messages < 1 || params.max_queued_bytes < 65536 || params.lcm_queue_capacity < 0 ||
+      !(params.delay_ms >= 0.0) ||
       !(params.jitter_ms >= 0.0) || !(params.duplicate_pct >= 0.0 && params.duplicate_pct <= 100.0)) {
-    return InvalidArgument("LCM bus: max_queued_messages must be >= 1, max_queued_bytes >= 65536, delay_ms and "
-                           "jitter_ms >= 0, duplicate_pct in [0, 100]");
+    return InvalidArgument("LCM bus: max_queued_messages must be >= 1, max_queued_bytes >= 65536, "
+                           "lcm_queue_capacity >= 0, delay_ms and jitter_ms >= 0, duplicate_pct in [0, 100]");
   }
   std::unique_ptr<LcmBus> bus(new LcmBus(params));
   if (params.authenticate) {
@@ -45,8 +46,11 @@ Result<std::unique_ptr<LcmBus>> LcmBus::Create(const LcmBusParams& params) {
 }
 
 Status LcmBus::Subscribe(const std::string& regex) {
-  if (lcm_subscribe(lcm_->getUnderlyingLCM(), regex.c_str(), &LcmBus::OnMessageC, this) == nullptr) {
-    return InvalidArgument("cannot subscribe to LCM channels '" + regex + "'");
+  lcm_subscription_t* sub = lcm_subscribe(lcm_->getUnderlyingLCM(), regex.c_str(), &LcmBus::OnMessageC, this);
+  if (sub == nullptr) return InvalidArgument("cannot subscribe to LCM channels '" + regex + "'");
+  if (params_.lcm_queue_capacity > 0 && lcm_subscription_set_queue_capacity(sub, params_.lcm_queue_capacity) != 0) {
+    return InvalidArgument("cannot set the LCM queue capacity of '" + regex + "' to " +
+                           std::to_string(params_.lcm_queue_capacity));
   }
   return Status::Ok();
 }

@@ -66,6 +66,28 @@ TEST_CASE("LcmBus: messages arrive in order and the receive queue drops and coun
   CHECK(bus->stats().published == 25);
 }
 
+TEST_CASE("LcmBus: lcm_queue_capacity is applied to every subscription and a negative one is refused") {
+  // LCM's udpm receive thread drops beyond the capacity (default 30) before the bus sees anything; memq:// does
+  // not apply the capacity, so this checks only that a raised one subscribes and delivers everything in order.
+  // The drop itself is exercised by the replay mission test (tests/apps/lcm_mission.sh, scenario replay).
+  LcmBusParams p;
+  p.lcm_queue_capacity = 64;
+  auto bus = Open(p);
+  for (std::uint32_t i = 0; i < 50; ++i) REQUIRE(bus->Publish("CM_TEST_A", Numbered(i)).ok());
+  REQUIRE(bus->Poll(0).ok());
+  std::vector<std::uint32_t> got;
+  BusMessage m;
+  while (bus->Take(&m)) got.push_back(NumberOf(m));
+  REQUIRE(got.size() == 50);
+  for (std::size_t i = 0; i < got.size(); ++i) CHECK(got[i] == i);
+  LcmBusParams bad;
+  bad.url = "memq://";
+  bad.lcm_queue_capacity = -1;
+  const auto refused = LcmBus::Create(bad);
+  REQUIRE_FALSE(refused.ok());
+  CHECK(refused.status().message().find("lcm_queue_capacity") != std::string::npos);
+}
+
 TEST_CASE("LcmBus: the byte bound drops a message that would overflow it") {
   LcmBusParams p;
   p.max_queued_bytes = 65536;
