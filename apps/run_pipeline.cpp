@@ -721,13 +721,9 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     const auto t_merge = Clock::now();
     if (!merge(out.plan.pairs)) return kExitFailure;
     // Widening: pairs that registration refused ask for more of stage A's scans and register again.
-    std::vector<PairSelection> current = out.plan.pairs;
     double widen_exchange_s = 0.0;
     for (int step = 0; step < server.params().max_widen_steps; ++step) {
-      ExchangePlan last;
-      last.mode = mode;
-      last.pairs = current;
-      auto wider = server.WidenPlan(last, Span<const PairMergeResult>(out.pairs),
+      auto wider = server.WidenPlan(out.plan, Span<const PairMergeResult>(out.pairs),
                                     static_cast<std::int32_t>(out.plan.requests.size() + 1));
       if (!wider.ok()) {
         std::fprintf(stderr, "%s: widen %s: %s\n", tag, ExchangeModeName(mode), wider.status().message().c_str());
@@ -740,13 +736,8 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
       for (ScanRequest& q : wider->requests) out.plan.requests.push_back(std::move(q));
       out.plan.predicted_scan_bytes += wider->predicted_scan_bytes;
       if (!merge(wider->pairs)) return kExitFailure;
-      for (const PairSelection& w : wider->pairs) {
-        for (PairSelection& c : current) {
-          if (c.alpha == w.alpha && c.beta == w.beta) c = w;
-        }
-      }
+      AdoptSelections(Span<const PairSelection>(wider->pairs), &out.plan.pairs);
     }
-    out.plan.pairs = current;
     auto frames = server.SolveFrames(Span<const PairMergeResult>(out.pairs));
     out.exchange_s += widen_exchange_s;
     out.merge_s = SecondsSince(t_merge) - widen_exchange_s;

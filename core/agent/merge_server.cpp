@@ -511,6 +511,14 @@ void MergeServer::AddRequests(std::vector<std::vector<std::uint32_t>>* wanted, s
   }
 }
 
+void AdoptSelections(Span<const PairSelection> adopted, std::vector<PairSelection>* pairs) {
+  for (const PairSelection& a : adopted) {
+    for (PairSelection& p : *pairs) {
+      if (p.alpha == a.alpha && p.beta == a.beta) p = a;
+    }
+  }
+}
+
 Result<ExchangePlan> MergeServer::WidenPlan(const ExchangePlan& plan, Span<const PairMergeResult> results,
                                             std::int32_t first_request_id) const {
   if (!params_status_.ok()) return params_status_;

@@ -106,6 +106,9 @@ struct PairMergeResult {
   RegistrationResult registration;  ///< T_target_source = T_alpha_beta (p_alpha = T p_beta)
 };
 
+/// Replaces the selection of every pair in `pairs` that `adopted` has (matched by robot pair) with that one.
+void AdoptSelections(Span<const PairSelection> adopted, std::vector<PairSelection>* pairs);
+
 struct MergeServerStats {
   std::uint64_t batches = 0, records = 0, pose_updates = 0, chunks = 0, scans_completed = 0;
   std::uint64_t rejected_batches = 0, rejected_records = 0, rejected_pose_updates = 0;
@@ -144,11 +147,12 @@ class MergeServer {
   /// The next exchange for the pairs of `plan` whose registration was refused (`results`: MergePair's results,
   /// matched by robot pair; pairs not attempted, or merged, are left out). Each robot's keyframes of such a pair
   /// grow to twice their number with endpoints of the pair's stage A loops (L_seq), nearest in index to the
-  /// keyframes already selected (PadKeyframesFromPool); a pair where neither robot can grow (every L_seq endpoint
-  /// is selected already: send-all, A) is left out, and so is a pair whose robots the merged pairs of `results`
-  /// already join (through other robots): widening is for connecting robots, and its scans cost bytes. The returned plan's pairs are the widened selections (register
-  /// them with MergePair); its requests name, per robot, only the keyframes whose scans the server does not hold,
-  /// with request ids from `first_request_id` upwards (an empty plan: nothing to widen). Send-all is never widened.
+  /// keyframes already selected (PadKeyframesFromPool). Left out as well: a pair where neither robot can grow
+  /// (every L_seq endpoint is selected already: send-all, A), and a pair whose robots the merged pairs of
+  /// `results` already join through other robots (widening is for connecting robots; its scans cost bytes).
+  /// The returned plan's pairs are the widened selections (register them with MergePair; AdoptSelections puts
+  /// them into the caller's list); its requests name, per robot, only the keyframes whose scans the server
+  /// does not hold, with request ids from `first_request_id` upwards. An empty plan: nothing to widen.
   Result<ExchangePlan> WidenPlan(const ExchangePlan& plan, Span<const PairMergeResult> results,
                                  std::int32_t first_request_id) const;
 

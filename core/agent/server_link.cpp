@@ -316,11 +316,7 @@ Status ServerLink::FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>*
     if (wider->pairs.empty()) break;
     ++widen_step_;
     stats_.widened_pairs += wider->pairs.size();
-    for (const PairSelection& w : wider->pairs) {
-      for (PairSelection& p : round_pairs_) {
-        if (p.alpha == w.alpha && p.beta == w.beta) p = w;
-      }
-    }
+    AdoptSelections(Span<const PairSelection>(wider->pairs), &round_pairs_);
     if (SendRequests(*wider, now_us, out) > 0) {  // wait for the extra scans, then register these pairs again
       pending_pairs_ = wider->pairs;
       round_active_ = true;
