@@ -150,7 +150,7 @@ class MergeServer {
   /// keyframes already selected (PadKeyframesFromPool). Left out as well: a pair where neither robot can grow
   /// (every L_seq endpoint is selected already: send-all, A), and a pair whose robots the merged pairs of
   /// `results` already join through other robots (widening is for connecting robots; its scans cost bytes).
-  /// The returned plan's pairs are the widened selections (register them with MergePair; AdoptSelections puts
+  /// The returned plan's pairs are the widened selections (register them with MergePair; AdoptSelections copies
   /// them into the caller's list); its requests name, per robot, only the keyframes whose scans the server
   /// does not hold, with request ids from `first_request_id` upwards. An empty plan: nothing to widen.
   Result<ExchangePlan> WidenPlan(const ExchangePlan& plan, Span<const PairMergeResult> results,

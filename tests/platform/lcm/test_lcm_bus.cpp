@@ -45,13 +45,9 @@ std::vector<std::uint32_t> Drain(LcmBus* bus, std::size_t want, std::int64_t tim
   return got;
 }
 
-}  // namespace
-
-TEST_CASE("LcmBus: messages arrive in order and the receive queue drops and counts beyond its bound") {
-  LcmBusParams p;
-  p.max_queued_messages = 10;
-  auto bus = Open(p);
-  for (std::uint32_t i = 0; i < 25; ++i) REQUIRE(bus->Publish("CM_TEST_A", Numbered(i)).ok());
+// Publishes messages 0..n-1 on CM_TEST_A, polls once and takes everything queued; returns them in arrival order.
+std::vector<std::uint32_t> PublishAndTake(LcmBus* bus, std::uint32_t n) {
+  for (std::uint32_t i = 0; i < n; ++i) REQUIRE(bus->Publish("CM_TEST_A", Numbered(i)).ok());
   REQUIRE(bus->Poll(0).ok());
   std::vector<std::uint32_t> got;
   BusMessage m;
@@ -59,6 +55,16 @@ TEST_CASE("LcmBus: messages arrive in order and the receive queue drops and coun
     CHECK(m.channel == "CM_TEST_A");
     got.push_back(NumberOf(m));
   }
+  return got;
+}
+
+}  // namespace
+
+TEST_CASE("LcmBus: messages arrive in order and the receive queue drops and counts beyond its bound") {
+  LcmBusParams p;
+  p.max_queued_messages = 10;
+  auto bus = Open(p);
+  const std::vector<std::uint32_t> got = PublishAndTake(bus.get(), 25);
   REQUIRE(got.size() == 10);
   for (std::uint32_t i = 0; i < 10; ++i) CHECK(got[i] == i);
   CHECK(bus->stats().received == 10);
@@ -73,11 +79,7 @@ TEST_CASE("LcmBus: lcm_queue_capacity is applied to every subscription and a neg
   LcmBusParams p;
   p.lcm_queue_capacity = 64;
   auto bus = Open(p);
-  for (std::uint32_t i = 0; i < 50; ++i) REQUIRE(bus->Publish("CM_TEST_A", Numbered(i)).ok());
-  REQUIRE(bus->Poll(0).ok());
-  std::vector<std::uint32_t> got;
-  BusMessage m;
-  while (bus->Take(&m)) got.push_back(NumberOf(m));
+  const std::vector<std::uint32_t> got = PublishAndTake(bus.get(), 50);
   REQUIRE(got.size() == 50);
   for (std::size_t i = 0; i < got.size(); ++i) CHECK(got[i] == i);
   LcmBusParams bad;
