@@ -22,5 +22,6 @@ Command AddRobotCommand(CLI::App& root);
 Command AddServerCommand(CLI::App& root);
 Command AddFeedCommand(CLI::App& root);
 Command AddKeygenCommand(CLI::App& root);
+Command AddRecordCommand(CLI::App& root);
 
 }  // namespace commerge::app

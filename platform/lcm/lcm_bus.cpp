@@ -56,10 +56,11 @@ Status LcmBus::Subscribe(const std::string& regex) {
 }
 
 void LcmBus::OnMessageC(const _lcm_recv_buf_t* rbuf, const char* channel, void* user) {
-  static_cast<LcmBus*>(user)->OnMessage(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, channel);
+  static_cast<LcmBus*>(user)->OnMessage(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, channel,
+                                        rbuf->recv_utime);
 }
 
-void LcmBus::OnMessage(const std::uint8_t* data, std::size_t n, const char* channel) {
+void LcmBus::OnMessage(const std::uint8_t* data, std::size_t n, const char* channel, std::int64_t recv_utime_us) {
   int sender = -1;
   const std::size_t wire_bytes = n;
   if (auth_) {
@@ -73,7 +74,7 @@ void LcmBus::OnMessage(const std::uint8_t* data, std::size_t n, const char* chan
     ++stats_.dropped_queue_full;
     return;
   }
-  queue_.push_back(BusMessage{channel, std::vector<std::uint8_t>(data, data + n), sender});
+  queue_.push_back(BusMessage{channel, std::vector<std::uint8_t>(data, data + n), sender, recv_utime_us});
   queued_bytes_ += n;
   ++stats_.received;
   stats_.received_bytes += wire_bytes;

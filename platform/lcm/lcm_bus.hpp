@@ -51,6 +51,7 @@ struct BusMessage {
   std::string channel;
   std::vector<std::uint8_t> bytes;  ///< the LCM-encoded message (without the MAC trailer)
   int sender = -1;                  ///< authenticated sender (robot id, or kAuthServerSender); -1: not authenticated
+  std::int64_t recv_utime_us = 0;   ///< when LCM received it [us since the Unix epoch]
 };
 
 struct LcmBusStats {
@@ -88,7 +89,7 @@ class LcmBus {
   // Subscribed through LCM's C API: the C++ member-handler template of LCM 1.3.1 fails UBSan's vptr check inside
   // LCM's own header (reproduced with a ten-line program), which aborts the sanitizer build.
   static void OnMessageC(const _lcm_recv_buf_t* rbuf, const char* channel, void* user);
-  void OnMessage(const std::uint8_t* data, std::size_t size, const char* channel);
+  void OnMessage(const std::uint8_t* data, std::size_t size, const char* channel, std::int64_t recv_utime_us);
   Status PublishNow(const std::string& channel, const std::vector<std::uint8_t>& bytes);
   void FlushDelayed();
 

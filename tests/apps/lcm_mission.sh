@@ -20,8 +20,9 @@
 #                   keyframes / poses of robot 40 (not one of --robots 2); server and robots must count all of them
 #   live            robot 1 maps live input: `commerge feed` plays its directory as lidar_scan_t + odometry_t at
 #                   20 Hz on the board-local input URL, and `commerge robot --live` synchronises and maps it
-#   replay          a clean mission recorded with lcm-logger, then played back with lcm-logplayer into a fresh
-#                   `commerge server --replay`, which must reproduce the recorded merge
+#   replay          a clean mission recorded with `commerge record` (complete by the senders' sequence numbers),
+#                   then played back with lcm-logplayer into a fresh `commerge server --replay`, which must
+#                   reproduce the recorded merge
 #   attack          cm_lcm_sampler --attack (give --sampler) captures the daemons' signed messages and publishes
 #                   them replayed, tampered, re-signed with another team's key, and signed as robot 40; server and
 #                   robots must refuse and count every one (until the first merge result that places every robot:
@@ -138,9 +139,11 @@ start_robot() {  # $1 = id, $2 = log name
 
 logger_pid=""
 if [ "$scenario" = replay ]; then
-  command -v lcm-logger >/dev/null && command -v lcm-logplayer >/dev/null ||
-    { echo "CM-SKIP: lcm-logger / lcm-logplayer (Debian liblcm-bin) are not installed"; exit 0; }
-  lcm-logger -f -q "$work/mission.lcmlog" >"$work/logger.out" 2>&1 &
+  command -v lcm-logplayer >/dev/null ||
+    { echo "CM-SKIP: lcm-logplayer (Debian liblcm-bin) is not installed"; exit 0; }
+  # commerge record, not lcm-logger: lcm-logger keeps LCM's queue of 30 messages and lost scan chunks under CPU
+  # load (README, "Recording and replay").
+  "$bin" record --out "$work/mission.lcmlog" --force --quiet >"$work/logger.out" 2>"$work/logger.err" &
   logger_pid=$!
   pids+=("$logger_pid")
   sleep 0.5
@@ -338,8 +341,13 @@ fi
 
 if [ "$scenario" = replay ]; then
   kill -INT "$logger_pid"
-  wait "$logger_pid" 2>/dev/null || true
-  [ -s "$work/mission.lcmlog" ] || { echo "lcm_mission.sh: lcm-logger wrote nothing" >&2; exit 1; }
+  rc=0
+  wait "$logger_pid" 2>/dev/null || rc=$?
+  [ "$rc" = 0 ] && [ -s "$work/mission.lcmlog" ] ||
+    { echo "lcm_mission.sh: commerge record failed (exit $rc): $(cat "$work/logger.err")" >&2; exit 1; }
+  # The recording must be complete by the senders' sequence numbers, or no replay could reproduce the merge.
+  grep -q "; 0 missing by the senders' sequence numbers" "$work/logger.out" ||
+    { echo "lcm_mission.sh: the recording is incomplete: $(cat "$work/logger.out") $(rcvbuf_note)" >&2; exit 1; }
   server_args=(server --out "$work/replay" --robots 2 --tau-area 1000 --round-quiet-s 3 --exit-when-merged 2
                --max-runtime-s 240 --linger-s 0 --replay "${auth[@]}")
   start_server replay-server
@@ -359,7 +367,7 @@ if [ "$scenario" = replay ]; then
     exit 1
   fi
   echo "lcm mission replay: $(stat -c %s "$work/mission.lcmlog") B log replayed into a fresh server; largest" \
-       "difference of T_world_map(1) from the recorded merge: $diff_m"
+       "difference of T_world_map(1) from the recorded merge: $diff_m; $(sed 's/^record: //' "$work/logger.out")"
 fi
 
 dropped+=" kernel receive-buffer drops $(udp_rcvbuf_errors);"

@@ -1,0 +1,168 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "platform/lcm/lcm_recorder.hpp"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+
+#include <lcm/lcm.h>
+
+namespace commerge::platform {
+
+namespace {
+
+std::uint64_t ReadBe(const std::uint8_t* p, int bytes) noexcept {
+  std::uint64_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
+  return v;
+}
+
+}  // namespace
+
+// ---- sequence gaps ----
+
+void SequenceGapCounter::Count(const std::uint8_t* data, std::size_t size) noexcept {
+  if (data == nullptr || size < kAuthTrailerBytes) {
+    ++unsigned_;
+    return;
+  }
+  const std::uint8_t* t = data + (size - kAuthTrailerBytes);
+  if (t[0] != 'C' || t[1] != 'A' || t[2] != 1 || t[6] != 0 || t[7] != 0) {
+    ++unsigned_;
+    return;
+  }
+  const auto sender = static_cast<std::uint16_t>(ReadBe(t + 4, 2));
+  const auto session = static_cast<std::int64_t>(ReadBe(t + 8, 8));
+  const std::uint64_t sequence = ReadBe(t + 16, 8);
+  std::size_t slot = 0;
+  if (sender < kAuthMaxRobots) {
+    slot = sender;
+  } else if (sender == kAuthServerSender) {
+    slot = kAuthMaxRobots;
+  } else {
+    ++unknown_senders_;
+    return;
+  }
+  if (session <= 0 || sequence == 0) {  // never signed like this: not a message of a session
+    ++stale_;
+    return;
+  }
+  Track& track = tracks_[slot];
+  const AuthVerdict verdict = track.window.Check(session, sequence);
+  if (verdict == AuthVerdict::kOldSession) {
+    ++stale_;
+    return;
+  }
+  if (verdict == AuthVerdict::kReplayed) {
+    ++track.summary.duplicates;
+    return;
+  }
+  if (!track.seen || session > track.summary.session) {  // the sender's first or a newer session
+    if (track.seen) track.summary.older_sessions_missing += (track.highest - track.lowest + 1) - track.summary.received;
+    track.seen = true;
+    track.summary.sender = sender;
+    track.summary.session = session;
+    track.summary.received = 0;
+    track.lowest = track.highest = sequence;
+  }
+  track.window.Accept(session, sequence);  // kTooOld: beyond the window, taken as new (the window is unchanged)
+  ++track.summary.received;
+  track.lowest = std::min(track.lowest, sequence);
+  track.highest = std::max(track.highest, sequence);
+}
+
+std::vector<SenderSequences> SequenceGapCounter::senders() const {
+  std::vector<SenderSequences> out;
+  for (const Track& track : tracks_) {
+    if (!track.seen) continue;
+    SenderSequences s = track.summary;
+    const std::uint64_t span = track.highest - track.lowest + 1;
+    s.missing = span > s.received ? span - s.received : 0;
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::uint64_t SequenceGapCounter::missing() const noexcept {
+  std::uint64_t n = 0;
+  for (const Track& track : tracks_) {
+    if (!track.seen) continue;
+    const std::uint64_t span = track.highest - track.lowest + 1;
+    n += track.summary.older_sessions_missing + (span > track.summary.received ? span - track.summary.received : 0);
+  }
+  return n;
+}
+
+// ---- recorder ----
+
+Result<std::unique_ptr<LcmRecorder>> LcmRecorder::Open(const LcmRecorderParams& params) {
+  if (params.out_path.empty()) return InvalidArgument("record: no output file given");
+  if (params.lcm_queue_capacity < 1) {
+    return InvalidArgument("record: lcm_queue_capacity must be >= 1, not " + std::to_string(params.lcm_queue_capacity));
+  }
+  struct stat st {};
+  if (!params.overwrite && ::stat(params.out_path.c_str(), &st) == 0) {
+    return InvalidArgument(params.out_path + ": exists (give --force to replace it)");
+  }
+  std::unique_ptr<LcmRecorder> rec(new LcmRecorder(params));
+  LcmBusParams bus_params;
+  bus_params.url = params.url;
+  bus_params.lcm_queue_capacity = params.lcm_queue_capacity;
+  bus_params.max_queued_messages = params.max_queued_messages;
+  bus_params.max_queued_bytes = params.max_queued_bytes;
+  auto bus = LcmBus::Create(bus_params);  // no authentication: the trailers are recorded as they came
+  if (!bus.ok()) return bus.status();
+  rec->bus_ = std::move(*bus);
+  if (Status s = rec->bus_->Subscribe(params.channels); !s.ok()) return s;
+  rec->log_ = lcm_eventlog_create(params.out_path.c_str(), "w");
+  if (rec->log_ == nullptr) return IoError(params.out_path + ": cannot create the log: " + std::strerror(errno));
+  rec->last_flush_us_ = MonotonicUs();
+  return rec;
+}
+
+LcmRecorder::~LcmRecorder() { (void)Close(); }
+
+Status LcmRecorder::Poll(int timeout_ms) {
+  if (log_ == nullptr) return IoError(params_.out_path + ": the recorder is closed");
+  if (Status st = bus_->Poll(timeout_ms); !st.ok()) return st;
+  BusMessage m;
+  while (bus_->Take(&m)) {
+    lcm_eventlog_event_t event{};
+    event.eventnum = static_cast<std::int64_t>(stats_.messages);
+    event.timestamp = m.recv_utime_us;
+    event.channellen = static_cast<std::int32_t>(m.channel.size());
+    event.datalen = static_cast<std::int32_t>(m.bytes.size());
+    event.channel = const_cast<char*>(m.channel.c_str());
+    event.data = m.bytes.data();
+    if (lcm_eventlog_write_event(log_, &event) != 0) {
+      return IoError(params_.out_path + ": writing event " + std::to_string(stats_.messages) +
+                     " failed: " + std::strerror(errno));
+    }
+    ++stats_.messages;
+    stats_.bytes += m.bytes.size();
+    sequences_.Count(m.bytes.data(), m.bytes.size());
+  }
+  stats_.dropped = bus_->stats().dropped_queue_full;
+  if (MonotonicUs() - last_flush_us_ >= 1000000) return Flush();
+  return Status::Ok();
+}
+
+Status LcmRecorder::Flush() {
+  if (log_ == nullptr) return IoError(params_.out_path + ": the recorder is closed");
+  last_flush_us_ = MonotonicUs();
+  if (std::fflush(log_->f) != 0) return IoError(params_.out_path + ": flush failed: " + std::strerror(errno));
+  return Status::Ok();
+}
+
+Status LcmRecorder::Close() {
+  if (log_ == nullptr) return Status::Ok();
+  Status st = Flush();
+  lcm_eventlog_destroy(log_);
+  log_ = nullptr;
+  return st;
+}
+
+}  // namespace commerge::platform
