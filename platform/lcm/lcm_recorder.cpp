@@ -24,6 +24,13 @@ std::uint64_t ReadBe(const std::uint8_t* p, int bytes) noexcept {
 
 // ---- sequence gaps ----
 
+std::uint64_t SequenceGapCounter::Missing(const Track& track) noexcept {
+  if (!track.seen) return 0;
+  const std::uint64_t span = track.highest - track.lowest + 1;
+  // received can exceed the span when a duplicate arrived beyond the window (taken as new): saturate.
+  return span > track.summary.received ? span - track.summary.received : 0;
+}
+
 void SequenceGapCounter::Count(const std::uint8_t* data, std::size_t size) noexcept {
   if (data == nullptr || size < kAuthTrailerBytes) {
     ++unsigned_;
@@ -61,7 +68,7 @@ void SequenceGapCounter::Count(const std::uint8_t* data, std::size_t size) noexc
     return;
   }
   if (!track.seen || session > track.summary.session) {  // the sender's first or a newer session
-    if (track.seen) track.summary.older_sessions_missing += (track.highest - track.lowest + 1) - track.summary.received;
+    track.summary.older_sessions_missing += Missing(track);
     track.seen = true;
     track.summary.sender = sender;
     track.summary.session = session;
@@ -79,8 +86,7 @@ std::vector<SenderSequences> SequenceGapCounter::senders() const {
   for (const Track& track : tracks_) {
     if (!track.seen) continue;
     SenderSequences s = track.summary;
-    const std::uint64_t span = track.highest - track.lowest + 1;
-    s.missing = span > s.received ? span - s.received : 0;
+    s.missing = Missing(track);
     out.push_back(s);
   }
   return out;
@@ -88,11 +94,7 @@ std::vector<SenderSequences> SequenceGapCounter::senders() const {
 
 std::uint64_t SequenceGapCounter::missing() const noexcept {
   std::uint64_t n = 0;
-  for (const Track& track : tracks_) {
-    if (!track.seen) continue;
-    const std::uint64_t span = track.highest - track.lowest + 1;
-    n += track.summary.older_sessions_missing + (span > track.summary.received ? span - track.summary.received : 0);
-  }
+  for (const Track& track : tracks_) n += track.summary.older_sessions_missing + Missing(track);
   return n;
 }
 

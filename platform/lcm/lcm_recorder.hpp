@@ -63,6 +63,8 @@ class SequenceGapCounter {
     SenderSequences summary;
     bool seen = false;
   };
+  /// Numbers between the track's lowest and highest not recorded (0 when nothing was).
+  static std::uint64_t Missing(const Track& track) noexcept;
   std::array<Track, kAuthMaxRobots + 1> tracks_{};  ///< robots 0..63, then the server
   std::uint64_t unsigned_ = 0, unknown_senders_ = 0, stale_ = 0;
 };

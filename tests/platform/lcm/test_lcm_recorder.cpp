@@ -174,6 +174,23 @@ TEST_CASE("record: the gap count survives random bytes, foreign senders and old 
   CHECK(counter.stale_messages() >= 1);
   CHECK(counter.unknown_senders() >= 1);
   CHECK(counter.senders().size() <= kAuthMaxRobots + 1);
+
+  // A duplicate that arrives beyond the window is taken as new: the count saturates at 0 missing.
+  SequenceGapCounter late;
+  auto robot = Signer(3, 9);
+  std::vector<Bytes> all;
+  for (std::uint64_t i = 0; i < kReplayWindowMessages + 200; ++i) all.push_back(SignedMessage(robot.get(), "X", 4));
+  for (const Bytes& b : all) late.Count(b.data(), b.size());
+  late.Count(all[0].data(), all[0].size());
+  CHECK(late.missing() == 0);
+  REQUIRE(late.senders().size() == 1);
+  CHECK(late.senders()[0].received == all.size() + 1);
+  CHECK(late.senders()[0].missing == 0);
+  auto restarted = Signer(3, 10);  // a new session archives the old one's count, still 0
+  Bytes next = SignedMessage(restarted.get(), "X", 4);
+  late.Count(next.data(), next.size());
+  CHECK(late.missing() == 0);
+  CHECK(late.senders()[0].older_sessions_missing == 0);
 }
 
 LcmRecorderParams MemqParams(const std::string& path) {
