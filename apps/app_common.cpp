@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 
 #include "core/common/bytes.hpp"
 #include "platform/memory/allocator.hpp"
@@ -79,19 +80,21 @@ Status CheckSigner(const platform::BusMessage& message, int expected) {
 }
 
 std::uint64_t AuthRejected(const platform::LcmBus& bus) {
-  return bus.auth_stats() != nullptr ? bus.auth_stats()->rejected() : 0;
+  const std::optional<platform::AuthStats> a = bus.auth_stats();
+  return a ? a->rejected() : 0;
 }
 
 std::string AuthSummary(const platform::LcmBus& bus) {
-  const platform::AuthStats* a = bus.auth_stats();
-  if (a == nullptr) return "auth: off";
-  const double sent = static_cast<double>(bus.stats().published_bytes);
+  const std::optional<platform::AuthStats> a = bus.auth_stats();
+  if (!a) return "auth: off";
+  const std::uint64_t published_bytes = bus.stats().published_bytes;
+  const double sent = static_cast<double>(published_bytes);
   char head[256];
   std::snprintf(head, sizeof(head), "auth: %llu messages signed, %zu B each = %s (%.1f %% of %s sent); %llu refused",
                 static_cast<unsigned long long>(a->signed_messages), platform::kAuthTrailerBytes,
                 FormatBytes(static_cast<std::int64_t>(a->trailer_bytes)).c_str(),
                 sent > 0 ? 100.0 * static_cast<double>(a->trailer_bytes) / sent : 0.0,
-                FormatBytes(static_cast<std::int64_t>(bus.stats().published_bytes)).c_str(), static_cast<unsigned long long>(a->rejected()));
+                FormatBytes(static_cast<std::int64_t>(published_bytes)).c_str(), static_cast<unsigned long long>(a->rejected()));
   std::string out = head;
   std::string detail;
   for (std::size_t v = 0; v < platform::kAuthVerdictCount; ++v) {

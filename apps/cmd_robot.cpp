@@ -138,6 +138,7 @@ int RunRobot(const RobotOptions& o) {
   bus_params.jitter_ms = o.jitter_ms;
   bus_params.duplicate_pct = o.duplicate_pct;
   bus_params.fault_seed = static_cast<std::uint32_t>(session) ^ static_cast<std::uint32_t>(o.id);
+  bus_params.receive_thread = true;  // mapping a scan can take longer than LCM's 30-message queue lasts
   if (int rc = SetUpAuth(tag, o.auth, static_cast<std::uint16_t>(o.id), session, setup.config.max_robots, &bus_params);
       rc != kExitOk) {
     return rc;
@@ -174,6 +175,7 @@ int RunRobot(const RobotOptions& o) {
     platform::LcmBusParams input_params;
     input_params.url = o.input_lcm_url;
     input_params.max_queued_bytes = 64u << 20;  // a few 4 MiB scans plus odometry
+    input_params.receive_thread = true;
     auto opened = platform::OpenLcmBus(input_params, {o.scan_channel.c_str(), o.odometry_channel.c_str()});
     if (!opened.ok()) {
       std::fprintf(stderr, "%s: live input: %s\n", tag, opened.status().message().c_str());
@@ -408,8 +410,12 @@ int RunRobot(const RobotOptions& o) {
     if (done) break;
     if (data_end_us >= 0 && o.exit_when_merged > 0 && static_cast<double>(now - data_end_us) > o.linger_s * 1e6) break;
   }
-  // Let delayed messages out before leaving.
-  for (int i = 0; i < 400 && (*bus)->delayed() > 0; ++i) (void)(*bus)->Poll(10);
+  // Let delayed messages out before leaving (Poll returns at once while messages are queued: drop them).
+  for (int i = 0; i < 400 && (*bus)->delayed() > 0; ++i) {
+    (void)(*bus)->Poll(10);
+    while ((*bus)->Take(&message)) {
+    }
+  }
   const bool ok = o.exit_when_merged == 0 || merged;  // 0: ended by a signal, as asked
   std::printf("robot %d: %s; keyframes %zu, acknowledged %u; bytes sent %lld, resent %lld; publish failures %lld; "
               "rejected messages %llu%s%s\n",

@@ -170,9 +170,9 @@ int RunServer(const ServerOptions& o) {
   bus_params.jitter_ms = o.jitter_ms;
   bus_params.duplicate_pct = o.duplicate_pct;
   bus_params.fault_seed = static_cast<std::uint32_t>(session);
-  // A replay has nobody to re-send a chunk LCM dropped while a round registered (seconds without a poll): let
-  // LCM hold as many messages per channel as this bus's own queue. Live daemons keep LCM's 30: raising it for
-  // the robots made the hostile mission count fewer refusals, not more (README "Network fault tests").
+  bus_params.receive_thread = true;  // a round registers for seconds: robots' messages queue meanwhile
+  // A replay has nobody to re-send a chunk LCM dropped: lcm-logplayer publishes faster than a live team, so
+  // besides the receive thread let LCM hold as many messages per channel as this bus's own queue.
   if (o.replay) bus_params.lcm_queue_capacity = static_cast<int>(bus_params.max_queued_messages);
   if (int rc = SetUpAuth(tag, o.auth, platform::kAuthServerSender, session, robots, &bus_params); rc != kExitOk) {
     return rc;

@@ -4,7 +4,11 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <csignal>
 #include <cstring>
+#include <system_error>
+
+#include <pthread.h>
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -22,7 +26,10 @@ std::int64_t MonotonicUs() {
 
 LcmBus::LcmBus(const LcmBusParams& params) : params_(params), fault_rng_(params.fault_seed) {}
 
-LcmBus::~LcmBus() = default;
+LcmBus::~LcmBus() {
+  stop_receiving_ = true;
+  if (receiver_.joinable()) receiver_.join();  // it wakes at least every kReceiveWakeMs
+}
 
 Result<std::unique_ptr<LcmBus>> LcmBus::Create(const LcmBusParams& params) {
   if (params.max_queued_messages < 1 || params.max_queued_bytes < 65536 || params.lcm_queue_capacity < 0 ||
@@ -63,6 +70,7 @@ void LcmBus::OnMessageC(const _lcm_recv_buf_t* rbuf, const char* channel, void* 
 void LcmBus::OnMessage(const std::uint8_t* data, std::size_t n, const char* channel, std::int64_t recv_utime_us) {
   int sender = -1;
   const std::size_t wire_bytes = n;
+  std::lock_guard<std::mutex> lock(mutex_);
   if (auth_) {
     std::size_t payload = 0;
     std::uint16_t from = 0;
@@ -78,6 +86,51 @@ void LcmBus::OnMessage(const std::uint8_t* data, std::size_t n, const char* chan
   queued_bytes_ += n;
   ++stats_.received;
   stats_.received_bytes += wire_bytes;
+  arrived_.notify_one();
+}
+
+namespace {
+constexpr int kReceiveWakeMs = 50;  // how often the receive thread looks at its stop flag
+}  // namespace
+
+Status LcmBus::StartReceiveThread() {
+  // Signals (SIGTERM from systemd, SIGINT) go to the caller's thread, whose handlers set the daemons' stop flags:
+  // the receive thread starts with all of them blocked (it inherits the mask in force here).
+  sigset_t all, previous;
+  sigfillset(&all);
+  if (pthread_sigmask(SIG_SETMASK, &all, &previous) != 0) return IoError("LCM bus: cannot block signals");
+  try {
+    receiver_ = std::thread([this] { ReceiveLoop(); });
+  } catch (const std::system_error& e) {
+    pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+    return IoError(std::string("LCM bus: cannot start the receive thread: ") + e.what());
+  }
+  pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+  return Status::Ok();
+}
+
+void LcmBus::ReceiveLoop() {
+  while (!stop_receiving_) {
+    errno = 0;
+    const int rc = lcm_->handleTimeout(kReceiveWakeMs);
+    if (rc < 0 && errno != EINTR) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      receive_error_ = IoError(std::string("LCM handle failed in the receive thread: ") + std::strerror(errno));
+      arrived_.notify_one();
+      return;
+    }
+  }
+}
+
+std::optional<AuthStats> LcmBus::auth_stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!auth_) return std::nullopt;
+  return auth_->stats();
+}
+
+LcmBusStats LcmBus::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stats_;
 }
 
 Status LcmBus::Poll(int timeout_ms) {
@@ -85,6 +138,19 @@ Status LcmBus::Poll(int timeout_ms) {
   if (!delayed_.empty()) {
     const std::int64_t wait_ms = (delayed_.begin()->first - MonotonicUs()) / 1000;
     if (wait_ms < timeout_ms) timeout_ms = static_cast<int>(std::max<std::int64_t>(0, wait_ms));
+  }
+  if (params_.receive_thread) {
+    if (!receiver_.joinable()) {
+      if (Status st = StartReceiveThread(); !st.ok()) return st;
+    }
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      arrived_.wait_for(lock, std::chrono::milliseconds(std::max(0, timeout_ms)),
+                        [this] { return !queue_.empty() || !receive_error_.ok(); });
+      if (!receive_error_.ok()) return receive_error_;
+    }
+    FlushDelayed();
+    return Status::Ok();
   }
   errno = 0;
   int rc = lcm_->handleTimeout(timeout_ms);
@@ -97,6 +163,7 @@ Status LcmBus::Poll(int timeout_ms) {
 }
 
 bool LcmBus::Take(BusMessage* out) {
+  std::lock_guard<std::mutex> lock(mutex_);
   if (queue_.empty()) return false;
   *out = std::move(queue_.front());
   queue_.pop_front();
@@ -105,7 +172,9 @@ bool LcmBus::Take(BusMessage* out) {
 }
 
 Status LcmBus::PublishNow(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
-  if (lcm_->publish(channel, bytes.data(), static_cast<unsigned int>(bytes.size())) != 0) {
+  const bool sent = lcm_->publish(channel, bytes.data(), static_cast<unsigned int>(bytes.size())) == 0;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!sent) {
     ++stats_.publish_errors;
     return IoError("LCM publish on " + channel + " failed");
   }
@@ -124,6 +193,7 @@ void LcmBus::FlushDelayed() {
 
 Status LcmBus::Hold(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
   if (delayed_.size() >= params_.max_queued_messages) {
+    std::lock_guard<std::mutex> lock(mutex_);
     ++stats_.publish_errors;
     return ResourceExhausted("fault stage full (" + std::to_string(delayed_.size()) + " messages held)");
   }
@@ -135,8 +205,9 @@ Status LcmBus::Hold(const std::string& channel, const std::vector<std::uint8_t>&
 
 Status LcmBus::Publish(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
   const std::vector<std::uint8_t>* out = &bytes;
-  if (auth_) {
+  if (auth_) {  // set once in Create; Sign shares the authenticator's state with the receive thread's Verify
     sign_buffer_.assign(bytes.begin(), bytes.end());
+    std::lock_guard<std::mutex> lock(mutex_);
     auth_->Sign(channel, &sign_buffer_);
     out = &sign_buffer_;
   }

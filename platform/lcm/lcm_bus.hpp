@@ -9,16 +9,26 @@
 // trailer with sender, session, sequence number and MAC) before the fault stage, and every received one is
 // verified before it is queued: unsigned, forged, tampered, replayed and unknown-sender messages are dropped and
 // counted (auth_stats()); the process's own looped-back messages are dropped silently.
+//
+// With `receive_thread` (the daemons), a thread of the bus's own hands every message from LCM to the bounded
+// queue as it arrives, so a caller that computes for seconds between two Poll calls (the server registering a
+// round, a robot closing a loop on a slow board) no longer lets LCM's 30-message queue per subscription fill:
+// LCM drops beyond it silently, before anything can count. Poll then only waits for the queue to fill.
 #pragma once
 
+#include <atomic>
+#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <initializer_list>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "core/common/status.hpp"
@@ -43,6 +53,9 @@ struct LcmBusParams {
   /// Beyond that LCM drops them silently, before this bus can count them. LCM bounds them by count only: keep
   /// the default on channels of large messages (live scans).
   int lcm_queue_capacity = 0;
+  /// Hand messages from LCM to the queue in a thread of the bus's own, started by the first Poll (subscribe
+  /// before). Without it, messages move only inside Poll (deterministic, for in-process tests).
+  bool receive_thread = false;
   bool authenticate = false;           ///< sign and verify every message with `auth`
   MessageAuthParams auth;
 };
@@ -70,7 +83,8 @@ class LcmBus {
   /// Receive raw messages on channels matching `regex` (LCM channel regex, e.g. "COMMERGE_.*").
   Status Subscribe(const std::string& regex);
   /// Waits up to timeout_ms for traffic, moves what arrived into the queue, and publishes delayed messages
-  /// that are due.
+  /// that are due. With receive_thread: starts the thread at the first call, then waits until the queue holds a
+  /// message; an error of the thread's LCM handling is returned here.
   Status Poll(int timeout_ms);
   /// Takes the oldest queued message; false when none.
   bool Take(BusMessage* out);
@@ -78,9 +92,9 @@ class LcmBus {
   Status Publish(const std::string& channel, const std::vector<std::uint8_t>& bytes);
   /// Publishes `bytes` exactly as given: no signature, no fault stage (tests and tools that inject traffic).
   Status PublishRaw(const std::string& channel, const std::vector<std::uint8_t>& bytes);
-  /// Verification counters; nullptr when not authenticating.
-  const AuthStats* auth_stats() const noexcept { return auth_ ? &auth_->stats() : nullptr; }
-  const LcmBusStats& stats() const noexcept { return stats_; }
+  /// Verification counters (a copy: the receive thread updates them); empty when not authenticating.
+  std::optional<AuthStats> auth_stats() const;
+  LcmBusStats stats() const;
   /// Messages held by the fault stage.
   std::size_t delayed() const noexcept { return delayed_.size(); }
 
@@ -90,6 +104,8 @@ class LcmBus {
   // LCM's own header (reproduced with a ten-line program), which aborts the sanitizer build.
   static void OnMessageC(const _lcm_recv_buf_t* rbuf, const char* channel, void* user);
   void OnMessage(const std::uint8_t* data, std::size_t size, const char* channel, std::int64_t recv_utime_us);
+  Status StartReceiveThread();
+  void ReceiveLoop();
   Status PublishNow(const std::string& channel, const std::vector<std::uint8_t>& bytes);
   void FlushDelayed();
 
@@ -100,13 +116,21 @@ class LcmBus {
 
   LcmBusParams params_;
   std::unique_ptr<lcm::LCM> lcm_;
+  // mutex_ guards what the receive thread and the caller share: the authenticator (Verify there, Sign here),
+  // the queue, its byte total, the counters and the thread's error.
+  mutable std::mutex mutex_;
+  std::condition_variable arrived_;
   std::unique_ptr<MessageAuthenticator> auth_;
-  std::vector<std::uint8_t> sign_buffer_;
   std::deque<BusMessage> queue_;
   std::size_t queued_bytes_ = 0;
+  LcmBusStats stats_;
+  Status receive_error_;
+  // The caller's alone.
+  std::vector<std::uint8_t> sign_buffer_;
   std::multimap<std::int64_t, BusMessage> delayed_;  ///< by due time [us, monotonic]
   std::mt19937 fault_rng_;
-  LcmBusStats stats_;
+  std::thread receiver_;
+  std::atomic<bool> stop_receiving_{false};
 };
 
 /// Create() plus Subscribe() of each channel: the daemons' start-up. Errors name the URL or the channel.

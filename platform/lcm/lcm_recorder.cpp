@@ -12,16 +12,6 @@
 
 namespace commerge::platform {
 
-namespace {
-
-std::uint64_t ReadBe(const std::uint8_t* p, int bytes) noexcept {
-  std::uint64_t v = 0;
-  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
-  return v;
-}
-
-}  // namespace
-
 // ---- sequence gaps ----
 
 std::uint64_t SequenceGapCounter::Missing(const Track& track) noexcept {
@@ -32,18 +22,14 @@ std::uint64_t SequenceGapCounter::Missing(const Track& track) noexcept {
 }
 
 void SequenceGapCounter::Count(const std::uint8_t* data, std::size_t size) noexcept {
-  if (data == nullptr || size < kAuthTrailerBytes) {
+  AuthTrailerFields trailer;
+  if (!ReadAuthTrailer(data, size, &trailer)) {
     ++unsigned_;
     return;
   }
-  const std::uint8_t* t = data + (size - kAuthTrailerBytes);
-  if (t[0] != 'C' || t[1] != 'A' || t[2] != 1 || t[6] != 0 || t[7] != 0) {
-    ++unsigned_;
-    return;
-  }
-  const auto sender = static_cast<std::uint16_t>(ReadBe(t + 4, 2));
-  const auto session = static_cast<std::int64_t>(ReadBe(t + 8, 8));
-  const std::uint64_t sequence = ReadBe(t + 16, 8);
+  const std::uint16_t sender = trailer.sender;
+  const std::int64_t session = trailer.session;
+  const std::uint64_t sequence = trailer.sequence;
   std::size_t slot = 0;
   if (sender < kAuthMaxRobots) {
     slot = sender;
@@ -113,6 +99,7 @@ Result<std::unique_ptr<LcmRecorder>> LcmRecorder::Open(const LcmRecorderParams& 
   LcmBusParams bus_params;
   bus_params.url = params.url;
   bus_params.lcm_queue_capacity = params.lcm_queue_capacity;
+  bus_params.receive_thread = params.receive_thread;
   bus_params.max_queued_messages = params.max_queued_messages;
   bus_params.max_queued_bytes = params.max_queued_bytes;
   auto bus = LcmBus::Create(bus_params);  // no authentication: the trailers are recorded as they came
@@ -130,6 +117,12 @@ LcmRecorder::~LcmRecorder() { (void)Close(); }
 Status LcmRecorder::Poll(int timeout_ms) {
   if (log_ == nullptr) return IoError(params_.out_path + ": the recorder is closed");
   if (Status st = bus_->Poll(timeout_ms); !st.ok()) return st;
+  if (Status st = WriteQueued(); !st.ok()) return st;
+  if (MonotonicUs() - last_flush_us_ >= 1000000) return Flush();
+  return Status::Ok();
+}
+
+Status LcmRecorder::WriteQueued() {
   BusMessage m;
   while (bus_->Take(&m)) {
     lcm_eventlog_event_t event{};
@@ -148,7 +141,6 @@ Status LcmRecorder::Poll(int timeout_ms) {
     sequences_.Count(m.bytes.data(), m.bytes.size());
   }
   stats_.dropped = bus_->stats().dropped_queue_full;
-  if (MonotonicUs() - last_flush_us_ >= 1000000) return Flush();
   return Status::Ok();
 }
 
@@ -161,7 +153,8 @@ Status LcmRecorder::Flush() {
 
 Status LcmRecorder::Close() {
   if (log_ == nullptr) return Status::Ok();
-  Status st = Flush();
+  Status st = WriteQueued();
+  if (Status flushed = Flush(); st.ok()) st = flushed;
   lcm_eventlog_destroy(log_);
   log_ = nullptr;
   return st;

@@ -79,6 +79,9 @@ struct LcmRecorderParams {
   bool overwrite = false;  ///< replace an existing file (otherwise refused)
   /// Messages LCM may hold between two polls (LCM counts messages, not bytes: see LcmBusParams).
   int lcm_queue_capacity = 4096;
+  /// Drain LCM in a thread of the bus's own (LcmBusParams::receive_thread): a slow disk (an SD card) does not
+  /// stall the receiving.
+  bool receive_thread = true;
   std::size_t max_queued_messages = 4096;
   std::size_t max_queued_bytes = 64u << 20;
 };
@@ -102,7 +105,7 @@ class LcmRecorder {
   Status Poll(int timeout_ms);
   /// Flushes the log to the file (Poll flushes once a second by itself).
   Status Flush();
-  /// Flushes and closes; later Polls fail. Called by the destructor too.
+  /// Writes what is still queued, flushes and closes; later Polls fail. Called by the destructor too.
   Status Close();
 
   const LcmRecorderStats& stats() const noexcept { return stats_; }
@@ -114,6 +117,7 @@ class LcmRecorder {
 
  private:
   explicit LcmRecorder(const LcmRecorderParams& params) : params_(params) {}
+  Status WriteQueued();
 
   LcmRecorderParams params_;
   std::unique_ptr<LcmBus> bus_;

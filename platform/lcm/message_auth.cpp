@@ -25,10 +25,9 @@ void PutU16(std::uint8_t* p, std::uint16_t v) {
 void PutU64(std::uint8_t* p, std::uint64_t v) {
   for (int i = 7; i >= 0; --i, v >>= 8) p[i] = static_cast<std::uint8_t>(v);
 }
-std::uint16_t GetU16(const std::uint8_t* p) { return static_cast<std::uint16_t>((p[0] << 8) | p[1]); }
-std::uint64_t GetU64(const std::uint8_t* p) {
+std::uint64_t GetBe(const std::uint8_t* p, int bytes) {
   std::uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
+  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
   return v;
 }
 
@@ -295,6 +294,17 @@ void MessageAuthenticator::Sign(const std::string& channel, std::vector<std::uin
   stats_.trailer_bytes += kAuthTrailerBytes;
 }
 
+bool ReadAuthTrailer(const std::uint8_t* data, std::size_t size, AuthTrailerFields* out) noexcept {
+  if (data == nullptr || size < kAuthTrailerBytes) return false;
+  const std::uint8_t* t = data + (size - kAuthTrailerBytes);
+  if (t[0] != 'C' || t[1] != 'A' || t[2] != 1 || t[6] != 0 || t[7] != 0) return false;
+  out->key_id = t[3];
+  out->sender = static_cast<std::uint16_t>(GetBe(t + 4, 2));
+  out->session = static_cast<std::int64_t>(GetBe(t + 8, 8));
+  out->sequence = GetBe(t + 16, 8);
+  return true;
+}
+
 AuthVerdict MessageAuthenticator::Verify(const char* channel, const std::uint8_t* data, std::size_t size,
                                          std::size_t* payload_bytes, std::uint16_t* sender) {
   auto verdict = [&](AuthVerdict v) {
@@ -302,21 +312,21 @@ AuthVerdict MessageAuthenticator::Verify(const char* channel, const std::uint8_t
     if (v == AuthVerdict::kOk) ++stats_.accepted;
     return v;
   };
-  if (size < kAuthTrailerBytes) return verdict(AuthVerdict::kNoTrailer);
+  AuthTrailerFields f;
+  if (!ReadAuthTrailer(data, size, &f)) return verdict(AuthVerdict::kNoTrailer);
   const std::size_t payload = size - kAuthTrailerBytes;
   const std::uint8_t* t = data + payload;
-  if (t[0] != 'C' || t[1] != 'A' || t[2] != 1 || t[6] != 0 || t[7] != 0) return verdict(AuthVerdict::kNoTrailer);
   const TeamKey* key = nullptr;
   for (const TeamKey& k : params_.keyring.keys) {
-    if (k.id == t[3]) key = &k;
+    if (k.id == f.key_id) key = &k;
   }
   if (key == nullptr) return verdict(AuthVerdict::kUnknownKey);
   std::uint8_t mac[kAuthMacBytes];
   ComputeMac(*key, channel, data, payload, t, mac);
   if (sodium_memcmp(mac, t + kSignedHeaderBytes, kAuthMacBytes) != 0) return verdict(AuthVerdict::kBadMac);
-  const std::uint16_t from = GetU16(t + 4);
-  const auto session = static_cast<std::int64_t>(GetU64(t + 8));
-  const std::uint64_t sequence = GetU64(t + 16);
+  const std::uint16_t from = f.sender;
+  const std::int64_t session = f.session;
+  const std::uint64_t sequence = f.sequence;
   if (from == params_.sender && session == params_.session) return verdict(AuthVerdict::kOwnEcho);
   ReplayWindow* window = WindowOf(from);
   if (window == nullptr) return verdict(AuthVerdict::kUnknownSender);

@@ -101,6 +101,17 @@ struct MessageAuthParams {
   std::uint16_t max_robots = kAuthMaxRobots; ///< robot senders 0 .. max_robots - 1 are accepted (1..64)
 };
 
+/// The unauthenticated fields of a message's trailer (bytes 0..23), read without the key.
+struct AuthTrailerFields {
+  std::uint8_t key_id = 0;
+  std::uint16_t sender = 0;
+  std::int64_t session = 0;
+  std::uint64_t sequence = 0;
+};
+/// Reads the trailer at the end of `data` (size bytes); false when the message is too short or ends in no
+/// commerge trailer (unsigned or foreign traffic). Says nothing about the MAC.
+bool ReadAuthTrailer(const std::uint8_t* data, std::size_t size, AuthTrailerFields* out) noexcept;
+
 struct AuthStats {
   std::uint64_t signed_messages = 0;
   std::uint64_t trailer_bytes = 0;  ///< kAuthTrailerBytes per signed message: the overhead on the wire

@@ -23,3 +23,11 @@ foreach(scenario clean loss10 loss50 tbf2mbit delay2s dup-reorder robot-restart 
   set_tests_properties("${name}" PROPERTIES FIXTURES_REQUIRED lcm_mission_data LABELS heavy TIMEOUT 400
                                             SKIP_REGULAR_EXPRESSION "CM-SKIP:")
 endforeach()
+
+# LcmBus on real udpm (the unit tests use LCM's in-process memq://, which has no per-subscription limit): the test
+# case skips itself outside the namespace the wrapper creates. Fast; not `heavy`, so the ASan build runs it too.
+set(cm_udpm_test "lcm bus: udpm in a private network namespace, LCM's queue limit and the receive thread")
+add_test(NAME "${cm_udpm_test}"
+         COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/in_private_netns.sh" $<TARGET_FILE:cm_test_platform_lcm>
+                 "-tc=LcmBus udpm*")
+set_tests_properties("${cm_udpm_test}" PROPERTIES TIMEOUT 120 SKIP_REGULAR_EXPRESSION "CM-SKIP:")

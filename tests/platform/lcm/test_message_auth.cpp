@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <fstream>
 #include <random>
 #include <set>
@@ -368,8 +369,8 @@ TEST_CASE("message auth: LcmBus signs what it publishes, strips verified trailer
   REQUIRE(got.size() == 1);
   CHECK(got[0].bytes == Payload(25, 4));
   CHECK(got[0].sender == 1);
-  const AuthStats* s = bus.auth_stats();
-  REQUIRE(s != nullptr);
+  const std::optional<AuthStats> s = bus.auth_stats();
+  REQUIRE(s.has_value());
   CHECK(s->verdicts[static_cast<std::size_t>(AuthVerdict::kReplayed)] == 1);
   CHECK(s->verdicts[static_cast<std::size_t>(AuthVerdict::kNoTrailer)] == 1);
   CHECK(s->verdicts[static_cast<std::size_t>(AuthVerdict::kBadMac)] == 2);
