@@ -281,6 +281,7 @@ int RunServer(const ServerOptions& o) {
         }
         if (st.ok() && m->state == "merged" && m->session != 0 && m->session == link.robot_session(m->robot_id)) {
           confirmed_session[static_cast<std::size_t>(m->robot_id)] = m->session;
+          link.OnRobotLeft(m->robot_id, m->session);  // "merged" is a robot's last status: it exits
         }
       }
       last_recorded_us = platform::MonotonicUs();

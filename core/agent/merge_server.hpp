@@ -104,6 +104,9 @@ struct PairMergeResult {
   std::size_t alpha_submap_points = 0, beta_submap_points = 0;
   double voxel_size_m = 0.0;        ///< of the submaps
   RegistrationResult registration;  ///< T_target_source = T_alpha_beta (p_alpha = T p_beta)
+  /// > 0: this round could not register the pair for missing scans (reason says why); the result is the one
+  /// that round verified for the same two robot sessions (ServerLink keeps it; see KeepVerifiedPairs).
+  int kept_from_round = 0;
 };
 
 /// Replaces the selection of every pair in `pairs` that `adopted` has (matched by robot pair) with that one.

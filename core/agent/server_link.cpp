@@ -54,6 +54,59 @@ std::int64_t ServerLink::robot_session(int robot) const {
   return robot >= 0 && robot < static_cast<int>(robots_.size()) ? robots_[static_cast<std::size_t>(robot)].session : 0;
 }
 
+void ServerLink::OnRobotLeft(int robot_id, std::int64_t session) {
+  if (robot_id < 0 || robot_id >= static_cast<int>(robots_.size())) return;
+  RobotState& r = robots_[static_cast<std::size_t>(robot_id)];
+  if (session <= 0 || session != r.session || r.left_session == session) return;
+  r.left_session = session;
+  if (r.request.request_id >= 0 && !r.request_complete) {  // withdrawn: the round stops waiting for it
+    r.request = ScanRequest();
+    r.request.request_id = -1;
+  }
+}
+
+bool ServerLink::robot_left(int robot) const {
+  if (robot < 0 || robot >= static_cast<int>(robots_.size())) return false;
+  const RobotState& r = robots_[static_cast<std::size_t>(robot)];
+  return r.left_session != 0 && r.left_session == r.session;
+}
+
+void KeepVerifiedPairs(int round, Span<const std::int64_t> sessions, std::vector<VerifiedPair>* verified,
+                       std::vector<PairMergeResult>* results) {
+  auto session_of = [&](int robot) {
+    return robot >= 0 && static_cast<std::size_t>(robot) < sessions.size() ? sessions[static_cast<std::size_t>(robot)]
+                                                                           : std::int64_t{0};
+  };
+  for (PairMergeResult& p : *results) {
+    auto it = std::find_if(verified->begin(), verified->end(), [&](const VerifiedPair& v) {
+      return v.result.alpha == p.alpha && v.result.beta == p.beta;
+    });
+    const std::int64_t alpha_session = session_of(p.alpha), beta_session = session_of(p.beta);
+    if (p.attempted && p.registration.success()) {
+      VerifiedPair v{p, round, alpha_session, beta_session};
+      if (it == verified->end()) {
+        verified->push_back(std::move(v));
+      } else {
+        *it = std::move(v);
+      }
+      continue;
+    }
+    if (p.alpha_missing + p.beta_missing == 0 || it == verified->end()) continue;
+    if (it->alpha_session != alpha_session || it->beta_session != beta_session || alpha_session == 0 ||
+        beta_session == 0) {
+      continue;  // a robot restarted since: its map frame is new
+    }
+    std::string why = p.attempted ? "refused with " + std::to_string(p.alpha_missing + p.beta_missing) +
+                                        " selected scans missing: " + p.reason
+                                  : p.reason;
+    PairMergeResult kept = it->result;
+    kept.kept_from_round = it->round;
+    kept.reason = "kept from round " + std::to_string(it->round) + " (this round: " + why + ")";
+    if (kept.reason.size() > 255) kept.reason.resize(255);  // merge_result_t's text limit
+    p = std::move(kept);
+  }
+}
+
 Status ServerLink::CheckSession(int robot_id, std::int64_t session, const char* what) {
   if (robot_id < 0 || robot_id >= static_cast<int>(robots_.size())) return Status::Ok();  // MergeServer refuses it
   if (session <= 0) {
@@ -256,6 +309,7 @@ std::size_t ServerLink::SendRequests(const ExchangePlan& plan, std::int64_t now_
   std::size_t sent = 0;
   for (const ScanRequest& planned : plan.requests) {
     RobotState& r = robots_[static_cast<std::size_t>(planned.robot_id)];
+    if (robot_left(planned.robot_id)) continue;  // it sends nothing any more: the round uses the scans held
     ScanRequest request;
     request.utime_us = now_us;
     request.robot_id = planned.robot_id;
@@ -327,6 +381,9 @@ Status ServerLink::FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>*
   }
   std::vector<PairMergeResult> results = std::move(round_results_);
   round_results_.clear();
+  std::vector<std::int64_t> sessions(robots_.size(), 0);
+  for (std::size_t r = 0; r < robots_.size(); ++r) sessions[r] = robots_[r].session;
+  KeepVerifiedPairs(round_ + 1, Span<const std::int64_t>(sessions), &verified_pairs_, &results);
   auto frames = server_->SolveFrames(Span<const PairMergeResult>(results));
   if (!frames.ok()) return frames.status();
   ++round_;
@@ -351,7 +408,7 @@ Status ServerLink::FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>*
     o.alpha = p.alpha;
     o.beta = p.beta;
     o.success = p.attempted && p.registration.success();
-    o.verdict = !p.attempted ? p.reason : RegistrationVerdictName(p.registration.verdict);
+    o.verdict = !p.attempted || p.kept_from_round > 0 ? p.reason : RegistrationVerdictName(p.registration.verdict);
     o.T_alpha_beta = o.success ? p.registration.T_target_source : Eigen::Isometry3d::Identity();
     o.alpha_scans = static_cast<std::uint32_t>(p.alpha_scans);
     o.beta_scans = static_cast<std::uint32_t>(p.beta_scans);

@@ -26,6 +26,7 @@
 
 #include "core/agent/merge_server.hpp"
 #include "core/agent/messages.hpp"
+#include "core/common/span.hpp"
 #include "core/common/status.hpp"
 
 namespace commerge {
@@ -70,6 +71,24 @@ struct ServerLinkStats {
   std::string last_rejection;
 };
 
+/// A pair registration a round verified, with the robot sessions it holds for.
+struct VerifiedPair {
+  PairMergeResult result;
+  int round = 0;
+  std::int64_t alpha_session = 0, beta_session = 0;
+};
+
+/// Keeps what earlier rounds verified when a later round lacks the data to judge. For each of this round's
+/// `results` (round number `round`; sessions[r] = robot r's current session): a success is recorded in *verified
+/// (replacing that pair's earlier one). A pair this round did not register, with selected scans missing
+/// (alpha_missing or beta_missing > 0: a robot left, or its scans did not arrive before request_timeout_s), gets
+/// back the result *verified holds for the same two sessions, marked kept_from_round, its reason naming this
+/// round's cause. The frame between two robot maps does not change when they grow, so a verified transform stays
+/// valid; a restarted robot (new session, new map frame) invalidates it. A pair registered with every selected
+/// scan and refused, or with nothing selected, is left as it is.
+void KeepVerifiedPairs(int round, Span<const std::int64_t> sessions, std::vector<VerifiedPair>* verified,
+                       std::vector<PairMergeResult>* results);
+
 class ServerLink {
  public:
   /// `server` is not owned. `session` > 0 (e.g. the process start time in us).
@@ -87,6 +106,13 @@ class ServerLink {
 
   /// Starts a round at the next Poll() whatever the triggers say (when any robot has keyframes).
   void RequestRound() noexcept { round_requested_ = true; }
+
+  /// Robot `robot_id`'s process said it is leaving (its status "merged": `commerge robot --exit-when-merged`
+  /// exits). Its open scan request is withdrawn and later rounds ask it for nothing: they use the scans held
+  /// (a round used to wait request_timeout_s for scans nobody would send). Ignored unless `session` is the
+  /// robot's current one; a restart (a newer session) is asked again.
+  void OnRobotLeft(int robot_id, std::int64_t session);
+  bool robot_left(int robot) const;
 
   /// The status of one robot now (also what Poll() sends).
   TransferStatus MakeStatus(int robot, std::int64_t now_us) const;
@@ -116,6 +142,7 @@ class ServerLink {
     ScanRequest request;                 ///< active (request_id -1: none)
     bool request_complete = false;
     std::int64_t last_policy_us = -1, last_status_us = -1;
+    std::int64_t left_session = 0;       ///< the session that said it is leaving (0: none)
   };
   Status CheckSession(int robot_id, std::int64_t session, const char* what);
   Status Refuse(Status status);
@@ -146,6 +173,7 @@ class ServerLink {
   int round_ = 0;
   MergeResultMessage last_result_;
   std::vector<PairMergeResult> last_pairs_;
+  std::vector<VerifiedPair> verified_pairs_;  ///< per robot pair: the last verified registration
   FrameSolution last_frames_;
   ServerLinkStats stats_;
 };

@@ -113,7 +113,9 @@ class Mission {
 
   void Tick() {
     if (now_us_ % 100000 == 0) {
-      for (auto& r : robots_) Feed(r.get());
+      for (std::size_t i = 0; i < robots_.size(); ++i) {
+        if (!Gone(i)) Feed(robots_[i].get(), ScansOf(i));
+      }
     }
     // Deliver what is due (ordered by delivery time, then send order).
     std::sort(in_flight_.begin(), in_flight_.end(), [](const Packet& a, const Packet& b) {
@@ -131,9 +133,13 @@ class Mission {
       const int to = o.kind == ServerOutgoing::Kind::kTransferStatus ? o.status.robot_id
                      : o.kind == ServerOutgoing::Kind::kScanRequest ? o.request.robot_id
                                                                      : -2;  // broadcast: nobody consumes it here
+      if (to >= 0 && o.kind == ServerOutgoing::Kind::kScanRequest && Gone(static_cast<std::size_t>(to))) {
+        ++requests_to_gone_;
+      }
       if (to >= 0) Send(to, RobotOutgoing{}, std::move(o));
     }
     for (std::size_t i = 0; i < robots_.size(); ++i) {
+      if (Gone(i)) continue;
       Robot& r = *robots_[i];
       RobotOutgoing m;
       while (bucket_[i].CanSend(now_us_)) {
@@ -149,8 +155,18 @@ class Mission {
     }
   }
 
-  void Feed(Robot* r) {
-    if (r->scans_fed >= scans_) {
+  // A robot that left: it neither sends nor receives any more (its process ended).
+  void Leave(std::size_t robot) {
+    if (gone_.size() < robots_.size()) gone_.resize(robots_.size(), 0);
+    gone_[robot] = 1;
+  }
+  bool Gone(std::size_t robot) const { return robot < gone_.size() && gone_[robot] != 0; }
+  int ScansOf(std::size_t robot) const {
+    return robot < scans_per_robot_.size() ? scans_per_robot_[robot] : scans_;
+  }
+
+  void Feed(Robot* r, int scans) {
+    if (r->scans_fed >= scans) {
       if (!r->finished) {
         REQUIRE(r->agent->Finish().ok());
         r->finished = true;
@@ -183,6 +199,7 @@ class Mission {
 
   void Deliver(const Packet& p) {
     if (p.to_robot >= 0) {
+      if (Gone(static_cast<std::size_t>(p.to_robot))) return;
       RobotLink& link = *robots_[static_cast<std::size_t>(p.to_robot)]->link;
       if (p.down.kind == ServerOutgoing::Kind::kTransferStatus) {
         CHECK(link.OnTransferStatus(p.down.status, now_us_).ok());
@@ -264,6 +281,9 @@ class Mission {
   }
 
   int scans_;
+  std::vector<int> scans_per_robot_;  ///< per robot when set (else scans_)
+  std::vector<char> gone_;
+  int requests_to_gone_ = 0;  ///< scan requests the server sent to a robot after it left
   LinkModel model_;
   std::mt19937 rng_;
   ServerLinkParams server_params_;
@@ -408,6 +428,78 @@ TEST_CASE("Reliable transfer: a robot restarted after a merge leaves the world f
   m.RunUntil(m.now_us_ + 40000000);
   CHECK(m.server_->rounds_merged() > rounds);
   CHECK(in_world(1));
+}
+
+TEST_CASE("Reliable transfer: a robot that left is asked for nothing and the round does not wait for it") {
+  // Robot 0 ends (its process exits) as the first round starts, before it sent a scan. Told so (its last status
+  // says "merged"), the server withdraws its request and merges at once with what it holds; not told, the round
+  // waits the whole request_timeout_s (600 s here) for scans nobody will send: the control.
+  for (const bool told : {false, true}) {
+    CAPTURE(told);
+    Mission m(2, 12, LinkModel{}, 5, SendAllParams());
+    while (!m.server_->round_active() && m.now_us_ < 20000000) m.RunUntil(m.now_us_ + kTickUs);
+    REQUIRE(m.server_->round_active());
+    const int results = m.merge_results_;
+    m.Leave(0);
+    if (told) {
+      m.server_->OnRobotLeft(0, 999);  // another session: ignored
+      CHECK_FALSE(m.server_->robot_left(0));
+      m.server_->OnRobotLeft(0, 1000);
+      CHECK(m.server_->robot_left(0));
+    }
+    m.RunUntil(m.now_us_ + 20000000);
+    if (!told) {
+      CHECK(m.server_->round_active());
+      CHECK(m.merge_results_ == results);
+      CHECK(m.requests_to_gone_ > 0);  // repeated every policy_repeat_s
+      continue;
+    }
+    CHECK_FALSE(m.server_->round_active());
+    CHECK(m.merge_results_ == results + 1);
+    CHECK(m.server_->stats().rounds_timed_out == 0);
+    CHECK(m.requests_to_gone_ == 0);
+    const MergeResultMessage& r = m.server_->last_result();
+    REQUIRE(r.pairs.size() == 1);
+    CHECK_FALSE(r.pairs[0].success);
+    CHECK(r.pairs[0].verdict.find("no selected scan was received") != std::string::npos);
+    // A restart of robot 0 (a new session) is asked again.
+    m.RestartRobot(0, 1001);
+    m.gone_[0] = 0;
+    m.RunUntil(m.now_us_ + 500000);
+    CHECK(m.server_->robot_session(0) == 1001);
+    CHECK_FALSE(m.server_->robot_left(0));
+  }
+}
+
+TEST_CASE("Reliable transfer: after a robot left, later rounds register with the scans held and keep it merged") {
+  // Robot 0 maps 12 scans, robot 1 24 on the same street. Round 1 runs (requested) when robot 1 is half way and
+  // places it; robot 0 then leaves. Round 2 (robot 1's new keyframes) asks robot 0 for nothing and registers with
+  // the scans the server holds. (When a round holds none of the scans it selects of one robot, the pair keeps
+  // the earlier round's result: KeepVerifiedPairs, tested on its own.)
+  ServerLinkParams params = SendAllParams();
+  params.mode = ExchangeMode::kStageABC;
+  params.request_timeout_s = 5.0;
+  Mission m(2, 24, LinkModel{}, 6, params);
+  m.scans_per_robot_ = {12, 24};
+  m.RunUntil(1500000);
+  m.server_->RequestRound();
+  while (m.server_->rounds_merged() < 1 && m.now_us_ < 20000000) m.RunUntil(m.now_us_ + kTickUs);
+  REQUIRE(m.server_->rounds_merged() == 1);
+  const MergeResultMessage first = m.server_->last_result();
+  REQUIRE(first.in_world.size() == 2);
+  REQUIRE(first.in_world[1] == 1);
+  REQUIRE(first.keyframes[1] < 24);
+  m.Leave(0);
+  m.server_->OnRobotLeft(0, 1000);
+  m.RunUntil(m.now_us_ + 30000000);
+  REQUIRE(m.server_->rounds_merged() >= 2);
+  const MergeResultMessage& r = m.server_->last_result();
+  CHECK(r.keyframes[1] == m.robots_[1]->agent->mapper().num_keyframes());
+  CHECK(r.in_world[1] == 1);
+  CHECK(m.requests_to_gone_ == 0);
+  CHECK(m.server_->stats().rounds_timed_out == 0);
+  const Eigen::Isometry3d d = first.T_world_map[1].inverse() * r.T_world_map[1];
+  CHECK(d.translation().norm() < 0.3);
 }
 
 // Replays the recorded robot -> server traffic, with its timing, into a fresh server; returns its last result.
