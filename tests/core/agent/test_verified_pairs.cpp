@@ -13,17 +13,28 @@ using namespace commerge;
 
 namespace {
 
-PairMergeResult Success(int alpha, int beta, double x_m) {
+// A pair registration that ran: a success at T_alpha_beta = translation (x_m, 0, 0), or a refusal with
+// `missing` of the selected scans absent.
+PairMergeResult Registered(int alpha, int beta, RegistrationVerdict verdict, double x_m, std::size_t missing = 0) {
   PairMergeResult p;
   p.alpha = alpha;
   p.beta = beta;
   p.attempted = true;
   p.alpha_scans = 5;
   p.beta_scans = 6;
-  p.registration.verdict = RegistrationVerdict::kSuccess;
+  p.alpha_missing = missing;
+  p.registration.verdict = verdict;
   p.registration.T_target_source.translation().x() = x_m;
-  p.registration.num_fine_inliers = 1234;
+  if (verdict != RegistrationVerdict::kSuccess) p.reason = "too few points";
   return p;
+}
+
+PairMergeResult Success(int alpha, int beta, double x_m) {
+  return Registered(alpha, beta, RegistrationVerdict::kSuccess, x_m);
+}
+
+PairMergeResult Refused(int alpha, int beta, std::size_t missing) {
+  return Registered(alpha, beta, RegistrationVerdict::kTooFewPoints, 0.0, missing);
 }
 
 PairMergeResult NotAttempted(int alpha, int beta, std::size_t alpha_missing, std::size_t beta_missing) {
@@ -33,19 +44,6 @@ PairMergeResult NotAttempted(int alpha, int beta, std::size_t alpha_missing, std
   p.alpha_missing = alpha_missing;
   p.beta_missing = beta_missing;
   p.reason = alpha_missing + beta_missing > 0 ? "no selected scan was received" : "no loop selected";
-  return p;
-}
-
-PairMergeResult Refused(int alpha, int beta, std::size_t missing) {
-  PairMergeResult p;
-  p.alpha = alpha;
-  p.beta = beta;
-  p.attempted = true;
-  p.alpha_scans = 3;
-  p.beta_scans = 4;
-  p.alpha_missing = missing;
-  p.registration.verdict = RegistrationVerdict::kTooFewPoints;
-  p.reason = "too few points";
   return p;
 }
 
