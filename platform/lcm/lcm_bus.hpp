@@ -49,9 +49,10 @@ struct LcmBusParams {
   double jitter_ms = 0.0;              ///< plus a uniform random extra hold in [0, jitter_ms] (reorders)
   double duplicate_pct = 0.0;          ///< publish this percentage of messages twice (independent jitter)
   std::uint32_t fault_seed = 1;        ///< seed of the jitter and duplication draws
-  /// Messages LCM's own receive thread may hold per subscription between two Poll calls (0 = LCM's default, 30).
-  /// Beyond that LCM drops them silently, before this bus can count them. LCM bounds them by count only: keep
-  /// the default on channels of large messages (live scans).
+  /// Messages LCM's own receive thread may hold per subscription until they are handled (0 = LCM's default,
+  /// 30): until the next Poll, or with receive_thread until that thread takes them. Beyond that LCM drops them
+  /// silently, before this bus can count them. LCM bounds them by count only: keep the default on channels of
+  /// large messages (live scans).
   int lcm_queue_capacity = 0;
   /// Hand messages from LCM to the queue in a thread of the bus's own, started by the first Poll (subscribe
   /// before). Without it, messages move only inside Poll (deterministic, for in-process tests).
