@@ -2,6 +2,7 @@
 #include "apps/app_common.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <optional>
 
@@ -107,6 +108,31 @@ std::string AuthSummary(const platform::LcmBus& bus) {
   }
   if (!detail.empty()) out += " (" + detail + ")";
   return out;
+}
+
+void AddSolidMinZFlag(CLI::App* cmd, double* min_z_m) {
+  cmd->add_option("--solid-min-z-m", *min_z_m,
+                  "leave points below this z of the sensor frame out of the SOLiD descriptor (our extension; "
+                  "default: off, every point as the paper). About -0.5 on a sensor 1.8 m up drops the ground, "
+                  "whose rings move with roll and pitch; raise --tau-inter with it on the server (0.15-0.2 in the "
+                  "README's tables). Every robot of a team needs the same value")
+      ->check(CLI::Range(-1000.0, 1000.0));
+}
+
+Result<SolidParams> SolidParamsFromFlags(const std::string& lidar, double min_z_m) {
+  auto params = SolidPresetFor(lidar);
+  if (!params.ok()) return Status(params.status().code(), "--lidar: " + params.status().message());
+  params->min_z_m = min_z_m;
+  const Status valid = ValidateSolidParams(*params);
+  if (!valid.ok()) return Status(valid.code(), "--solid-min-z-m: " + valid.message());
+  return params;
+}
+
+std::string SolidMinZText(const SolidParams& params) {
+  if (!std::isfinite(params.min_z_m)) return "every point";
+  char text[64];
+  std::snprintf(text, sizeof(text), "points below z %.2f m left out", params.min_z_m);
+  return text;
 }
 
 void AddFaultFlags(CLI::App* cmd, double* delay_ms, double* jitter_ms, double* duplicate_pct) {

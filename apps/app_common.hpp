@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/agent/messages.hpp"
+#include "core/descriptor/sensor_presets.hpp"
 #include "core/memory/budget.hpp"
 #include "platform/lcm/lcm_bus.hpp"
 
@@ -38,6 +39,14 @@ struct MemoryFlags {
 };
 
 void AddMemoryFlags(CLI::App* cmd, MemoryFlags* flags);
+
+/// --solid-min-z-m for the subcommands that compute descriptors (robot, run): SolidParams::min_z_m, off
+/// (-infinity) unless given.
+void AddSolidMinZFlag(CLI::App* cmd, double* min_z_m);
+/// The SOLiD preset named by --lidar with --solid-min-z-m applied, validated. Errors name the flag and value.
+Result<SolidParams> SolidParamsFromFlags(const std::string& lidar, double min_z_m);
+/// "every point" or "points below z -0.5 m left out", for banners and reports.
+std::string SolidMinZText(const SolidParams& params);
 
 /// The daemons' test-only fault injection on outgoing messages (platform::LcmBusParams): --delay-ms,
 /// --jitter-ms (reorders), --duplicate-pct, in their own help group.

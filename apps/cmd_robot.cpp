@@ -49,6 +49,7 @@ struct RobotOptions {
   std::string odometry_channel = platform::kOdometryChannel;
   double idle_finish_s = 5.0;
   std::string lidar = "hdl-64e";
+  double solid_min_z_m = SolidParams{}.min_z_m;
   double rate_hz = 10.0;
   double keyframe_spacing_m = 1.0;
   // One keyframe_batch_t / pose_update_t stays inside one UDP datagram at a 1500-byte MTU (WiFi): LCM drops a
@@ -80,6 +81,11 @@ int RunRobot(const RobotOptions& o) {
     std::fprintf(stderr, "%s: give exactly one input: --data DIR (replay) or --live (odometry stack on LCM)\n", tag);
     return kExitUsage;
   }
+  auto solid_params = SolidParamsFromFlags(o.lidar, o.solid_min_z_m);
+  if (!solid_params.ok()) {
+    std::fprintf(stderr, "%s: %s\n", tag, solid_params.status().message().c_str());
+    return kExitUsage;
+  }
   platform::RobotDataset data;
   if (!o.live) {
     auto spec = platform::ParseRobotDatasetSpec(o.data);
@@ -93,11 +99,6 @@ int RunRobot(const RobotOptions& o) {
       return kExitFailure;
     }
     data = std::move(*opened);
-  }
-  auto solid_params = SolidPresetFor(o.lidar);
-  if (!solid_params.ok()) {
-    std::fprintf(stderr, "%s: --lidar: %s\n", tag, solid_params.status().message().c_str());
-    return kExitUsage;
   }
   auto solid = SolidDescriptor::Create(*solid_params);
   auto store_params = ScanStoreParamsFromBudget(setup.config, ScanStorePolicy::kEvictOldest);
@@ -193,6 +194,10 @@ int RunRobot(const RobotOptions& o) {
       std::fprintf(stderr, "%s %d: session %lld, %zu scans from %s at %.1f Hz\n", tag, o.id,
                    static_cast<long long>(session), data.scan_files.size(), o.data.c_str(), o.rate_hz);
     }
+    // The id is not in the messages: the operator compares it across the team's robots.
+    std::fprintf(stderr, "%s %d: descriptor SOLiD %s, %s, parameter id 0x%08X (every robot must show the same)\n",
+                 tag, o.id, o.lidar.c_str(), SolidMinZText(*solid_params).c_str(),
+                 static_cast<unsigned>(SolidParameterId(*solid_params)));
   }
   if (!o.quiet || !bus_params.authenticate) {
     std::fprintf(stderr, "%s %d: %s\n", tag, o.id, AuthDescription(o.auth, bus_params).c_str());
@@ -474,6 +479,7 @@ Command AddRobotCommand(CLI::App& root) {
       ->check(CLI::Range(0.1, 86400.0))
       ->capture_default_str();
   cmd->add_option("--lidar", o->lidar, "SOLiD sensor preset (hdl-64e, vlp-16, os1-64, os1-128, os2-128, avia, aeva)")->capture_default_str();
+  AddSolidMinZFlag(cmd, &o->solid_min_z_m);
   cmd->add_option("--rate-hz", o->rate_hz, "scans replayed per second")->check(CLI::Range(0.1, 1000.0))->capture_default_str();
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m, "distance between keyframes [m]")->capture_default_str();
   cmd->add_option("--lcm-url", o->lcm_url, "LCM provider URL (default: LCM_DEFAULT_URL)");

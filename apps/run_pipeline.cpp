@@ -340,6 +340,7 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
   cmd->add_option("--lidar", o->sensor, "SOLiD sensor preset of the robots' LiDAR (hdl-64e, vlp-16, os1-64, os1-128, "
                                         "os2-128, avia, aeva)")
       ->capture_default_str();
+  AddSolidMinZFlag(cmd, &o->solid_min_z_m);
   cmd->add_flag("--gt-from-poses", o->gt_from_poses,
                 "without poses_gt.txt, use the poses file as ground truth (real sequences split into robots)");
   cmd->add_option("--tau-inter", o->tau_inter, "stage A descriptor distance threshold")->capture_default_str();
@@ -388,9 +389,9 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     std::fprintf(stderr, "%s: %d datasets given; one per robot, 2..%d\n", tag, num_robots, kFrameSolverMaxRobots);
     return kExitUsage;
   }
-  auto solid_params = SolidPresetFor(o.sensor);
+  auto solid_params = SolidParamsFromFlags(o.sensor, o.solid_min_z_m);
   if (!solid_params.ok()) {
-    std::fprintf(stderr, "%s: --lidar: %s\n", tag, solid_params.status().message().c_str());
+    std::fprintf(stderr, "%s: %s\n", tag, solid_params.status().message().c_str());
     return kExitUsage;
   }
   std::vector<RobotRun> robots(static_cast<std::size_t>(num_robots));

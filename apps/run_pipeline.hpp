@@ -20,6 +20,7 @@ struct RunOptions {
   /// Modes run side by side; the last one gives the final result (merged map, trajectories).
   std::vector<std::string> modes = {"send-all", "A", "A+B", "A+C", "A+B+C"};
   std::string sensor = "hdl-64e";  ///< SOLiD preset of the robots' LiDAR
+  double solid_min_z_m = SolidParams{}.min_z_m;  ///< --solid-min-z-m (off: -infinity)
   bool gt_from_poses = false;
   double tau_inter = 0.10;
   std::int64_t tau_area = 10000;

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: the interface every place descriptor implements (SOLiD, Scan Context), so the loop detector
 // and the server cascade are descriptor-agnostic. A descriptor is a fixed number of floats per keyframe;
-// its kind and parameter id travel with it, and descriptors of different ids are never compared.
+// its kind and parameter id say which descriptors are comparable (only those of one id). On the wire the
+// id is not carried yet (keyframe_batch_t holds R-SOLiD only): a team's robots share it by configuration.
 #pragma once
 
 #include <cstddef>
@@ -24,6 +25,7 @@ struct DescriptorInfo {
   std::uint32_t num_out_of_range = 0; ///< outside [min_range, max_range]
   std::uint32_t num_below_fov = 0;    ///< below the vertical field of view (skipped)
   std::uint32_t num_above_fov = 0;    ///< above the vertical field of view (skipped)
+  std::uint32_t num_below_min_z = 0;  ///< SOLiD with min_z_m set: in range but below min_z_m (skipped)
 };
 
 class PlaceDescriptor {

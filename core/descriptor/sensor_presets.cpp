@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <sstream>
 
 namespace commerge {
@@ -123,6 +124,12 @@ Status ValidateSolidParams(const SolidParams& p) {
     return InvalidArgument("SOLiD parameters: min_range_m must be finite, >= 0 and < max_range_m (" +
                            Num(p.max_range_m) + "), got " + Num(p.min_range_m));
   }
+  const bool z_unset = p.min_z_m == -std::numeric_limits<double>::infinity();
+  if (!z_unset && !(std::isfinite(p.min_z_m) && std::abs(p.min_z_m) < p.max_range_m)) {
+    return InvalidArgument("SOLiD parameters: min_z_m must be -infinity (off) or finite within (-max_range_m, "
+                           "max_range_m) = (-" + Num(p.max_range_m) + ", " + Num(p.max_range_m) + "), got " +
+                           Num(p.min_z_m));
+  }
   return Status::Ok();
 }
 
@@ -158,6 +165,10 @@ std::uint32_t SolidParameterId(const SolidParams& p) noexcept {
   h = detail::Fnv1aDouble(h, p.fov_down_deg);
   h = detail::Fnv1aDouble(h, p.max_range_m);
   h = detail::Fnv1aDouble(h, p.min_range_m);
+  if (std::isfinite(p.min_z_m)) {
+    h = detail::Fnv1aByte(h, static_cast<std::uint8_t>('z'));
+    h = detail::Fnv1aDouble(h, p.min_z_m);
+  }
   return h;
 }
 

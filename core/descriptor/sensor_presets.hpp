@@ -1,12 +1,16 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: SOLiD descriptor parameters, per-sensor presets, validation and the parameter-set id.
 //
-// The seven values of SolidParams are part of the protocol: two SOLiD descriptors are comparable only when
-// all of them are identical, which SolidParameterId() condenses into one 32-bit id that travels with the
-// descriptors (the server refuses to compare descriptors of different ids). See shared/spec/SOLID.md §1.1.
+// The values of SolidParams are part of the protocol: two SOLiD descriptors are comparable only when all of
+// them are identical, which SolidParameterId() condenses into one 32-bit id (shared/spec/SOLID.md §1.1). The
+// id does not travel in keyframe_batch_t yet: `commerge robot` prints it at start-up, and every robot of a
+// team must be started with the same --lidar and --solid-min-z-m.
+// min_z_m (our extension, off by default) enters the id only when it is set, so the paper's parameter sets
+// keep their ids.
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include "core/common/status.hpp"
@@ -28,6 +32,12 @@ struct SolidParams {
   double fov_down_deg = -24.8;  ///< f_d: lower edge of the vertical field of view [deg]; f_d < f_u
   double max_range_m = 80.0;    ///< L: ring extent and maximum 3-D range (exclusive) [m]
   double min_range_m = 3.0;     ///< minimum 3-D range (exclusive) [m]
+  /// Our extension, not in the paper: points whose z in the sensor frame is below this are not counted
+  /// (num_below_min_z), e.g. -0.5 on a sensor 1.8 m above the ground leaves the ground out. The ground's
+  /// range rings move with the vehicle's roll and pitch (a 0.5 deg tilt moves a -5 deg beam's ground ring
+  /// by 2 m), so on open terrain they make the same place look different. -infinity (default): every point,
+  /// as the paper. Recalibrate tau_inter when setting it: distances between unrelated places grow.
+  double min_z_m = -std::numeric_limits<double>::infinity();
 };
 
 /// Sensors with a built-in preset.
@@ -58,12 +68,13 @@ Result<SolidParams> SolidPresetFor(const std::string& sensor);
 
 /// OK, or invalid argument naming the first offending field and its value: counts in [1, kSolidMax*];
 /// num_sectors must divide 360; FOV finite, within [-90, 90] deg and fov_down_deg < fov_up_deg; ranges
-/// finite with 0 <= min_range_m < max_range_m.
+/// finite with 0 <= min_range_m < max_range_m; min_z_m -infinity or finite within (-max_range_m, max_range_m).
 Status ValidateSolidParams(const SolidParams& params);
 
 /// Stable 32-bit id of the parameter set: FNV-1a over the descriptor kind byte (1 = SOLiD), the three
 /// counts as little-endian int32 and the four lengths/angles as little-endian IEEE-754 binary64 bit
-/// patterns (-0.0 hashed as +0.0), in declaration order. Identical on every platform.
+/// patterns (-0.0 hashed as +0.0), in declaration order; when min_z_m is finite, then the byte 'z' and
+/// min_z_m the same way (so an unset min_z_m leaves the id as before). Identical on every platform.
 std::uint32_t SolidParameterId(const SolidParams& params) noexcept;
 
 namespace detail {

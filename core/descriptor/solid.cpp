@@ -86,8 +86,9 @@ struct SolidKernel {
     const double min_r2 = p.min_range_m * p.min_range_m;
     const double max_r2 = p.max_range_m * p.max_range_m;
     const bool skip = policy == OutOfFovPolicy::kSkip;
+    const double min_z = p.min_z_m;  // -infinity when off: no finite z is below it
 
-    std::uint32_t nonfinite = 0, out_of_range = 0, below = 0, above = 0, counted = 0;
+    std::uint32_t nonfinite = 0, out_of_range = 0, below = 0, above = 0, below_z = 0, counted = 0;
     for (std::size_t i = 0; i < n; ++i) {
       double x, y, z;
       point_at(i, &x, &y, &z);
@@ -98,6 +99,10 @@ struct SolidKernel {
       const double r2 = x * x + y * y + z * z;
       if (!(r2 > min_r2 && r2 < max_r2)) {
         ++out_of_range;
+        continue;
+      }
+      if (z < min_z) {
+        ++below_z;
         continue;
       }
       if (x == 0.0) x = 0.001;  // the reference's guard, kept for parity
@@ -135,6 +140,7 @@ struct SolidKernel {
     res.num_out_of_range = out_of_range;
     res.num_below_fov = below;
     res.num_above_fov = above;
+    res.num_below_min_z = below_z;
     res.num_counted = counted;
 
     // Min-max elevation weights (SOLID.md §1.4): w_h = (n_h - min n) / (max n - min n).
@@ -194,7 +200,8 @@ const char* SolidInvalidReasonName(SolidInvalidReason reason) noexcept {
 }
 
 double OutOfFovFraction(const DescriptorInfo& info) noexcept {
-  const std::uint64_t excluded = static_cast<std::uint64_t>(info.num_nonfinite) + info.num_out_of_range;
+  const std::uint64_t excluded =
+      static_cast<std::uint64_t>(info.num_nonfinite) + info.num_out_of_range + info.num_below_min_z;
   if (info.num_points_in <= excluded) return 0.0;
   const std::uint64_t in_range = info.num_points_in - excluded;
   return static_cast<double>(static_cast<std::uint64_t>(info.num_below_fov) + info.num_above_fov) /

@@ -5,6 +5,7 @@
 // min-max-normalised elevation histogram.
 //
 // Per point (double precision): 3-D range filter min_range_m < |p| < max_range_m (compared as squares);
+// with min_z_m set (our extension, off by default), points with z < min_z_m are skipped and counted;
 // x == 0 -> 0.001, y == 0 -> 0.001; rho = sqrt(x^2 + y^2); theta = atan2(y, x) in [0, 360) deg;
 // phi = atan2(z, rho) deg; ring = min(floor(rho / (L / N_r)), N_r - 1); sector = min(floor(theta /
 // (360 / N_a)), N_a - 1); elevation bin = min(floor((phi - f_d) / ((f_u - f_d) / N_e)), N_e - 1) for
@@ -64,7 +65,8 @@ struct SolidResult : DescriptorInfo {
 };
 
 /// Share of the in-range finite points that fell outside the vertical FOV:
-/// (num_below_fov + num_above_fov) / (num_points_in - num_nonfinite - num_out_of_range); 0 when none.
+/// (num_below_fov + num_above_fov) / (num_points_in - num_nonfinite - num_out_of_range - num_below_min_z);
+/// 0 when none.
 double OutOfFovFraction(const DescriptorInfo& info) noexcept;
 
 /// Suggested warning threshold for OutOfFovFraction (SOLID.md §1.5): 10 % also catches a swapped FOV.

@@ -111,6 +111,36 @@ cm_cli_test(NAME "run: in the aliased indoor world the robots accept no false lo
                     --out "${CM_CLI_OUT}/run-indoor")
 set_tests_properties("cli: run: in the aliased indoor world the robots accept no false loop"
                      PROPERTIES FIXTURES_REQUIRED sim_indoor)
+# The default simulator setting on the campus: robot 1 drives the laps the other way round with 0.5 deg of roll
+# and pitch. The ground's range rings move with the tilt, so SOLiD on every point (the paper) finds no stage A
+# cluster; leaving the ground out (--solid-min-z-m, with the threshold it needs) merges within 1 m.
+cm_cli_test(NAME "sim: a campus world driven both ways with roll and pitch, two robots, 800 keyframes" RC 0 LABELS heavy
+            REGEX "campus world, 2 robots, complete overlap, 800 keyframes each.*scans: 1600 in"
+            COMMAND ${CM_BIN} sim --world campus --robots 2 --overlap complete --keyframes 800 --lidar vlp16 --seed 11
+                    --threads 2 --detection-reflectivity 0.8 --out "${CM_CLI_OUT}/sim-campus" --force)
+set_tests_properties("cli: sim: a campus world driven both ways with roll and pitch, two robots, 800 keyframes"
+                     PROPERTIES FIXTURES_SETUP sim_campus)
+cm_cli_test(NAME "run: campus with roll and pitch merges once SOLiD leaves the ground out" RC 0 LABELS heavy
+            REGEX "robot 1: T_world_robot [^\n]*; e_rmse 0\\.[0-9]+ m"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-campus/robot_0" "${CM_CLI_OUT}/sim-campus/robot_1" --lidar vlp-16
+                    --solid-min-z-m -0.5 --tau-inter 0.2 --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C
+                    --no-report --no-progress --out "${CM_CLI_OUT}/run-campus-z")
+cm_cli_test(NAME "run: campus with roll and pitch, SOLiD on every point: stage A finds no cluster" RC 1 LABELS heavy
+            REGEX "pair 0-1: not merged: stage A: no cluster with span area >= tau_area"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-campus/robot_0" "${CM_CLI_OUT}/sim-campus/robot_1" --lidar vlp-16
+                    --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
+                    --out "${CM_CLI_OUT}/run-campus")
+set_tests_properties("cli: run: campus with roll and pitch merges once SOLiD leaves the ground out"
+                     "cli: run: campus with roll and pitch, SOLiD on every point: stage A finds no cluster"
+                     PROPERTIES FIXTURES_REQUIRED sim_campus)
+cm_cli_test(NAME "run: --solid-min-z-m beyond the preset's range is a usage error naming the flag" RC 2
+            REGEX "--solid-min-z-m: SOLiD parameters: min_z_m must be -infinity \\(off\\) or finite within"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/none-a" "${CM_CLI_OUT}/none-b" --lidar vlp-16 --solid-min-z-m -90
+                    --out "${CM_CLI_OUT}/run-bad")
+cm_cli_test(NAME "robot: --solid-min-z-m beyond the preset's range is a usage error naming the flag" RC 2
+            REGEX "--solid-min-z-m: SOLiD parameters: min_z_m"
+            COMMAND ${CM_BIN} robot --id 0 --lcm-url memq:// --data "${CM_CLI_OUT}/none-a" --lidar vlp-16
+                    --solid-min-z-m 85 --check)
 cm_cli_test(NAME "sim: an unknown world is a usage error" RC 2 REGEX "--world: forest not in"
             COMMAND ${CM_BIN} sim --world forest --out "${CM_CLI_OUT}/sim-bad")
 cm_cli_test(NAME "sim: six robots is a usage error" RC 2 REGEX "--robots: Value 6 not in range"

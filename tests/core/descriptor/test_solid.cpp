@@ -338,6 +338,84 @@ TEST_CASE("SOLiD degenerate inputs are invalid, never NaN") {
   CHECK(std::all_of(out.begin(), out.end(), [](float v) { return v == 0.0f; }));
 }
 
+TEST_CASE("SOLiD min_z_m: points below it are left out and counted, as if the cloud were filtered first") {
+  const std::vector<PointXYZI>& scan = StreetScan(-60.0f);  // sensor 1.73 m above the ground
+  SolidParams params = SyntheticParams();
+  params.min_z_m = -1.0;
+  REQUIRE(ValidateSolidParams(params).ok());
+  // Independent reference: filter by hand (in-range finite points with z < min_z_m go), then SOLiD without it.
+  SolidParams plain = params;
+  plain.min_z_m = SolidParams{}.min_z_m;
+  std::vector<PointXYZI> kept;
+  std::uint32_t dropped = 0;
+  for (const PointXYZI& pt : scan) {
+    const double x = pt.x, y = pt.y, z = pt.z;
+    const double range = std::sqrt(x * x + y * y + z * z);
+    const bool in_range = range > params.min_range_m && range < params.max_range_m;
+    if (in_range && z < params.min_z_m) {
+      ++dropped;
+    } else {
+      kept.push_back(pt);
+    }
+  }
+  REQUIRE(dropped > 5000);  // the ground within range
+  SolidWorkspace ws(params);
+  SolidResult got;
+  REQUIRE(ComputeSolid(scan, params, &ws, &got).ok());
+  const RefSolid ref = ReferenceSolid(kept, plain);
+  REQUIRE(got.valid);
+  REQUIRE(ref.valid);
+  CHECK(got.num_below_min_z == dropped);
+  CHECK(got.num_counted == ref.counted);
+  CHECK(got.num_below_fov == ref.below);
+  CHECK(got.num_above_fov == ref.above);
+  CHECK(got.num_counted + got.num_below_fov + got.num_above_fov + got.num_out_of_range + got.num_below_min_z ==
+        scan.size());
+  double max_r = 0;
+  for (double v : ref.r) max_r = std::max(max_r, v);
+  for (int i = 0; i < params.num_rings; ++i) CHECK(std::fabs(got.r[i] - ref.r[i]) <= 1e-12 * max_r);
+  for (int i = 0; i < params.num_sectors; ++i) CHECK(std::fabs(got.a[i] - ref.a[i]) <= 1e-12 * max_r);
+  // The FOV diagnostic counts only the points the FOV could have taken.
+  const double expected_fov_fraction =
+      double(got.num_below_fov + got.num_above_fov) / double(scan.size() - got.num_out_of_range - dropped);
+  CHECK(OutOfFovFraction(got) == doctest::Approx(expected_fov_fraction).epsilon(1e-12));
+
+  // Off (the default): the same scan keeps its ground, so the descriptor differs.
+  SolidResult all;
+  REQUIRE(ComputeSolid(scan, plain, &ws, &all).ok());
+  CHECK(all.num_below_min_z == 0);
+  CHECK(all.num_counted > got.num_counted + 5000);
+  CHECK(SolidDistance(all.rsolid(), got.rsolid()) > 0.05);
+
+  // Strictly below: a point exactly at min_z_m counts.
+  const std::vector<PointXYZI> edge = {{10, 0, -1.0f, 0}, {10, 0, -1.0001f, 0}, {20, 5, 0.5f, 0}, {0, 10, 0.2f, 0}};
+  REQUIRE(ComputeSolid(edge, params, &ws, &got).ok());
+  CHECK(got.num_below_min_z == 1);
+  CHECK(got.num_counted == 3);
+
+  // Parameter id: unchanged while off (the pinned HDL-64E id), different for every value set.
+  SolidParams hdl = SolidPreset(LidarSensor::kVelodyneHdl64e);
+  CHECK(SolidParameterId(hdl) == 0x761BEAA5u);
+  SolidParams cut = hdl;
+  cut.min_z_m = -0.5;
+  SolidParams cut2 = hdl;
+  cut2.min_z_m = -0.6;
+  CHECK(SolidParameterId(cut) != SolidParameterId(hdl));
+  CHECK(SolidParameterId(cut2) != SolidParameterId(cut));
+  CHECK(ValidateSolidParams(cut).ok());
+  const double bad_values[] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
+                               80.0, -80.0, 1e300};
+  for (double bad : bad_values) {
+    CAPTURE(bad);
+    SolidParams b = hdl;
+    b.min_z_m = bad;
+    const Status s = ValidateSolidParams(b);
+    CHECK_FALSE(s.ok());
+    CHECK_MESSAGE(s.message().find("min_z_m") != std::string::npos, s.message());
+    CHECK_FALSE(SolidDescriptor::Create(b).ok());
+  }
+}
+
 TEST_CASE("SOLiD binning edges: x == 0 / y == 0 guard, phi exactly on f_d and f_u, theta near 360") {
   // FOV edges chosen as the elevation of (6, 8, +-3): rho = 10 exactly, so phi == f_u / f_d bit for bit.
   SolidParams p;
