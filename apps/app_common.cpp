@@ -114,8 +114,8 @@ void AddSolidMinZFlag(CLI::App* cmd, double* min_z_m) {
   cmd->add_option("--solid-min-z-m", *min_z_m,
                   "leave points below this z of the sensor frame out of the SOLiD descriptor (our extension; "
                   "default: off, every point as the paper). About -0.5 on a sensor 1.8 m up drops the ground, "
-                  "whose rings move with roll and pitch; raise --tau-inter with it on the server (0.15-0.2 in the "
-                  "README's tables). Every robot of a team needs the same value")
+                  "whose rings move with roll and pitch; raise --tau-inter with it on the server (0.2 in the "
+                  "README's table). Every robot of a team needs the same value")
       ->check(CLI::Range(-1000.0, 1000.0));
 }
 
