@@ -135,10 +135,13 @@ Result<RegistrationResult> SubmapRegistration::Register(const SubmapView& source
   if (!valid.ok()) return valid;
   correspondences_.clear();
   pruned_.clear();
+  geometry_ready_ = false;
   const RegistrationGates& gates = params.gates;
   RegistrationResult r;
   r.num_source_points = source.points.size();
   r.num_target_points = target.points.size();
+  num_source_points_ = r.num_source_points;
+  num_target_points_ = r.num_target_points;
 
   // 0. Input checks: bad data is a verdict, never a crash.
   if (!AllFinite(source) || !AllFinite(target)) {
@@ -160,6 +163,7 @@ Result<RegistrationResult> SubmapRegistration::Register(const SubmapView& source
     source_.ComputeGeometry(source.points, source.sensor_origins_m, params.features);
     target_.ComputeGeometry(target.points, target.sensor_origins_m, params.features);
   }
+  geometry_ready_ = true;
   // 2. Keypoints and descriptors (steps 4-7).
   {
     StageScope scope(observer, RegistrationStage::kFeatures);
@@ -343,6 +347,26 @@ void SubmapRegistration::RunFine(const SubmapRegistrationParams& params, const E
   } else {
     r.verdict = RegistrationVerdict::kSuccess;
   }
+}
+
+Result<RegistrationResult> SubmapRegistration::VerifyFrom(const SubmapRegistrationParams& params,
+                                                          const Eigen::Isometry3d& T_target_source_guess) {
+  const Status valid = ValidateSubmapRegistrationParams(params);
+  if (!valid.ok()) return valid;
+  if (!T_target_source_guess.matrix().allFinite()) {
+    return InvalidArgument("registration: VerifyFrom needs a finite T_target_source_guess");
+  }
+  if (!geometry_ready_) {
+    return InvalidArgument(
+        "registration: VerifyFrom needs a previous Register call that reached stage 1 (finite inputs with "
+        "gates.min_points to gates.max_points points)");
+  }
+  RegistrationResult r;
+  r.num_source_points = num_source_points_;
+  r.num_target_points = num_target_points_;
+  r.T_target_source_coarse = T_target_source_guess;
+  RunFine(params, T_target_source_guess, nullptr, &r);
+  return r;
 }
 
 Result<RegistrationResult> RegisterSubmaps(const SubmapView& source, const SubmapView& target,

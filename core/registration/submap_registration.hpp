@@ -182,6 +182,17 @@ class SubmapRegistration {
                                       const SubmapRegistrationParams& params,
                                       RegistrationStageObserver* observer = nullptr);
 
+  /// Stage 6 alone (GICP from `T_target_source_guess`, then the same gates as Register) on the submaps of the
+  /// last Register call, whose neighbourhoods, normals and covariances it reuses; only `params.fine` and
+  /// `params.gates` are read. It answers whether a transform known from elsewhere (ground truth, a chain of
+  /// other robot pairs) passes the verification that Register's own estimates must pass. The verdict is
+  /// kNotConverged, kOverlapTooLow, kDegenerate, kCoarseFineDisagree or kSuccess; T_target_source_coarse is
+  /// the guess. Errors (InvalidArgument): invalid params, a non-finite guess, or no neighbourhoods to reuse
+  /// because the last Register call stopped before stage 1 (no call yet, non-finite input, too few or too
+  /// many points). The submaps' point spans must still be valid.
+  Result<RegistrationResult> VerifyFrom(const SubmapRegistrationParams& params,
+                                        const Eigen::Isometry3d& T_target_source_guess);
+
   /// Inspection of the last call (tests, diagnostics).
   const SubmapFeatures& source_features() const noexcept { return source_; }
   const SubmapFeatures& target_features() const noexcept { return target_; }
@@ -205,6 +216,9 @@ class SubmapRegistration {
 
   SubmapFeatures source_;
   SubmapFeatures target_;
+  bool geometry_ready_ = false;  // stage 1 ran in the last Register call (VerifyFrom may use it)
+  std::size_t num_source_points_ = 0;
+  std::size_t num_target_points_ = 0;
   FeatureMatcher matcher_;
   Gicp gicp_;
   BevSearch bev_;

@@ -205,6 +205,56 @@ TEST_CASE("Single-threaded registration is deterministic: bit-identical transfor
   CHECK(TranslationErrorM(src.truth, c1->T_target_source) < 0.2);
 }
 
+TEST_CASE("VerifyFrom runs the fine stage and its gates alone: Register's own coarse estimate gives Register's result") {
+  const SyntheticSubmapPair& pair = StreetPair();
+  const MovedSource src = MoveSource(pair, YawOffset(75.0, 8.0, -13.0, 0.2));
+  const SubmapRegistrationParams params = MakeSubmapRegistrationParams(1.0);
+  SubmapRegistration reg;
+  // Nothing to reuse before the first Register call.
+  CHECK_FALSE(reg.VerifyFrom(params, src.truth).ok());
+
+  auto r = reg.Register({src.points, src.origins}, View(pair.target), params);
+  REQUIRE(r.ok());
+  REQUIRE(r->success());
+  // Started where Register's fine stage started, it repeats that stage bit for bit.
+  auto again = reg.VerifyFrom(params, r->T_target_source_coarse);
+  REQUIRE(again.ok());
+  CHECK(again->verdict == r->verdict);
+  CHECK(BitwiseEqual(again->T_target_source, r->T_target_source));
+  CHECK(BitwiseEqual(again->T_target_source_coarse, r->T_target_source_coarse));
+  CHECK(again->num_fine_inliers == r->num_fine_inliers);
+  CHECK(again->overlap_ratio == r->overlap_ratio);
+  CHECK(again->directional_overlap == r->directional_overlap);
+  CHECK(again->gicp_iterations == r->gicp_iterations);
+  CHECK(again->num_source_points == r->num_source_points);
+
+  // The exact truth passes and stays there; a guess 40 m along the street and turned 90 deg does not pass.
+  auto at_truth = reg.VerifyFrom(params, src.truth);
+  REQUIRE(at_truth.ok());
+  CHECK(at_truth->success());
+  CHECK(TranslationErrorM(src.truth, at_truth->T_target_source) < 0.2);
+  CHECK(RotationErrorDeg(src.truth, at_truth->T_target_source) < 1.0);
+  auto far = reg.VerifyFrom(params, YawOffset(90.0, 40.0, 0.0, 0.0) * src.truth);
+  REQUIRE(far.ok());
+  CAPTURE(std::string(RegistrationVerdictName(far->verdict)));
+  CHECK_FALSE(far->success());
+  CHECK(far->verdict >= RegistrationVerdict::kNotConverged);
+
+  // Bad requests are errors, not verdicts.
+  Eigen::Isometry3d nan_guess = src.truth;
+  nan_guess.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  CHECK_FALSE(reg.VerifyFrom(params, nan_guess).ok());
+  SubmapRegistrationParams bad = params;
+  bad.gates.min_overlap_ratio = 2.0;
+  CHECK_FALSE(reg.VerifyFrom(bad, src.truth).ok());
+  // A Register call that stopped before the neighbourhoods leaves nothing to reuse.
+  const std::vector<PointXYZI> few(pair.source.points.begin(), pair.source.points.begin() + 20);
+  auto stopped = reg.Register({few, {}}, View(pair.target), params);
+  REQUIRE(stopped.ok());
+  CHECK(stopped->verdict == RegistrationVerdict::kTooFewPoints);
+  CHECK_FALSE(reg.VerifyFrom(params, src.truth).ok());
+}
+
 TEST_CASE("Parameters scale with the voxel size and are validated") {
   const SubmapRegistrationParams p = MakeSubmapRegistrationParams(0.5);
   CHECK(p.features.normal_radius_m == doctest::Approx(1.5));
