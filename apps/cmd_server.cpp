@@ -215,6 +215,7 @@ int RunServer(const ServerOptions& o) {
   std::int64_t bytes_received = 0, rejected = 0;
   // Memory of the budget modules: the merge server's pools and the merged map WriteServerMap builds.
   std::int64_t merged_map_high_water = 0;
+  std::vector<std::pair<int, int>> reported_incomparable;  // the last incomparable pairs said on stderr
   auto memory_use = [&server, &merged_map_high_water] {
     std::vector<ModuleMemory> modules = server.MemoryUse();
     modules.push_back(ModuleMemory{"merged_map", 0, 0, merged_map_high_water});
@@ -296,6 +297,17 @@ int RunServer(const ServerOptions& o) {
     out.clear();
     if (Status st = link.Poll(wall, &out); !st.ok()) {
       std::fprintf(stderr, "%s: merge round failed: %s\n", tag, st.message().c_str());
+    }
+    if (server.incomparable_pairs() != reported_incomparable) {
+      // Said once per change: a robot started with another --lidar / --solid-min-z-m than the others.
+      reported_incomparable = server.incomparable_pairs();
+      for (const auto& [a, b] : reported_incomparable) {
+        std::fprintf(stderr,
+                     "%s: robots %d and %d are not compared: their descriptor parameter ids differ (0x%08X, 0x%08X); "
+                     "start every robot with the same --lidar and --solid-min-z-m\n",
+                     tag, a, b, static_cast<unsigned>(server.robot(a).descriptor_id),
+                     static_cast<unsigned>(server.robot(b).descriptor_id));
+      }
     }
     for (const ServerOutgoing& o_msg : out) {
       Status st;

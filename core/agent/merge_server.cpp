@@ -128,6 +128,27 @@ Status MergeServer::EnsureKeyframe(int robot, std::uint32_t keyframe) {
   return Status::Ok();
 }
 
+namespace {
+
+std::string HexId(std::uint32_t id) {
+  static const char kDigits[] = "0123456789ABCDEF";
+  std::string text = "0x00000000";
+  for (int i = 0; i < 8; ++i) text[static_cast<std::size_t>(9 - i)] = kDigits[(id >> (4 * i)) & 0xFu];
+  return text;
+}
+
+bool DescriptorIdsConflict(std::uint32_t a, std::uint32_t b) { return a != 0 && b != 0 && a != b; }
+
+}  // namespace
+
+Status MergeServer::DescriptorIdError(const KeyframeBatch& batch) const {
+  const std::uint32_t held = robots_[static_cast<std::size_t>(batch.robot_id)].descriptor_id;
+  if (!DescriptorIdsConflict(held, batch.descriptor_id)) return Status::Ok();
+  return InvalidArgument("keyframe batch " + std::to_string(batch.sequence) + " of " + RobotText(batch.robot_id) +
+                         ": descriptor parameter id " + HexId(batch.descriptor_id) + " differs from " + HexId(held) +
+                         " of its earlier batches in this session");
+}
+
 Status MergeServer::CheckKeyframeBatch(const KeyframeBatch& batch) const {
   if (!params_status_.ok()) return params_status_;
   if (batch.robot_id < 0 || batch.robot_id >= max_robots()) {
@@ -139,6 +160,7 @@ Status MergeServer::CheckKeyframeBatch(const KeyframeBatch& batch) const {
       n > kMaxRecordsPerBatch) {
     return InvalidArgument("keyframe batch of " + RobotText(batch.robot_id) + ": malformed record arrays");
   }
+  if (Status st = DescriptorIdError(batch); !st.ok()) return st;
   Status first_error = InvalidArgument("keyframe batch of " + RobotText(batch.robot_id) + " has no record");
   for (std::size_t i = 0; i < n; ++i) {
     auto record = DecodeKeyframeRecord(
@@ -165,6 +187,7 @@ Status MergeServer::OnKeyframeBatch(const KeyframeBatch& batch) {
                                   " point counts do not describe 1.." + std::to_string(kMaxRecordsPerBatch) +
                                   " records of " + std::to_string(kKeyframeRecordBytes) + " bytes"));
   }
+  if (Status st = DescriptorIdError(batch); !st.ok()) return Reject(&stats_.rejected_batches, st);
   ++stats_.batches;
   Status first_error;
   for (std::size_t i = 0; i < n; ++i) {
@@ -186,6 +209,8 @@ Status MergeServer::OnKeyframeBatch(const KeyframeBatch& batch) {
     db.pose_known[k] = 1;
     db.T_map_sensor[k] = record->T_world_sensor;
     db.stored_points[k] = batch.stored_points[i];
+    // The robot's id is the one of its first batch that delivered a record.
+    if (db.descriptor_id == 0) db.descriptor_id = batch.descriptor_id;
     ++stats_.records;
   }
   NoteMemory();
@@ -382,6 +407,7 @@ Status MergeServer::RunCascades() {
   if (!params_status_.ok()) return params_status_;
   NoteMemory();
   pairs_.clear();
+  incomparable_pairs_.clear();
   std::vector<std::vector<Eigen::Vector3d>>& positions = positions_;
   positions.resize(robots_.size());
   for (std::size_t r = 0; r < robots_.size(); ++r) {
@@ -393,6 +419,10 @@ Status MergeServer::RunCascades() {
       const RobotKeyframeDb& A = robots_[static_cast<std::size_t>(a)];
       const RobotKeyframeDb& B = robots_[static_cast<std::size_t>(b)];
       if (A.size() == 0 || B.size() == 0) continue;
+      if (DescriptorIdsConflict(A.descriptor_id, B.descriptor_id)) {
+        incomparable_pairs_.emplace_back(a, b);
+        continue;
+      }
       CascadeRobotInput in_a{{Span<const float>(A.descriptors), kKeyframeDescriptorDim, Span<const std::uint8_t>(A.valid)},
                              Span<const Eigen::Vector3d>(positions[static_cast<std::size_t>(a)]),
                              Span<const std::uint32_t>(A.stored_points)};

@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -72,6 +73,9 @@ struct RobotKeyframeDb {
   std::vector<std::uint8_t> no_descriptor; ///< the robot said the keyframe has no valid descriptor (pose only)
   std::vector<Eigen::Isometry3d> T_map_sensor;
   std::vector<std::uint32_t> stored_points;
+  /// Descriptor parameter id of the robot's batches (that of the first batch that delivered a record; 0 = none
+  /// yet or unknown). Batches of another non-zero id are refused, and robots of different ids are not compared.
+  std::uint32_t descriptor_id = 0;
   std::size_t size() const noexcept { return valid.size(); }
   /// Everything the robot will ever send of keyframe k has arrived: its record, or its pose when it has no
   /// valid descriptor.
@@ -139,6 +143,9 @@ class MergeServer {
   /// Runs the cascade for every pair of robots that sent keyframes (alpha < beta). Results stay until the next
   /// call; errors: bad parameters, malformed descriptor sets.
   Status RunCascades();
+  /// Pairs (alpha < beta) the last RunCascades() left out because their robots' descriptor ids differ (a robot
+  /// started with another sensor preset or SOLiD setting): their descriptors are not comparable.
+  const std::vector<std::pair<int, int>>& incomparable_pairs() const noexcept { return incomparable_pairs_; }
   /// Cascade of pair (alpha, beta) from the last RunCascades(); nullptr when it did not run.
   const ExchangeCascadeResult* cascade(int alpha, int beta) const;
   /// Stage C over all of L_seq (the A+C ablation) of the pair; nullptr when it did not run.
@@ -232,6 +239,8 @@ class MergeServer {
     return (static_cast<std::uint64_t>(robot) << 32) | keyframe;
   }
   Status Reject(std::uint64_t* counter, Status status);
+  // InvalidArgument when the batch's descriptor id conflicts with the one its robot's earlier batches set.
+  Status DescriptorIdError(const KeyframeBatch& batch) const;
   Status CapacityError(int robot, std::uint32_t keyframe) const;
   Status EnsureKeyframe(int robot, std::uint32_t keyframe);
   const PairState* FindPair(int alpha, int beta) const;
@@ -245,6 +254,7 @@ class MergeServer {
   std::size_t max_keyframes_;
   std::vector<RobotKeyframeDb> robots_;
   std::vector<PairState> pairs_;
+  std::vector<std::pair<int, int>> incomparable_pairs_;
   std::map<std::uint64_t, Partial> partial_;
   std::map<std::uint64_t, std::vector<std::uint8_t>> scans_;
   std::uint64_t held_bytes_ = 0;

@@ -70,6 +70,8 @@ struct KeyframeBatch {
   std::vector<std::uint8_t> records;
   /// Points of each keyframe's stored scan (0 = not stored), one per record.
   std::vector<std::uint32_t> stored_points;
+  /// PlaceDescriptor::parameter_id() of the records' descriptors: only descriptors of one id are comparable.
+  std::uint32_t descriptor_id = 0;
   std::size_t num_records() const noexcept { return records.size() / kKeyframeRecordBytes; }
 };
 

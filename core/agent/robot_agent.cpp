@@ -175,6 +175,7 @@ Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch*
   batch->utime_us = utime_us;
   batch->robot_id = robot_id_;
   batch->session = session_;
+  batch->descriptor_id = mapper_.descriptor_parameter_id();
   batch->records.clear();
   batch->stored_points.clear();
   std::size_t records = 0;

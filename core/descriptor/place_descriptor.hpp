@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: the interface every place descriptor implements (SOLiD, Scan Context), so the loop detector
 // and the server cascade are descriptor-agnostic. A descriptor is a fixed number of floats per keyframe;
-// its kind and parameter id say which descriptors are comparable (only those of one id). On the wire the
-// id is not carried yet (keyframe_batch_t holds R-SOLiD only): a team's robots share it by configuration.
+// its kind and parameter id say which descriptors are comparable (only those of one id). The id travels in
+// every keyframe_batch_t, and the server compares only robots of one id.
 #pragma once
 
 #include <cstddef>

@@ -3,8 +3,7 @@
 //
 // The values of SolidParams are part of the protocol: two SOLiD descriptors are comparable only when all of
 // them are identical, which SolidParameterId() condenses into one 32-bit id (shared/spec/SOLID.md §1.1). The
-// id does not travel in keyframe_batch_t yet: `commerge robot` shows it at start-up, and every robot of a
-// team must be started with the same --lidar and --solid-min-z-m.
+// id travels in every keyframe_batch_t: the server compares only robots of one id (MergeServer).
 // min_z_m (our extension, off by default) enters the id only when it is set, so the paper's parameter sets
 // keep their ids.
 #pragma once

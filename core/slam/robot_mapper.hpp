@@ -100,6 +100,8 @@ class RobotMapper {
   const RobotMapperStats& stats() const noexcept { return stats_; }
   const PoseGraph& graph() const noexcept { return graph_; }
   const DescriptorDatabase& descriptor_db() const noexcept { return db_; }
+  /// PlaceDescriptor::parameter_id() of the descriptor this mapper computes.
+  std::uint32_t descriptor_parameter_id() const noexcept { return descriptor_->parameter_id(); }
   /// Bytes of the per-scan buffers (capacities): the voxel grid's sort workspace, the voxelised and the encoded
   /// scan, the descriptor scratch.
   std::size_t scan_workspace_bytes() const;

@@ -53,6 +53,7 @@ Status EncodeKeyframeBatch(const KeyframeBatch& m, std::vector<std::uint8_t>* ou
     }
     msg.stored_points[i] = static_cast<std::int32_t>(m.stored_points[i]);
   }
+  msg.descriptor_id = static_cast<std::int32_t>(m.descriptor_id);  // the bits, as the type says
   return EncodeInto(msg, out, type);
 }
 
@@ -66,7 +67,8 @@ Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes) {
     return DataLoss("keyframe_batch_t: num_record_bytes = " + std::to_string(nb) + " is not 92 x num_records = " +
                     std::to_string(n * 92));
   }
-  if (Status st = CheckRoom(bytes, 8 + 30 + nb + 4 * n, type); !st.ok()) return st;
+  // ... records, stored_points, descriptor_id 4.
+  if (Status st = CheckRoom(bytes, 8 + 30 + nb + 4 * n + 4, type); !st.ok()) return st;
   commerge::keyframe_batch_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
@@ -84,6 +86,7 @@ Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes) {
     }
     m.stored_points[i] = static_cast<std::uint32_t>(msg.stored_points[i]);
   }
+  m.descriptor_id = static_cast<std::uint32_t>(msg.descriptor_id);
   return m;
 }
 

@@ -10,6 +10,8 @@
 #include <iterator>
 #include <memory>
 #include <random>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "tests/core/agent/keyframe_batch_fixtures.hpp"
@@ -113,6 +115,69 @@ TEST_CASE("Merge server refuses malformed keyframe batches and pose updates and 
   update.T_map_sensor[1].translation() = Eigen::Vector3d(5, 6, 7);
   REQUIRE(server.OnPoseUpdate(update).ok());
   CHECK(server.robot(0).T_map_sensor[1].translation().isApprox(Eigen::Vector3d(5, 6, 7)));
+}
+
+TEST_CASE("Merge server compares only robots of one descriptor id and refuses a batch that changes its robot's id") {
+  // Three robots: 0 and 1 see the same places (stage A's loops are known), robot 2 the same places too but with
+  // another descriptor id (a robot started with another --lidar): its descriptors are not comparable.
+  const int n = 40, shift = 5;
+  const std::uint32_t kId = 0x761BEAA5u, kOtherId = 0x12345678u;
+  MergeServerParams params;
+  params.cascade.stage_a.tau_area = 100;
+  MergeServer server(3, 100, params);
+  std::vector<KeyframeBatch> batches = ShiftedPairBatches(n, shift);
+  REQUIRE(batches.size() == 2);
+  KeyframeBatch third = batches[1];
+  third.robot_id = 2;
+  batches[0].descriptor_id = kId;
+  batches[1].descriptor_id = kId;
+  third.descriptor_id = kOtherId;
+  for (const KeyframeBatch& b : batches) REQUIRE(server.OnKeyframeBatch(b).ok());
+  REQUIRE(server.OnKeyframeBatch(third).ok());
+  CHECK(server.robot(0).descriptor_id == kId);
+  CHECK(server.robot(2).descriptor_id == kOtherId);
+
+  REQUIRE(server.RunCascades().ok());
+  // The control: robots 0 and 1 (same id) have their cascade, with stage A's loops.
+  REQUIRE(server.cascade(0, 1) != nullptr);
+  CHECK(server.cascade(0, 1)->stage_a.found);
+  // Robot 2 holds the same descriptors as robot 1, so only the id keeps its pairs out.
+  CHECK(server.cascade(0, 2) == nullptr);
+  CHECK(server.cascade(1, 2) == nullptr);
+  const std::vector<std::pair<int, int>> want = {{0, 2}, {1, 2}};
+  CHECK(server.incomparable_pairs() == want);
+  auto plan = server.Plan(ExchangeMode::kStageABC);
+  REQUIRE(plan.ok());
+  REQUIRE(plan->pairs.size() == 1);
+  CHECK(plan->pairs[0].alpha == 0);
+  CHECK(plan->pairs[0].beta == 1);
+
+  // Within a session a robot's id cannot change: the batch is refused, counted and applies nothing.
+  std::mt19937 rng(3);
+  KeyframeBatch changed = MakeBatch(0, static_cast<std::uint32_t>(n), {RandomDescriptor(&rng)},
+                                    {Eigen::Vector3d(1, 2, 3)}, 500);
+  changed.descriptor_id = kOtherId;
+  const std::uint64_t rejected = server.stats().rejected_batches;
+  CHECK(server.CheckKeyframeBatch(changed).code() == StatusCode::kInvalidArgument);
+  const Status st = server.OnKeyframeBatch(changed);
+  CHECK(st.code() == StatusCode::kInvalidArgument);
+  CHECK(st.message().find("0x12345678") != std::string::npos);
+  CHECK(st.message().find("0x761BEAA5") != std::string::npos);
+  CHECK(server.stats().rejected_batches == rejected + 1);
+  CHECK(server.robot(0).size() == static_cast<std::size_t>(n));
+  // Id 0 (unknown) conflicts with nothing; the robot's id stays.
+  changed.descriptor_id = 0;
+  CHECK(server.OnKeyframeBatch(changed).ok());
+  CHECK(server.robot(0).size() == static_cast<std::size_t>(n) + 1);
+  CHECK(server.robot(0).descriptor_id == kId);
+  // A new session (ResetRobot) may bring another id: robot 2 restarted with the team's setting joins in.
+  server.ResetRobot(2);
+  CHECK(server.robot(2).descriptor_id == 0u);
+  third.descriptor_id = kId;
+  REQUIRE(server.OnKeyframeBatch(third).ok());
+  REQUIRE(server.RunCascades().ok());
+  CHECK(server.incomparable_pairs().empty());
+  CHECK(server.cascade(1, 2) != nullptr);
 }
 
 TEST_CASE("Merge server reassembles scan chunks in any order, ignores duplicates and refuses corrupt scans") {

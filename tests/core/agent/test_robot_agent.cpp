@@ -93,6 +93,9 @@ TEST_CASE("Robot agent batches carry every keyframe with its pose, descriptor an
     if (!*taken) break;
     CHECK(batch.robot_id == 3);
     CHECK(batch.utime_us == 42);
+    // The parameter id of the HDL-64E preset (pinned in the SOLiD tests), so the server can tell teams apart.
+    CHECK(batch.descriptor_id == SolidParameterId(SolidPreset(LidarSensor::kVelodyneHdl64e)));
+    CHECK(batch.descriptor_id == rig.solid->parameter_id());
     CHECK(batch.sequence == expected_sequence++);
     CHECK(batch.num_records() <= 8);
     REQUIRE(batch.stored_points.size() == batch.num_records());

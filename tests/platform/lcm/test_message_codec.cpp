@@ -65,6 +65,7 @@ KeyframeBatch MakeBatch(std::size_t n) {
   m.robot_id = 7;
   m.session = 1763799999000001;
   m.sequence = 41;
+  m.descriptor_id = 0x761BEAA5u;  // the HDL-64E preset's id; its top bit exercises the int32 wire field
   std::vector<KeyframeRecord> records;
   for (std::size_t i = 0; i < n; ++i) records.push_back(MakeRecord(static_cast<std::uint32_t>(10 + 3 * i)));
   m.records = EncodeRecords(records);
@@ -82,6 +83,7 @@ commerge::keyframe_batch_t ToLcm(const KeyframeBatch& m) {
   msg.num_record_bytes = static_cast<std::int32_t>(m.records.size());
   msg.records = m.records;
   for (std::uint32_t p : m.stored_points) msg.stored_points.push_back(static_cast<std::int32_t>(p));
+  msg.descriptor_id = static_cast<std::int32_t>(m.descriptor_id);
   return msg;
 }
 
@@ -218,8 +220,8 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
   const Buffer b = Encoded(m);
 
   // Wire layout, read by hand: fingerprint, utime, robot_id, session, sequence, num_records, num_record_bytes,
-  // records, stored_points.
-  REQUIRE(b.size() == 8 + 30 + 3 * 92 + 3 * 4);
+  // records, stored_points, descriptor_id.
+  REQUIRE(b.size() == 8 + 30 + 3 * 92 + 3 * 4 + 4);
   CHECK(GetBe(b, 0, 8) == commerge::keyframe_batch_t::getHash());
   CHECK(GetBe(b, 8, 8) == 1763800000123456);
   CHECK(GetBe(b, 16, 2) == 63);
@@ -231,6 +233,7 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
   CHECK(GetBe(b, 38 + 276, 4) == 0);
   CHECK(GetBe(b, 38 + 276 + 4, 4) == 1007);
   CHECK(GetBe(b, 38 + 276 + 8, 4) == std::numeric_limits<std::int32_t>::max());
+  CHECK(static_cast<std::uint32_t>(GetBe(b, 38 + 276 + 12, 4)) == 0x761BEAA5u);
 
   // The byte ledger counts the wire: the generated type encodes the same values to the same bytes.
   const commerge::keyframe_batch_t lcm = ToLcm(m);
@@ -245,6 +248,7 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
   CHECK(d->sequence == 41);
   CHECK(d->records == m.records);
   CHECK(d->stored_points == m.stored_points);
+  CHECK(d->descriptor_id == 0x761BEAA5u);
   REQUIRE(d->num_records() == 3);
   for (std::size_t i = 0; i < 3; ++i) {
     const KeyframeRecord original = MakeRecord(static_cast<std::uint32_t>(10 + 3 * i));
@@ -263,14 +267,14 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
   }
 }
 
-TEST_CASE("message codec: an empty keyframe batch is the 38-byte header and round-trips") {
+TEST_CASE("message codec: an empty keyframe batch is the 38-byte header and the descriptor id, and round-trips") {
   KeyframeBatch m;
   m.utime_us = -5;
   m.robot_id = 0;
   m.session = 1;
   m.sequence = 0;
   const Buffer b = Encoded(m);
-  CHECK(b.size() == 38);
+  CHECK(b.size() == 42);
   CHECK(b == LcmEncode(ToLcm(m)));
   auto d = DecodeKeyframeBatch(S(b));
   REQUIRE(d.ok());
