@@ -160,7 +160,6 @@ Status MergeServer::CheckKeyframeBatch(const KeyframeBatch& batch) const {
       n > kMaxRecordsPerBatch) {
     return InvalidArgument("keyframe batch of " + RobotText(batch.robot_id) + ": malformed record arrays");
   }
-  if (Status st = DescriptorIdError(batch); !st.ok()) return st;
   Status first_error = InvalidArgument("keyframe batch of " + RobotText(batch.robot_id) + " has no record");
   for (std::size_t i = 0; i < n; ++i) {
     auto record = DecodeKeyframeRecord(

@@ -135,8 +135,9 @@ class MergeServer {
   Status OnPoseUpdate(const PoseUpdate& update);
   Status OnScanChunk(const ScanChunk& chunk);
   /// What the handlers above check, without counting or applying anything: OK when OnKeyframeBatch would apply
-  /// at least one record, and when OnPoseUpdate would accept the update. (ServerLink adopts a robot's newer
-  /// session, which resets it, only for a message that passes.)
+  /// at least one record, and when OnPoseUpdate would accept the update, for a robot reset by ResetRobot: the
+  /// batch's descriptor id is not held against the robot's earlier batches. (ServerLink adopts a robot's newer
+  /// session, which resets it, only for a message that passes; a robot restarted with another --lidar is one.)
   Status CheckKeyframeBatch(const KeyframeBatch& batch) const;
   Status CheckPoseUpdate(const PoseUpdate& update) const;
 

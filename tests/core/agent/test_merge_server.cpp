@@ -158,7 +158,7 @@ TEST_CASE("Merge server compares only robots of one descriptor id and refuses a 
                                     {Eigen::Vector3d(1, 2, 3)}, 500);
   changed.descriptor_id = kOtherId;
   const std::uint64_t rejected = server.stats().rejected_batches;
-  CHECK(server.CheckKeyframeBatch(changed).code() == StatusCode::kInvalidArgument);
+  CHECK(server.CheckKeyframeBatch(changed).ok());  // what a new session of the robot, reset first, would accept
   const Status st = server.OnKeyframeBatch(changed);
   CHECK(st.code() == StatusCode::kInvalidArgument);
   CHECK(st.message().find("0x12345678") != std::string::npos);
@@ -178,6 +178,44 @@ TEST_CASE("Merge server compares only robots of one descriptor id and refuses a 
   REQUIRE(server.RunCascades().ok());
   CHECK(server.incomparable_pairs().empty());
   CHECK(server.cascade(1, 2) != nullptr);
+}
+
+TEST_CASE("Server link: a robot restarted with the team's descriptor setting is adopted, within a session its id is held") {
+  const std::uint32_t kId = 0x761BEAA5u, kOtherId = 0x12345678u;
+  MergeServerParams mp;
+  mp.cascade.stage_a.tau_area = 100;
+  MergeServer server(2, 100, mp);
+  ServerLinkParams lp;
+  lp.automatic_rounds = false;
+  ServerLink link(500, lp, &server);
+  const std::int64_t now = 1000000;
+  std::vector<KeyframeBatch> batches = ShiftedPairBatches(40, 5, 1000);
+  batches[0].descriptor_id = kId;
+  batches[1].descriptor_id = kOtherId;  // robot 1 was started with another --lidar
+  for (const KeyframeBatch& b : batches) REQUIRE(link.OnKeyframeBatch(b, now).ok());
+  REQUIRE(server.RunCascades().ok());
+  CHECK(server.cascade(0, 1) == nullptr);
+  REQUIRE(server.incomparable_pairs().size() == 1);
+
+  // The same session cannot switch its id ...
+  KeyframeBatch same_session = batches[1];
+  same_session.descriptor_id = kId;
+  same_session.sequence = 1;
+  const std::uint64_t rejected = server.stats().rejected_batches;
+  CHECK_FALSE(link.OnKeyframeBatch(same_session, now).ok());
+  CHECK(server.stats().rejected_batches == rejected + 1);
+  CHECK(server.robot(1).descriptor_id == kOtherId);
+  // ... but the robot restarted with the team's setting (a newer session) replaces it and is compared.
+  KeyframeBatch restarted = batches[1];
+  restarted.session = batches[1].session + 10;
+  restarted.descriptor_id = kId;
+  REQUIRE(link.OnKeyframeBatch(restarted, now).ok());
+  CHECK(link.robot_session(1) == restarted.session);
+  CHECK(server.robot(1).descriptor_id == kId);
+  REQUIRE(server.RunCascades().ok());
+  CHECK(server.incomparable_pairs().empty());
+  REQUIRE(server.cascade(0, 1) != nullptr);
+  CHECK(server.cascade(0, 1)->stage_a.found);
 }
 
 TEST_CASE("Merge server reassembles scan chunks in any order, ignores duplicates and refuses corrupt scans") {

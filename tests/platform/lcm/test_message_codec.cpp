@@ -632,7 +632,7 @@ TEST_CASE("message codec: encoders refuse arrays beyond MAX and inconsistent siz
     m.records.assign(512 * 92, 0);
     m.stored_points.assign(512, 0);
     REQUIRE(EncodeKeyframeBatch(m, &out).ok());
-    CHECK(out.size() == 38 + 512 * 96);
+    CHECK(out.size() == 38 + 512 * 96 + 4);
     KeyframeBatch mismatch = MakeBatch(2);
     mismatch.stored_points.push_back(1);
     CheckInvalid(EncodeKeyframeBatch(mismatch, &out), {"keyframe_batch_t", "point counts"});
