@@ -140,8 +140,6 @@ Result<RegistrationResult> SubmapRegistration::Register(const SubmapView& source
   RegistrationResult r;
   r.num_source_points = source.points.size();
   r.num_target_points = target.points.size();
-  num_source_points_ = r.num_source_points;
-  num_target_points_ = r.num_target_points;
 
   // 0. Input checks: bad data is a verdict, never a crash.
   if (!AllFinite(source) || !AllFinite(target)) {
@@ -362,8 +360,8 @@ Result<RegistrationResult> SubmapRegistration::VerifyFrom(const SubmapRegistrati
         "gates.min_points to gates.max_points points)");
   }
   RegistrationResult r;
-  r.num_source_points = num_source_points_;
-  r.num_target_points = num_target_points_;
+  r.num_source_points = source_.points().size();
+  r.num_target_points = target_.points().size();
   r.T_target_source_coarse = T_target_source_guess;
   RunFine(params, T_target_source_guess, nullptr, &r);
   return r;

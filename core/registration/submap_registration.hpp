@@ -217,8 +217,6 @@ class SubmapRegistration {
   SubmapFeatures source_;
   SubmapFeatures target_;
   bool geometry_ready_ = false;  // stage 1 ran in the last Register call (VerifyFrom may use it)
-  std::size_t num_source_points_ = 0;
-  std::size_t num_target_points_ = 0;
   FeatureMatcher matcher_;
   Gicp gicp_;
   BevSearch bev_;
