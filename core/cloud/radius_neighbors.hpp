@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: capped radius neighbours of EVERY point of a cloud (an all-points query, as normals, covariances
-// and FPFH descriptors need), by a uniform grid whose cells are as large as the radius. All points of a cell
-// share one candidate set (its 3 x 3 x 3 cells), so the per-point work is a flat, branch-free distance pass
+// and FPFH descriptors need), by a uniform grid whose cells are half the radius. All points of a cell share one
+// candidate set (its 5 x 5 x 5 cells, gathered once), so the per-point work is a flat, vectorised distance pass
 // plus a partial sort, with no tree descent and no insertion into a sorted k-list. On 1 m voxelised submaps
 // (5 m radius, 48 neighbours) this is about twice as fast as 10 000 capped k-d tree searches.
 #pragma once
@@ -49,6 +49,8 @@ class RadiusNeighbors {
   std::vector<std::uint64_t> cell_key_;
   std::vector<std::uint32_t> cell_begin_;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> runs_;
+  std::vector<float> cand_x_, cand_y_, cand_z_, cand_d2_;  // one cell's candidates, contiguous
+  std::vector<std::uint32_t> cand_id_;
   std::vector<std::uint64_t> candidates_;  // (bits of d^2 << 32) | index: sorts as (distance, index)
 };
 

@@ -119,6 +119,7 @@ class SubmapFeatures {
   std::vector<std::uint32_t> keypoints_;
   std::vector<std::int32_t> keypoint_of_point_;  // -1 when the point is not a keypoint
   std::vector<float> spfh_;
+  std::vector<float> pair_soa_;  // one keypoint's valid-normal neighbours (x, y, z, nx, ny, nz rows)
   std::vector<float> descriptors_;
   SubmapFeatureStats stats_;
 };

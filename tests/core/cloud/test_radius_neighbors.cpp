@@ -79,6 +79,20 @@ TEST_CASE("Radius neighbours: duplicates and lattice ties keep the lower index, 
   CheckAgainstBruteForce(pts, 1.0f, 200);
 }
 
+TEST_CASE("Radius neighbours: dense clouds where the cap is reached well inside the radius") {
+  // 800 points in a 3 m cube, radius 1.5 m: an interior ball holds about 420 points, (0.7 r)^3 of that about
+  // 145 and (0.85 r)^3 about 260. Caps below, between and above those counts make the selection work from the
+  // inner ball, the middle ball and the whole ball; every list must still be the exact closest ones.
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(0.0f, 3.0f);
+  std::vector<PointXYZI> pts(800);
+  for (PointXYZI& p : pts) p = PointXYZI{u(rng), u(rng), u(rng), 0.0f};
+  for (std::size_t cap : {40u, 120u, 200u, 330u, 600u}) {
+    CAPTURE(cap);
+    CheckAgainstBruteForce(pts, 1.5f, cap);
+  }
+}
+
 TEST_CASE("Radius neighbours: huge coordinates share border cells but stay exact, empty and single clouds") {
   std::vector<PointXYZI> pts = {{1e12f, 0.0f, 0.0f, 0.0f}, {1e12f, 0.5f, 0.0f, 0.0f}, {-1e12f, 0.0f, 0.0f, 0.0f},
                                 {0.0f, 0.0f, 0.0f, 0.0f},  {0.0f, 0.0f, 0.7f, 0.0f},  {3e7f, 3e7f, -3e7f, 0.0f}};
