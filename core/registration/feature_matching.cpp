@@ -99,10 +99,16 @@ void ScanAllPairs(const float* queries, std::size_t num_queries, const float* bl
         const Vec8i closer = acc[r] < cd;
         Select(closer, acc[r], cd, &cd);
         ci = (closer & static_cast<std::int32_t>(q0 + r)) | (ci & ~closer);
-        float lane_d[kLanes];
-        StoreVec(lane_d, acc[r]);
         float& d1 = row_d1[q0 + r];
         float& d2 = row_d2[q0 + r];
+        // Most blocks hold nothing closer than the query's current second nearest: one vector compare skips
+        // them (the lane loop below re-checks every lane, so the outcome is the same).
+        const Vec8i below = acc[r] < d2;
+        std::uint64_t any[4];
+        StoreVec(any, below);
+        if ((any[0] | any[1] | any[2] | any[3]) == 0) continue;
+        float lane_d[kLanes];
+        StoreVec(lane_d, acc[r]);
         for (int l = 0; l < kLanes; ++l) {
           const float dist = lane_d[l];
           if (!(dist < d2)) continue;

@@ -12,6 +12,12 @@
 #include <limits>
 #include <string>
 
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#elif defined(__aarch64__) && defined(__ARM_NEON)
+#include <arm_neon.h>
+#endif
+
 namespace commerge {
 namespace {
 
@@ -63,9 +69,19 @@ inline V4f Abs(V4f a) {
   std::memcpy(&a, &bits, sizeof(a));
   return a;
 }
-inline V4f Sqrt(V4f a) {  // callers pass non-negative lanes only
+inline V4f Sqrt(V4f a) {  // correctly rounded, as std::sqrt; callers pass non-negative lanes only
+#if defined(__SSE__)
+  return _mm_sqrt_ps(a);
+#elif defined(__aarch64__) && defined(__ARM_NEON)
+  float32x4_t v;
+  std::memcpy(&v, &a, sizeof(v));
+  v = vsqrtq_f32(v);
+  std::memcpy(&a, &v, sizeof(a));
+  return a;
+#else
   for (int l = 0; l < kPairLanes; ++l) a[l] = std::sqrt(a[l]);
   return a;
+#endif
 }
 inline V4f Dot(V4f ax, V4f ay, V4f az, V4f bx, V4f by, V4f bz) { return ax * bx + (ay * by + az * bz); }
 inline V4f Broadcast(float v) { return V4f{v, v, v, v}; }
