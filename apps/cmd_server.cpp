@@ -369,15 +369,7 @@ int RunServer(const ServerOptions& o) {
                                                                       server.stats().rejected_pose_updates +
                                                                       server.stats().rejected_chunks);
       status.last_rejection = last_rejection;
-      for (int r = 0; r < robots; ++r) {
-        if (link.robot_session(r) == 0) continue;
-        status.robot_ids.push_back(r);
-        status.keyframes.push_back(static_cast<std::uint32_t>(server.robot(r).size()));
-        std::uint32_t scans = 0;
-        for (std::size_t k = 0; k < server.robot(r).size(); ++k) scans += server.has_scan(r, static_cast<std::uint32_t>(k));
-        status.scans.push_back(scans);
-        status.chunks_missing.push_back(static_cast<std::uint32_t>(link.chunks_missing(r)));
-      }
+      link.AppendRobotStatus(&status);
       if (platform::EncodeServerStatus(status, &buffer).ok()) (void)(*bus)->Publish(platform::kServerStatusChannel, buffer);
       if (!o.quiet) {
         std::fprintf(stderr, "%s: %s; %lld bytes received, %lld messages rejected\n", tag, status.state.c_str(),

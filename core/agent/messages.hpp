@@ -228,6 +228,9 @@ struct ServerStatus {
   std::vector<std::uint32_t> keyframes;   ///< keyframes held
   std::vector<std::uint32_t> scans;       ///< complete scans held
   std::vector<std::uint32_t> chunks_missing;  ///< of the active request
+  /// The descriptor parameter id of its batches (RobotKeyframeDb::descriptor_id; 0: none yet). Robots whose ids
+  /// differ are not compared (MergeServer::incomparable_pairs), so this column shows which robot is set up apart.
+  std::vector<std::uint32_t> descriptor_ids;
 };
 
 }  // namespace commerge

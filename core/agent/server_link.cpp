@@ -202,6 +202,20 @@ bool ServerLink::RequestComplete(int robot) const {
   return true;
 }
 
+void ServerLink::AppendRobotStatus(ServerStatus* status) const {
+  for (int r = 0; r < static_cast<int>(robots_.size()); ++r) {
+    if (robot_session(r) == 0) continue;
+    const RobotKeyframeDb& db = server_->robot(r);
+    std::uint32_t scans = 0;
+    for (std::size_t k = 0; k < db.size(); ++k) scans += server_->has_scan(r, static_cast<std::uint32_t>(k)) ? 1 : 0;
+    status->robot_ids.push_back(r);
+    status->keyframes.push_back(static_cast<std::uint32_t>(db.size()));
+    status->scans.push_back(scans);
+    status->chunks_missing.push_back(static_cast<std::uint32_t>(chunks_missing(r)));
+    status->descriptor_ids.push_back(db.descriptor_id);
+  }
+}
+
 std::size_t ServerLink::chunks_missing(int robot) const {
   if (robot < 0 || robot >= static_cast<int>(robots_.size())) return 0;
   const RobotState& r = robots_[static_cast<std::size_t>(robot)];

@@ -123,6 +123,9 @@ class ServerLink {
   /// Chunks of robot r's active request still missing (0 when none is active).
   std::size_t chunks_missing(int robot) const;
   std::int64_t robot_session(int robot) const;
+  /// Appends server_status_t's per-robot columns for every robot with a session, in robot order: its id,
+  /// keyframes held, complete scans held, chunks_missing() and its descriptor parameter id (0: none yet).
+  void AppendRobotStatus(ServerStatus* status) const;
   /// The last merge result (round 0 = none yet).
   const MergeResultMessage& last_result() const noexcept { return last_result_; }
   /// The pairwise results and frames behind last_result().

@@ -234,6 +234,9 @@ Status ValidateServerStatus(const ServerStatus& m, MakeError make) {
   if (Status st = CheckSameSize(m.chunks_missing.size(), n, make, type, "chunks_missing", "robot_ids"); !st.ok()) {
     return st;
   }
+  if (Status st = CheckSameSize(m.descriptor_ids.size(), n, make, type, "descriptor_ids", "robot_ids"); !st.ok()) {
+    return st;
+  }
   for (std::size_t i = 0; i < n; ++i) {
     if (Status st = CheckRobotIdAs(make, m.robot_ids[i], type, Indexed("robot_ids", i)); !st.ok()) return st;
   }
@@ -591,6 +594,7 @@ Status EncodeServerStatus(const ServerStatus& m, std::vector<std::uint8_t>* out)
   if (Status st = ArrayToWire(m.keyframes, type, "keyframes", &msg.keyframes); !st.ok()) return st;
   if (Status st = ArrayToWire(m.scans, type, "scans", &msg.scans); !st.ok()) return st;
   if (Status st = ArrayToWire(m.chunks_missing, type, "chunks_missing", &msg.chunks_missing); !st.ok()) return st;
+  for (std::uint32_t id : m.descriptor_ids) msg.descriptor_id.push_back(static_cast<std::int32_t>(id));  // the bits
   return EncodeInto(msg, out, type);
 }
 
@@ -606,9 +610,9 @@ Result<ServerStatus> DecodeServerStatus(Span<const std::uint8_t> bytes) {
   w.String("state");
   w.Skip(16, "bytes_received, messages_rejected");
   w.String("last_rejection");
-  // Per robot: robot_id 2, keyframes 4, scans 4, chunks_missing 4.
-  const std::int64_t n = w.Count(4, static_cast<std::int64_t>(kMaxMergeRobots), "num_robots", 14);
-  w.Skip(14 * n, "robot_id, keyframes, scans, chunks_missing");
+  // Per robot: robot_id 2, keyframes 4, scans 4, chunks_missing 4, descriptor_id 4.
+  const std::int64_t n = w.Count(4, static_cast<std::int64_t>(kMaxMergeRobots), "num_robots", 18);
+  w.Skip(18 * n, "robot_id, keyframes, scans, chunks_missing, descriptor_id");
   if (Status st = w.Finish(); !st.ok()) return st;
   commerge::server_status_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
@@ -628,6 +632,7 @@ Result<ServerStatus> DecodeServerStatus(Span<const std::uint8_t> bytes) {
   if (Status st = ArrayFromWire(msg.chunks_missing, type, "chunks_missing", &m.chunks_missing); !st.ok()) {
     return st;
   }
+  for (std::int32_t id : msg.descriptor_id) m.descriptor_ids.push_back(static_cast<std::uint32_t>(id));
   if (Status st = ValidateServerStatus(m, DataLoss); !st.ok()) return st;
   return m;
 }

@@ -464,6 +464,7 @@ ServerStatus LargestServerStatus() {
     s.keyframes.push_back(20000);
     s.scans.push_back(static_cast<std::uint32_t>(r));
     s.chunks_missing.push_back(static_cast<std::uint32_t>(r * 3));
+    s.descriptor_ids.push_back(0xFFFFFFFFu - static_cast<std::uint32_t>(r));
   }
   return s;
 }

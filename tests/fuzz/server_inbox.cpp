@@ -220,17 +220,7 @@ ServerStatus InboxServer::MakeServerStatus() const {
   status.bytes_received = bytes_received_;
   status.messages_rejected = static_cast<std::int64_t>(rejected_);
   status.last_rejection = last_rejection_;
-  for (int r = 0; r < server_.max_robots(); ++r) {
-    if (link_.robot_session(r) == 0) continue;
-    status.robot_ids.push_back(r);
-    status.keyframes.push_back(static_cast<std::uint32_t>(server_.robot(r).size()));
-    std::uint32_t scans = 0;
-    for (std::size_t k = 0; k < server_.robot(r).size(); ++k) {
-      scans += server_.has_scan(r, static_cast<std::uint32_t>(k)) ? 1 : 0;
-    }
-    status.scans.push_back(scans);
-    status.chunks_missing.push_back(static_cast<std::uint32_t>(link_.chunks_missing(r)));
-  }
+  link_.AppendRobotStatus(&status);
   return status;
 }
 

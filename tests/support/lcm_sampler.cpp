@@ -271,6 +271,7 @@ std::vector<Sample> MakeSamples(std::int64_t robot_session, std::int64_t server_
     m.keyframes = {6, 2};
     m.scans = {3, 0};
     m.chunks_missing = {0, 4};
+    m.descriptor_ids = {0x761BEAA5u, 0x761BEAA5u};  // the HDL-64E preset's id
     return platform::EncodeServerStatus(m, out);
   }));
   return s;

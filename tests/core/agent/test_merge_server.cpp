@@ -218,6 +218,31 @@ TEST_CASE("Server link: a robot restarted with the team's descriptor setting is 
   CHECK(server.cascade(0, 1)->stage_a.found);
 }
 
+TEST_CASE("Server link: the status columns give each robot with a session its keyframes, scans and descriptor id") {
+  const std::uint32_t kId = 0x761BEAA5u, kOtherId = 0x12345678u;
+  MergeServer server(3, 100, MergeServerParams{});
+  ServerLinkParams lp;
+  lp.automatic_rounds = false;
+  ServerLink link(500, lp, &server);
+  std::vector<KeyframeBatch> batches = ShiftedPairBatches(40, 5, 1000);
+  batches[1] = ShiftedPairBatches(25, 5, 1000)[1];
+  batches[0].descriptor_id = kId;
+  batches[1].descriptor_id = kOtherId;
+  batches[1].robot_id = 2;  // robot 1 never speaks: no session, no column
+  for (const KeyframeBatch& b : batches) REQUIRE(link.OnKeyframeBatch(b, 1000000).ok());
+  const std::vector<std::uint8_t> scan = EncodeForTest(LatticePoints(200));
+  for (const ScanChunk& c : ChunksOf(2, 3, scan, 700)) REQUIRE(server.OnScanChunk(c).ok());
+  REQUIRE(server.has_scan(2, 3));
+
+  ServerStatus status;
+  link.AppendRobotStatus(&status);
+  CHECK(status.robot_ids == std::vector<int>{0, 2});
+  CHECK(status.keyframes == std::vector<std::uint32_t>{40, 25});
+  CHECK(status.scans == std::vector<std::uint32_t>{0, 1});
+  CHECK(status.chunks_missing == std::vector<std::uint32_t>{0, 0});
+  CHECK(status.descriptor_ids == std::vector<std::uint32_t>{kId, kOtherId});
+}
+
 TEST_CASE("Merge server reassembles scan chunks in any order, ignores duplicates and refuses corrupt scans") {
   MergeServerParams params;
   params.max_scan_bytes = 1 << 16;

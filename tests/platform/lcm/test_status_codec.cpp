@@ -357,6 +357,7 @@ ServerStatus MakeServerStatus() {
   m.keyframes = {500, 420, 0};
   m.scans = {40, 38, 0};
   m.chunks_missing = {0, static_cast<std::uint32_t>(kInt32Max), 0};
+  m.descriptor_ids = {0x761BEAA5u, 0x761BEAA5u, 0xF00DBEEFu};  // top bit set: the bits travel as int32
   return m;
 }
 
@@ -379,6 +380,7 @@ commerge::server_status_t ToLcm(const ServerStatus& m) {
     msg.keyframes.push_back(static_cast<std::int32_t>(m.keyframes[i]));
     msg.scans.push_back(static_cast<std::int32_t>(m.scans[i]));
     msg.chunks_missing.push_back(static_cast<std::int32_t>(m.chunks_missing[i]));
+    msg.descriptor_id.push_back(static_cast<std::int32_t>(m.descriptor_ids[i]));
   }
   return msg;
 }
@@ -399,6 +401,7 @@ void CheckSame(const ServerStatus& d, const ServerStatus& m) {
   CHECK(d.keyframes == m.keyframes);
   CHECK(d.scans == m.scans);
   CHECK(d.chunks_missing == m.chunks_missing);
+  CHECK(d.descriptor_ids == m.descriptor_ids);
 }
 
 // Offsets: robot_status_t's num_modules (int16) after utime, robot_id, session and three memory figures;
@@ -998,11 +1001,13 @@ TEST_CASE("status codec: server status round trip keeps every field") {
   full.keyframes.clear();
   full.scans.clear();
   full.chunks_missing.clear();
+  full.descriptor_ids.clear();
   for (int i = 0; i < static_cast<int>(kMaxMergeRobots); ++i) {
     full.robot_ids.push_back(63 - i);
     full.keyframes.push_back(static_cast<std::uint32_t>(1000 * i));
     full.scans.push_back(static_cast<std::uint32_t>(i));
     full.chunks_missing.push_back(static_cast<std::uint32_t>(i % 5));
+    full.descriptor_ids.push_back(0xFFFFFFFFu - static_cast<std::uint32_t>(i));
   }
   auto dfull = DecodeServerStatus(S(Encoded(full)));
   REQUIRE(dfull.ok());
@@ -1016,7 +1021,7 @@ TEST_CASE("status codec: server status bytes are the generated type's, fields at
   const std::size_t names = kServerNumModules + 2, arrays = names + StringsBytes(m.modules);
   const std::size_t round = arrays + 3 * 24, state = round + 4, figures = state + 4 + 17 + 1;
   const std::size_t rejection = figures + 16, robots = rejection + 4 + m.last_rejection.size() + 1;
-  REQUIRE(b.size() == robots + 4 + 3 * 14);
+  REQUIRE(b.size() == robots + 4 + 3 * 18);
   CHECK(GetBe(b, 0, 8) == commerge::server_status_t::getHash());
   CHECK(GetBe(b, 8, 8) == 1763800000555555);
   CHECK(GetBe(b, 16, 8) == 1763799990000001);
@@ -1034,6 +1039,7 @@ TEST_CASE("status codec: server status bytes are the generated type's, fields at
   CHECK(GetBe(b, robots + 4 + 4, 2) == 3);                       // robot_id[2]
   CHECK(GetBe(b, robots + 4 + 6 + 4, 4) == 420);                 // keyframes[1]
   CHECK(GetBe(b, robots + 4 + 6 + 12 + 12 + 4, 4) == kInt32Max);  // chunks_missing[1]
+  CHECK(static_cast<std::uint32_t>(GetBe(b, robots + 4 + 6 + 12 + 12 + 12 + 8, 4)) == 0xF00DBEEFu);  // descriptor_id[2]
 }
 
 TEST_CASE("status codec: server status encoder refuses what the message cannot say, naming the field") {
@@ -1065,6 +1071,9 @@ TEST_CASE("status codec: server status encoder refuses what the message cannot s
   m = MakeServerStatus();
   m.chunks_missing.clear();
   refuse(m, {"chunks_missing", "0 entries for 3 robot_ids"});
+  m = MakeServerStatus();
+  m.descriptor_ids.pop_back();
+  refuse(m, {"descriptor_ids", "2 entries for 3 robot_ids"});
   m = MakeServerStatus();
   m.robot_ids[1] = 64;
   refuse(m, {"robot_ids[1] 64", "outside 0..63"});
@@ -1105,7 +1114,7 @@ TEST_CASE("status codec: server status decoder refuses negative counters, bad id
 TEST_CASE("status codec: server status counts and string lengths patched beyond MAX or the buffer are refused") {
   const ServerStatus m = MakeServerStatus();
   const Buffer b = Encoded(m);
-  const std::size_t robots = b.size() - 4 - 3 * 14;
+  const std::size_t robots = b.size() - 4 - 3 * 18;
   CheckPatchedCount(b, kServerNumModules, 2, 3, 32, "num_modules", DecodeServerStatus);
   CheckPatchedCount(b, robots, 4, 3, 64, "num_robots", DecodeServerStatus);
   CheckPatchedStringLength(b, kServerNumModules + 2, "keyframe_db", "module_name[0]", DecodeServerStatus);
