@@ -47,8 +47,8 @@ inline float FastAtan2(float y, float x) {
 // x86-64, NEON on aarch64), branch-free: the scalar ComputePairFeature was latency bound (sqrt, two divisions,
 // the atan polynomial) and took a fifth of the coarse stage. (Eigen arrays were tried: their select() with a
 // bool condition is evaluated lane by lane, so they were no faster.) Every lane performs the same IEEE
-// operations in the same order as ComputePairFeature, FastAtan2 and the histogram binning (Eigen sums a
-// 3-vector's dot product as x + (y + z)), so the bins are identical.
+// operations in the same order as ComputePairFeature (dot products as x + (y + z)), FastAtan2 and the
+// histogram binning, so the bins are identical.
 constexpr int kPairLanes = 4;
 using V4f = float __attribute__((vector_size(16)));
 using V4i = std::int32_t __attribute__((vector_size(16)));
@@ -141,7 +141,7 @@ void PairFeatureBins(const Eigen::Vector3f& p, const Eigen::Vector3f& n, const f
   const V4f s = Sqrt(Select(*defined, s2, Broadcast(1.0f)));
   const V4f uo = Dot(ux, uy, uz, ox, oy, oz);
   const V4f f1 = FastAtan2Lanes(Dot(dx, dy, dz, ox, oy, oz) - a * uo, s * uo);
-  // (d x u) . other, with Eigen's cross product component formulas.
+  // (d x u) . other, with ComputePairFeature's cross product component formulas.
   const V4f cx = dy * uz - dz * uy, cy = dz * ux - dx * uz, cz = dx * uy - dy * ux;
   const V4f f2 = Dot(cx, cy, cz, ox, oy, oz) / s;
   *b1 = BinLanes(f1, *defined, -kPiF, kPiF);
@@ -178,12 +178,17 @@ Status ValidateSubmapFeatureParams(const SubmapFeatureParams& p) {
 
 bool ComputePairFeature(const Eigen::Vector3f& p1, const Eigen::Vector3f& n1, const Eigen::Vector3f& p2,
                         const Eigen::Vector3f& n2, PairFeature* feature) {
+  // Dot products summed as x + (y + z), written out: Eigen's own order differs between x86-64 (SSE) and
+  // aarch64 (NEON), and the vector kernel of ComputeDescriptors must repeat this function bit for bit.
+  const auto dot = [](const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+    return a.x() * b.x() + (a.y() * b.y() + a.z() * b.z());
+  };
   Eigen::Vector3f d = p2 - p1;
-  const float len = d.norm();
+  const float len = std::sqrt(dot(d, d));
   if (!(len > 0.0f)) return false;
   d *= 1.0f / len;
-  const float a1 = n1.dot(d);
-  const float a2 = n2.dot(d);
+  const float a1 = dot(n1, d);
+  const float a2 = dot(n2, d);
   // The source of the frame is the point whose normal is closer to the line (smaller acos |a|).
   const Eigen::Vector3f* u = &n1;
   const Eigen::Vector3f* other = &n2;
@@ -200,9 +205,11 @@ bool ComputePairFeature(const Eigen::Vector3f& p1, const Eigen::Vector3f& n1, co
   const float s2 = 1.0f - a * a;
   if (!(s2 > 1e-12f)) return false;
   const float s = std::sqrt(s2);
-  const float uo = u->dot(*other);
-  feature->f1 = FastAtan2(d.dot(*other) - a * uo, s * uo);
-  feature->f2 = d.cross(*u).dot(*other) / s;
+  const float uo = dot(*u, *other);
+  feature->f1 = FastAtan2(dot(d, *other) - a * uo, s * uo);
+  const Eigen::Vector3f c(d.y() * u->z() - d.z() * u->y(), d.z() * u->x() - d.x() * u->z(),
+                          d.x() * u->y() - d.y() * u->x());  // d x u
+  feature->f2 = dot(c, *other) / s;
   feature->f3 = a;
   return true;
 }

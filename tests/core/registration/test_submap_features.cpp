@@ -197,8 +197,9 @@ namespace {
 // valid-normal neighbour) pair, the bin rule floor((f - lo) / (hi - lo) * 11) clamped to [0, 10], SPFH
 // increments 100 / (number of valid-normal neighbours), FPFH = own SPFH + sum of the keypoint neighbours' SPFH
 // weighted by 1 / d^2 (1 at d = 0), each block rescaled to sum 100. Returns how many descriptors differ from
-// `f` by more than 0.01 in any bin.
-std::size_t CountDescriptorsUnlikeReference(const std::vector<PointXYZI>& pts, const SubmapFeatures& f) {
+// `f` by more than 0.01 in any bin, and the largest difference of any bin in *worst_bin.
+std::size_t CountDescriptorsUnlikeReference(const std::vector<PointXYZI>& pts, const SubmapFeatures& f,
+                                            double* worst_bin) {
   const auto bin = [](float v, float lo, float hi) {
     const int b = static_cast<int>(std::floor((v - lo) / (hi - lo) * static_cast<float>(kFpfhBins)));
     return static_cast<std::size_t>(std::min(std::max(b, 0), kFpfhBins - 1));
@@ -225,6 +226,7 @@ std::size_t CountDescriptorsUnlikeReference(const std::vector<PointXYZI>& pts, c
     }
   }
   std::size_t unlike = 0;
+  *worst_bin = 0.0;
   for (std::size_t k = 0; k < nk; ++k) {
     const std::uint32_t i = f.keypoints()[k];
     std::vector<double> acc(spfh.begin() + static_cast<std::ptrdiff_t>(k * kFpfhDims),
@@ -249,6 +251,7 @@ std::size_t CountDescriptorsUnlikeReference(const std::vector<PointXYZI>& pts, c
       }
     }
     unlike += worst > 0.01;
+    *worst_bin = std::max(*worst_bin, worst);
   }
   return unlike;
 }
@@ -271,11 +274,17 @@ TEST_CASE("Descriptors equal a pair-by-pair reference built from ComputePairFeat
     std::vector<int> used(kFpfhDims, 0);
     for (std::size_t d = 0; d < f.descriptors().size(); ++d) used[d % kFpfhDims] |= f.descriptors()[d] > 0.0f;
     if (pts == &random) CHECK(std::count(used.begin(), used.end(), 1) == kFpfhDims);
-    // A float sum can round to the other side of a bin edge on a platform that fuses multiply-adds
-    // differently, so one descriptor in a hundred may differ; on x86-64 none does.
-    const std::size_t unlike = CountDescriptorsUnlikeReference(*pts, f);
-    MESSAGE("descriptors unlike the reference: " << unlike << " of " << f.keypoints().size());
+    // None differs on x86-64 or aarch64 (qemu): the kernel repeats ComputePairFeature's operations. Until
+    // ComputePairFeature wrote its dot products out, Eigen summed them in another order on aarch64; that moved
+    // one ill-conditioned pair (f3 = -0.9999991, f2 divides by a tiny s) into the next bin and 29 of 700
+    // descriptors by up to 0.6. The margin below is for a compiler that fuses multiply-adds differently in
+    // vector and scalar code; a wrong kernel changes most descriptors, or some by whole units.
+    double worst_bin = 0.0;
+    const std::size_t unlike = CountDescriptorsUnlikeReference(*pts, f, &worst_bin);
+    MESSAGE("descriptors unlike the reference: " << unlike << " of " << f.keypoints().size()
+                                                 << ", largest bin difference " << worst_bin);
     CHECK(unlike * 100 <= f.keypoints().size());
+    CHECK(worst_bin <= 1.0);
   }
 }
 
