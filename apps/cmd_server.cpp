@@ -52,6 +52,7 @@ struct ServerOptions {
   std::int64_t round_min_new_keyframes = 200;
   double tau_inter = 0.0;
   std::int64_t tau_area = -1;
+  std::size_t sequence_half_window = 0;
   std::int64_t min_submap_scans = -1;
   int max_widen_steps = MergeServerParams{}.max_widen_steps;
   int exit_when_merged = 0;
@@ -141,6 +142,7 @@ int RunServer(const ServerOptions& o) {
   MergeServerParams server_params;
   if (o.tau_inter > 0.0) server_params.cascade.stage_a.tau_inter = o.tau_inter;
   if (o.tau_area >= 0) server_params.cascade.stage_a.tau_area = static_cast<std::uint64_t>(o.tau_area);
+  server_params.cascade.stage_a.sequence_half_window = o.sequence_half_window;
   if (o.min_submap_scans >= 0) {
     server_params.cascade.policy.min_scans_per_robot = static_cast<std::uint32_t>(o.min_submap_scans);
   }
@@ -429,6 +431,7 @@ Command AddServerCommand(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--tau-inter", o->tau_inter, "stage A descriptor distance threshold (0 = the paper's)");
   cmd->add_option("--tau-area", o->tau_area, "stage A minimal cluster span area [cells] (-1 = the paper's 10000)");
+  AddSequenceHalfWindowFlag(cmd, &o->sequence_half_window);
   cmd->add_option("--min-submap-scans", o->min_submap_scans,
                   "fewest scans asked of each robot per pair: L_K's keyframes plus the nearest other keyframes of "
                   "stage A's loops (-1 = the default, " +

@@ -345,6 +345,7 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
                 "without poses_gt.txt, use the poses file as ground truth (real sequences split into robots)");
   cmd->add_option("--tau-inter", o->tau_inter, "stage A descriptor distance threshold")->capture_default_str();
   cmd->add_option("--tau-area", o->tau_area, "stage A minimal cluster span area [cells]")->capture_default_str();
+  AddSequenceHalfWindowFlag(cmd, &o->sequence_half_window);
   cmd->add_option("--tau-con-m", o->tau_con_m, "stage C positional consistency bound [m]")->capture_default_str();
   cmd->add_option("--min-submap-scans", o->min_submap_scans,
                   "fewest scans asked of each robot per pair: L_K's keyframes plus the nearest other keyframes of "
@@ -432,6 +433,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
   MergeServerParams server_params;
   server_params.cascade.stage_a.tau_inter = o.tau_inter;
   server_params.cascade.stage_a.tau_area = static_cast<std::uint64_t>(std::max<std::int64_t>(0, o.tau_area));
+  server_params.cascade.stage_a.sequence_half_window = o.sequence_half_window;
   server_params.cascade.stage_c.tau_con_m = o.tau_con_m;
   server_params.cascade.policy.min_scans_per_robot = o.min_submap_scans;
   server_params.max_widen_steps = o.max_widen_steps;

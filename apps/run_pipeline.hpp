@@ -24,6 +24,7 @@ struct RunOptions {
   bool gt_from_poses = false;
   double tau_inter = 0.10;
   std::int64_t tau_area = 10000;
+  std::size_t sequence_half_window = 0;  ///< stage A's sequence smoothing (0 = the paper's)
   double tau_con_m = 5.0;
   std::uint32_t min_submap_scans = ExchangePolicyParams{}.min_scans_per_robot;
   int max_widen_steps = MergeServerParams{}.max_widen_steps;

@@ -80,6 +80,7 @@ Status ValidateMergeServerParams(const MergeServerParams& params) {
   if (params.max_scan_bytes < (1u << 16)) {
     return InvalidArgument("max_scan_bytes = " + std::to_string(params.max_scan_bytes) + " must be >= 65536");
   }
+  if (Status st = ValidateSequentialMatchParams(params.cascade.stage_a); !st.ok()) return st;
   if (Status st = ValidateStageCParams(params.cascade.stage_c); !st.ok()) return st;
   if (Status st = ValidateExchangePolicyParams(params.cascade.policy); !st.ok()) return st;
   SubmapRegistrationParams reg = MakeSubmapRegistrationParams(params.submap_voxel_size_m);

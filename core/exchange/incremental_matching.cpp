@@ -20,6 +20,12 @@ Result<IncrementalSequentialMatcher> IncrementalSequentialMatcher::Create(const 
   Status s = ValidateSequentialMatchParams(params.stage_a);
   if (!s.ok()) return s;
   if (params.dim == 0) return InvalidArgument("incremental matching: descriptor dimension must be >= 1");
+  if (params.stage_a.sequence_half_window != 0) {
+    return InvalidArgument("incremental matching: sequence smoothing (sequence_half_window " +
+                           std::to_string(params.stage_a.sequence_half_window) +
+                           ") changes cells near the old borders when keyframes arrive; use the full "
+                           "RunSequentialMatching for it");
+  }
   constexpr std::size_t kMaxIndex = std::numeric_limits<std::uint32_t>::max();
   for (const std::size_t capacity : {params.alpha_capacity, params.beta_capacity}) {
     if (capacity > kMaxIndex || capacity > std::numeric_limits<std::size_t>::max() / sizeof(float) / params.dim) {

@@ -62,8 +62,8 @@ struct IncrementalMatchStats {
 class IncrementalSequentialMatcher {
  public:
   /// Reserves the descriptor storage for the capacities (a start-up allocation; may throw std::bad_alloc).
-  /// Errors: bad stage A parameters, dim 0, a capacity >= 2^32 or whose storage size overflows, max_hits
-  /// >= 2^31.
+  /// Errors: bad stage A parameters, a sequence_half_window other than 0 (not supported incrementally),
+  /// dim 0, a capacity >= 2^32 or whose storage size overflows, max_hits >= 2^31.
   static Result<IncrementalSequentialMatcher> Create(const IncrementalMatchParams& params);
 
   /// Appends a batch of keyframes (copied; matched at the next Update). An empty batch is a no-op. Errors,

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <string>
 #include <utility>
 
 namespace commerge {
@@ -468,12 +469,18 @@ Status ValidateSequentialMatchParams(const SequentialMatchParams& p) {
     return InvalidArgument("sequential matching: tau_inter must be finite and >= 0, got " + FormatNumber(p.tau_inter));
   }
   if (p.tile_rows == 0 || p.tile_cols == 0) return InvalidArgument("sequential matching: tile size must be >= 1 x 1");
+  if (p.sequence_half_window > kMaxSequenceHalfWindow) {
+    return InvalidArgument("sequential matching: sequence_half_window must be <= " +
+                           std::to_string(kMaxSequenceHalfWindow) + ", got " + std::to_string(p.sequence_half_window));
+  }
   return Status::Ok();
 }
 
-Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, const SequentialMatchParams& p) {
-  Status s = ValidateSequentialMatchParams(p);
-  if (!s.ok()) return s;
+namespace {
+
+// Stage A proper: thresholds whatever the source serves (A, or S when the caller wrapped it).
+Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const SequentialMatchParams& p) {
+  Status s;
   SequentialMatchResult result;
   result.min_distance = std::numeric_limits<double>::infinity();
   const std::size_t n = source.num_rows(), m = source.num_cols();
@@ -533,11 +540,25 @@ Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, 
   return result;
 }
 
+}  // namespace
+
+Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, const SequentialMatchParams& p) {
+  Status s = ValidateSequentialMatchParams(p);
+  if (!s.ok()) return s;
+  if (p.sequence_half_window == 0) return RunStageA(source, p);
+  Result<SequenceSmoothedTileSource> smoothed =
+      SequenceSmoothedTileSource::Create(&source, p.sequence_half_window, p.tile_rows, p.tile_cols);
+  if (!smoothed.ok()) return smoothed.status();
+  return RunStageA(*smoothed, p);
+}
+
 Result<SequentialMatchResult> RunSequentialMatching(const DescriptorSetView& alpha, const DescriptorSetView& beta,
                                                     const SequentialMatchParams& params) {
   Status s = ValidateSequentialMatchParams(params);
   if (!s.ok()) return s;
-  Result<AffinityTileKernel> kernel = AffinityTileKernel::Create(alpha, beta, params.tile_rows, params.tile_cols);
+  const std::size_t halo = 2 * params.sequence_half_window;
+  Result<AffinityTileKernel> kernel =
+      AffinityTileKernel::Create(alpha, beta, params.tile_rows + halo, params.tile_cols + halo);
   if (!kernel.ok()) return kernel.status();
   return RunSequentialMatching(*kernel, params);
 }
@@ -550,6 +571,10 @@ Result<SequentialMatchResult> RunSequentialMatchingOnHits(Span<const CompactHit>
                                                           double min_distance, const SequentialMatchParams& p) {
   Status s = ValidateSequentialMatchParams(p);
   if (!s.ok()) return s;
+  if (p.sequence_half_window != 0) {
+    return InvalidArgument("sequential matching: the sparse path thresholds the cells it is given; "
+                           "sequence_half_window must be 0 there (use RunSequentialMatching)");
+  }
   if (std::isnan(min_distance)) return InvalidArgument("sequential matching: min_distance is NaN");
   if (hits.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) {
     return InvalidArgument("sequential matching: " + std::to_string(hits.size()) + " hits exceed the label range");

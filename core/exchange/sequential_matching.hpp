@@ -17,6 +17,7 @@
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 #include "core/exchange/affinity.hpp"
+#include "core/exchange/sequence_smoothing.hpp"
 
 namespace commerge {
 
@@ -25,9 +26,15 @@ struct SequentialMatchParams {
   std::uint64_t tau_area = 10000; ///< minimal span area in cells (rows x cols of the inclusive bounding box)
   std::size_t tile_rows = 256;    ///< tile height of the streaming pass, >= 1
   std::size_t tile_cols = 256;    ///< tile width, >= 1
+  /// 0 = the paper's B_ij = [A_ij <= tau_inter]. w >= 1 (at most kMaxSequenceHalfWindow): threshold the
+  /// sequence-smoothed S_ij instead, the smaller of the means of A along the diagonal and the anti-diagonal
+  /// through (i, j) over k = -w .. w (sequence_smoothing.hpp). Clusters, means, L_seq's cell distances and
+  /// min_distance are then those of S. Not supported by the incremental matcher (its Create refuses it).
+  std::size_t sequence_half_window = 0;
 };
 
-/// Errors (invalid argument): tau_inter negative or not finite, a zero tile size.
+/// Errors (invalid argument): tau_inter negative or not finite, a zero tile size, sequence_half_window above
+/// kMaxSequenceHalfWindow.
 Status ValidateSequentialMatchParams(const SequentialMatchParams& params);
 
 /// One 8-connected cluster S_l of B. Span bounds are INCLUSIVE indices: the cluster's cells lie in rows
@@ -69,7 +76,9 @@ struct SequentialMatchResult {
   std::string no_candidate_reason;       ///< empty when found; else why nothing qualified, in words
 };
 
-/// Stage A over any tile source (two passes; the source must be deterministic). Tie-break between equal
+/// Stage A over any tile source (two passes; the source must be deterministic). With sequence_half_window
+/// w >= 1 the source is read through a SequenceSmoothedTileSource, so it must accept blocks of up to
+/// (tile_rows + 2w) x (tile_cols + 2w). Tie-break between equal
 /// means: smaller row_min, then col_min, then row_max, then col_max. Errors only for bad parameters or a
 /// failing source; degenerate inputs (empty sets, nothing below tau_inter, clusters too small) give an OK
 /// result with found == false and no_candidate_reason set.
@@ -88,12 +97,14 @@ struct CompactHit {
 /// `min_distance` the smallest finite A_ij of the whole matrix (+inf when none). The labelling replays the
 /// streaming pass (same params.tile_rows x tile_cols grid, same cell order, same neighbour joins), so the
 /// result equals RunSequentialMatching on that matrix field for field, the double distance sums bit for bit.
-/// Memory and time O(hits log hits), independent of n x m. Errors: bad parameters, a NaN min_distance, a
+/// Memory and time O(hits log hits), independent of n x m. Errors: bad parameters, a sequence_half_window
+/// other than 0 (the sparse path cannot smooth), a NaN min_distance, a
 /// hit outside the matrix, above tau_inter or out of order, more than 2^31 - 1 hits.
 Result<SequentialMatchResult> RunSequentialMatchingOnHits(Span<const CompactHit> hits, std::size_t n, std::size_t m,
                                                           double min_distance, const SequentialMatchParams& params);
 
-/// Stage A on two descriptor sets (AffinityTileKernel with the parameter tile size). Invalid keyframes (flag 0,
+/// Stage A on two descriptor sets (AffinityTileKernel with the parameter tile size, grown by the smoothing
+/// halo when sequence_half_window >= 1). Invalid keyframes (flag 0,
 /// NaN/inf values, zero vector) never match. Errors: malformed sets (ValidateDescriptorSet), different dims,
 /// bad parameters.
 Result<SequentialMatchResult> RunSequentialMatching(const DescriptorSetView& alpha, const DescriptorSetView& beta,

@@ -283,6 +283,11 @@ TEST_CASE("incremental matching capacity and format errors") {
     p = ip;
     p.stage_a.tile_rows = 0;
     CHECK_FALSE(IncrementalSequentialMatcher::Create(p).ok());
+    p = ip;
+    p.stage_a.sequence_half_window = 1;  // smoothing changes old border cells: refused, not silently ignored
+    const Status smoothing = IncrementalSequentialMatcher::Create(p).status();
+    CHECK(smoothing.code() == StatusCode::kInvalidArgument);
+    CHECK(smoothing.message().find("sequence_half_window") != std::string::npos);
   }
   SUBCASE("appending beyond the capacity or a malformed batch changes nothing") {
     auto matcher = IncrementalSequentialMatcher::Create(ip);

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/exchange/affinity.hpp"
+#include "core/exchange/sequence_smoothing.hpp"
 #include "core/exchange/sequential_matching.hpp"
 
 namespace commerge {
@@ -539,6 +540,227 @@ TEST_CASE("sequential matching tile minimum skips do not change the result") {
     CHECK(a->best.distance_sum == b->best.distance_sum);
     CHECK(a->cells.size() == b->cells.size());
   }
+}
+
+// ---- Sequence smoothing (sequence_half_window w >= 1), against a dense reference written here.
+
+// S over the whole matrix, straight from the definition: for each line (diagonal, anti-diagonal) the mean of
+// its finite in-matrix cells for k = -w .. w in ascending k (double sums), +inf where A_ij is +inf.
+std::vector<float> DenseSmoothed(const std::vector<float>& a, std::size_t n, std::size_t m, std::size_t w) {
+  std::vector<float> s(n * m);
+  const long ln = static_cast<long>(n), lm = static_cast<long>(m), lw = static_cast<long>(w);
+  for (long i = 0; i < ln; ++i) {
+    for (long j = 0; j < lm; ++j) {
+      if (!std::isfinite(a[static_cast<std::size_t>(i * lm + j)])) {
+        s[static_cast<std::size_t>(i * lm + j)] = kInf;
+        continue;
+      }
+      double sum[2] = {0.0, 0.0};
+      int count[2] = {0, 0};
+      for (long k = -lw; k <= lw; ++k) {
+        const long ii = i + k;
+        if (ii < 0 || ii >= ln) continue;
+        const long cols[2] = {j + k, j - k};
+        for (int line = 0; line < 2; ++line) {
+          if (cols[line] < 0 || cols[line] >= lm) continue;
+          const float v = a[static_cast<std::size_t>(ii * lm + cols[line])];
+          if (!std::isfinite(v)) continue;
+          sum[line] += static_cast<double>(v);
+          ++count[line];
+        }
+      }
+      s[static_cast<std::size_t>(i * lm + j)] =
+          static_cast<float>(std::min(sum[0] / count[0], sum[1] / count[1]));
+    }
+  }
+  return s;
+}
+
+// A random matrix with bands (RandomMatrixWithBands) and a few more invalid pairs.
+std::vector<float> RandomMatrixWithHoles(std::size_t n, std::size_t m, std::uint32_t seed) {
+  std::vector<float> a = RandomMatrixWithBands(n, m, 0.05, 3, seed);
+  std::mt19937 rng(seed + 1000);
+  for (std::size_t k = 0; k < a.size() / 50; ++k) a[rng() % a.size()] = kInf;
+  return a;
+}
+
+TEST_CASE("Sequence smoothing: tiles grown by the halo equal the dense definition for every grid and window") {
+  const std::vector<std::pair<std::size_t, std::size_t>> sizes = {{1, 1}, {1, 40}, {40, 1}, {37, 53}, {70, 65}};
+  const std::vector<std::pair<std::size_t, std::size_t>> tiles = {{1, 1}, {2, 3}, {7, 7}, {16, 5}, {64, 64}};
+  std::uint32_t seed = 300;
+  for (const auto& nm : sizes) {
+    const std::size_t n = nm.first, m = nm.second;
+    MatrixTileSource inner(RandomMatrixWithHoles(n, m, ++seed), n, m);
+    for (const std::size_t w : {std::size_t{0}, std::size_t{1}, std::size_t{3}, std::size_t{8}}) {
+      const std::vector<float> ref = DenseSmoothed(inner.matrix(), n, m, w);
+      if (w == 0) {  // S = A exactly
+        for (std::size_t k = 0; k < ref.size(); ++k) REQUIRE(ref[k] == inner.matrix()[k]);
+      }
+      for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t j = 0; j < m; ++j) {
+          REQUIRE(SequenceSmoothedCell(inner.matrix().data(), n, m, i, j, w) == ref[i * m + j]);
+        }
+      }
+      for (const auto& tile : tiles) {
+        CAPTURE(n);
+        CAPTURE(m);
+        CAPTURE(w);
+        CAPTURE(tile.first);
+        CAPTURE(tile.second);
+        auto src = SequenceSmoothedTileSource::Create(&inner, w, tile.first, tile.second);
+        REQUIRE(src.ok());
+        REQUIRE(src->num_rows() == n);
+        REQUIRE(src->num_cols() == m);
+        std::size_t cells = 0;
+        REQUIRE(ForEachAffinityTile(*src, tile.first, tile.second, [&](const AffinityTile& t) {
+                  float tile_min = kInf;
+                  for (std::size_t r = 0; r < t.rows; ++r) {
+                    for (std::size_t c = 0; c < t.cols; ++c) {
+                      const float want = ref[(t.row_begin + r) * m + t.col_begin + c];
+                      if (!(t.at(r, c) == want)) return InvalidArgument("cell differs");
+                      tile_min = std::min(tile_min, want);
+                      ++cells;
+                    }
+                  }
+                  return t.min_distance == tile_min ? Status::Ok() : InvalidArgument("tile minimum differs");
+                }).ok());
+        CHECK(cells == n * m);
+      }
+    }
+  }
+  // Errors: a window above the limit, a zero capacity, a tile outside the matrix or above the capacity.
+  MatrixTileSource inner(RandomMatrixWithHoles(10, 10, 1), 10, 10);
+  CHECK_FALSE(SequenceSmoothedTileSource::Create(&inner, kMaxSequenceHalfWindow + 1, 4, 4).ok());
+  CHECK_FALSE(SequenceSmoothedTileSource::Create(&inner, 2, 0, 4).ok());
+  CHECK_FALSE(SequenceSmoothedTileSource::Create(nullptr, 2, 4, 4).ok());
+  auto src = SequenceSmoothedTileSource::Create(&inner, 2, 4, 4);
+  REQUIRE(src.ok());
+  AffinityTile t;
+  CHECK_FALSE(src->ComputeTile(8, 0, 4, 4, &t).ok());
+  CHECK_FALSE(src->ComputeTile(0, 0, 5, 4, &t).ok());
+  CHECK_FALSE(src->ComputeTile(0, 0, 0, 4, &t).ok());
+  CHECK(src->ComputeTile(6, 6, 4, 4, &t).ok());
+}
+
+TEST_CASE("Sequence smoothing: stage A with a half window equals the naive stage A on the smoothed matrix") {
+  const std::vector<std::pair<std::size_t, std::size_t>> sizes = {{1, 1}, {3, 257}, {60, 75}, {130, 140}};
+  const std::vector<std::pair<std::size_t, std::size_t>> tiles = {{1, 1}, {7, 7}, {16, 5}, {64, 64}, {256, 256}};
+  std::uint32_t seed = 400;
+  for (const auto& nm : sizes) {
+    const std::size_t n = nm.first, m = nm.second;
+    MatrixTileSource src(RandomMatrixWithHoles(n, m, ++seed), n, m);
+    for (const std::size_t w : {std::size_t{1}, std::size_t{4}}) {
+      const std::vector<float> smoothed = DenseSmoothed(src.matrix(), n, m, w);
+      for (const std::uint64_t tau_area : {std::uint64_t{1}, std::uint64_t{400}}) {
+        const RefResult ref = NaiveStageA(smoothed, n, m, 0.10, tau_area);
+        for (const auto& tile : tiles) {
+          if (n * m > 10000 && tile.first * tile.second < 10) continue;
+          CAPTURE(n);
+          CAPTURE(m);
+          CAPTURE(w);
+          CAPTURE(tau_area);
+          CAPTURE(tile.first);
+          SequentialMatchParams p;
+          p.tau_area = tau_area;
+          p.tile_rows = tile.first;
+          p.tile_cols = tile.second;
+          p.sequence_half_window = w;
+          auto got = RunSequentialMatching(src, p);
+          REQUIRE(got.ok());
+          CheckEqual(*got, ref, smoothed, m);
+        }
+      }
+    }
+  }
+
+  // On descriptors: the kernel's own matrix (position independent), smoothed densely, is the reference.
+  std::mt19937 rng(77);
+  const std::size_t dim = 40, n = 180, m = 150;
+  std::vector<float> va = RandomWalkDescriptors(n, dim, 0.05f, &rng);
+  std::vector<float> vb = RandomWalkDescriptors(m, dim, 0.05f, &rng);
+  PlantRevisit(va, &vb, dim, 20, 10, +1, 120, &rng);
+  const DescriptorSetView a{va, dim, {}}, b{vb, dim, {}};
+  auto kernel = AffinityTileKernel::Create(a, b, n, m);
+  REQUIRE(kernel.ok());
+  AffinityTile whole;
+  REQUIRE(kernel->ComputeTile(0, 0, n, m, &whole).ok());
+  std::vector<float> matrix(whole.distances, whole.distances + n * m);
+  SequentialMatchParams p;
+  p.tile_rows = 64;
+  p.tile_cols = 48;
+  p.sequence_half_window = 5;
+  const std::vector<float> smoothed = DenseSmoothed(matrix, n, m, p.sequence_half_window);
+  const RefResult ref = NaiveStageA(smoothed, n, m, p.tau_inter, p.tau_area);
+  auto got = RunSequentialMatching(a, b, p);
+  REQUIRE(got.ok());
+  CHECK(got->found);
+  CheckEqual(*got, ref, smoothed, m);
+}
+
+TEST_CASE("Sequence smoothing bridges a revisit cut by single-keyframe jumps, and builds none from scattered cells") {
+  const std::size_t n = 300, m = 300;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> background(0.2f, 1.2f), near(0.02f, 0.07f);
+  for (const int direction : {+1, -1}) {
+    CAPTURE(direction);
+    // A revisit of 200 keyframes, one cell wide: (i, i + 20) or (i, 280 - i); every 4th keyframe jumps to 0.15
+    // (above tau_inter), which cuts the 8-connected line into pieces of 3 cells.
+    std::vector<float> a(n * m);
+    for (float& v : a) v = background(rng);
+    auto band_col = [&](std::size_t i) { return direction > 0 ? i + 20 : 280 - i; };
+    for (std::size_t i = 50; i < 250; ++i) a[i * m + band_col(i)] = i % 4 == 0 ? 0.15f : near(rng);
+    MatrixTileSource src(a, n, m);
+    SequentialMatchParams p;  // tau_inter 0.10, tau_area 10 000 (the paper's)
+    auto paper = RunSequentialMatching(src, p);
+    REQUIRE(paper.ok());
+    CHECK_FALSE(paper->found);
+    CHECK(paper->largest_span_area <= 9);
+    p.sequence_half_window = 4;
+    auto smoothed = RunSequentialMatching(src, p);
+    REQUIRE(smoothed.ok());
+    REQUIRE(smoothed->found);
+    CHECK(smoothed->best.span_rows() >= 180);  // the ends lose up to w rows to the background
+    for (const SequentialLoopCell& c : smoothed->cells) {  // every loop lies on the revisit
+      REQUIRE(c.beta_index == band_col(c.alpha_index));
+    }
+    CHECK(smoothed->cells.size() >= 180);
+  }
+
+  // Control without a revisit: 35 % of the cells scattered below tau_inter. Per cell they percolate into
+  // clusters; their sequence means never come near tau_inter.
+  std::vector<float> a(n * m);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (float& v : a) v = u(rng) < 0.35 ? near(rng) : background(rng);
+  MatrixTileSource src(a, n, m);
+  SequentialMatchParams p;
+  p.tau_area = 100;
+  auto paper = RunSequentialMatching(src, p);
+  REQUIRE(paper.ok());
+  CHECK(paper->found);  // the per-cell threshold does build a cluster here
+  p.sequence_half_window = 4;
+  auto smoothed = RunSequentialMatching(src, p);
+  REQUIRE(smoothed.ok());
+  CHECK_FALSE(smoothed->found);
+  MESSAGE("scattered cells: per cell " << paper->num_cells_below_threshold << " below, largest span "
+                                       << paper->largest_span_area << "; smoothed " << smoothed->num_cells_below_threshold
+                                       << " below, largest span " << smoothed->largest_span_area);
+  CHECK(smoothed->num_cells_below_threshold * 50 < paper->num_cells_below_threshold);
+  CHECK(smoothed->largest_span_area * 10 < paper->largest_span_area);
+}
+
+TEST_CASE("Sequence smoothing: window limits and the paths that refuse it") {
+  SequentialMatchParams p;
+  p.sequence_half_window = kMaxSequenceHalfWindow;
+  CHECK(ValidateSequentialMatchParams(p).ok());
+  p.sequence_half_window = kMaxSequenceHalfWindow + 1;
+  const Status s = ValidateSequentialMatchParams(p);
+  CHECK_FALSE(s.ok());
+  CHECK(s.message().find("sequence_half_window") != std::string::npos);
+  p.sequence_half_window = 2;
+  const std::vector<CompactHit> hits = {{0, 0, 0.05f}};
+  CHECK_FALSE(RunSequentialMatchingOnHits(hits, 4, 4, 0.05, p).ok());
+  p.sequence_half_window = 0;
+  CHECK(RunSequentialMatchingOnHits(hits, 4, 4, 0.05, p).ok());
 }
 
 }  // namespace

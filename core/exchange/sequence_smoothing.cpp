@@ -1,0 +1,108 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "core/exchange/sequence_smoothing.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace commerge {
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// S of cell (i, j) (global indices) from a block holding rows [r0, r1) x cols [c0, c1) of the matrix, where
+// the block covers every in-matrix cell of the window (the caller's halo). at(ii, jj) reads global indices.
+template <class At>
+float SmoothCell(At&& at, std::size_t r0, std::size_t r1, std::size_t c0, std::size_t c1, std::size_t i,
+                 std::size_t j, std::size_t w) {
+  const float center = at(i, j);
+  if (!std::isfinite(center)) return kInf;
+  double sum_diag = 0.0, sum_anti = 0.0;
+  std::size_t n_diag = 0, n_anti = 0;
+  // k = -w .. w with unsigned arithmetic: row ii = i + k runs over [i - w, i + w] clipped to [r0, r1).
+  const std::size_t ii_begin = i >= r0 + w ? i - w : r0;
+  const std::size_t ii_end = std::min(r1, i + w + 1);
+  for (std::size_t ii = ii_begin; ii < ii_end; ++ii) {
+    // diagonal: column j + (ii - i); anti-diagonal: column j - (ii - i)
+    const std::size_t jd = j + ii - i;  // modular arithmetic gives the right value when ii < i
+    if (jd >= c0 && jd < c1 && j + ii >= i) {
+      const float v = at(ii, jd);
+      if (std::isfinite(v)) {
+        sum_diag += static_cast<double>(v);
+        ++n_diag;
+      }
+    }
+    if (i + j >= ii) {
+      const std::size_t ja = i + j - ii;
+      if (ja >= c0 && ja < c1) {
+        const float v = at(ii, ja);
+        if (std::isfinite(v)) {
+          sum_anti += static_cast<double>(v);
+          ++n_anti;
+        }
+      }
+    }
+  }
+  // Both lines contain the finite centre, so both counts are >= 1.
+  const double mean_diag = sum_diag / static_cast<double>(n_diag);
+  const double mean_anti = sum_anti / static_cast<double>(n_anti);
+  return static_cast<float>(std::min(mean_diag, mean_anti));
+}
+
+}  // namespace
+
+float SequenceSmoothedCell(const float* a, std::size_t n, std::size_t m, std::size_t i, std::size_t j,
+                           std::size_t half_window) {
+  return SmoothCell([&](std::size_t ii, std::size_t jj) { return a[ii * m + jj]; }, 0, n, 0, m, i, j, half_window);
+}
+
+Result<SequenceSmoothedTileSource> SequenceSmoothedTileSource::Create(AffinityTileSource* inner,
+                                                                      std::size_t half_window,
+                                                                      std::size_t max_tile_rows,
+                                                                      std::size_t max_tile_cols) {
+  if (inner == nullptr) return InvalidArgument("sequence smoothing: no inner tile source");
+  if (half_window > kMaxSequenceHalfWindow) {
+    return InvalidArgument("sequence smoothing: half window " + std::to_string(half_window) + " is above " +
+                           std::to_string(kMaxSequenceHalfWindow));
+  }
+  if (max_tile_rows == 0 || max_tile_cols == 0) return InvalidArgument("sequence smoothing: tile size must be >= 1 x 1");
+  SequenceSmoothedTileSource s;
+  s.inner_ = inner;
+  s.w_ = half_window;
+  s.max_rows_ = max_tile_rows;
+  s.max_cols_ = max_tile_cols;
+  s.out_.resize(max_tile_rows * max_tile_cols);  // start-up allocation
+  return s;
+}
+
+Status SequenceSmoothedTileSource::ComputeTile(std::size_t row_begin, std::size_t col_begin, std::size_t rows,
+                                               std::size_t cols, AffinityTile* tile) {
+  const std::size_t n = num_rows(), m = num_cols();
+  if (rows == 0 || cols == 0 || row_begin > n || rows > n - row_begin || col_begin > m || cols > m - col_begin ||
+      rows > max_rows_ || cols > max_cols_) {
+    return InvalidArgument("sequence smoothing: tile " + std::to_string(rows) + " x " + std::to_string(cols) + " at (" +
+                           std::to_string(row_begin) + ", " + std::to_string(col_begin) + ") is outside the " +
+                           std::to_string(n) + " x " + std::to_string(m) + " matrix or above the capacity " +
+                           std::to_string(max_rows_) + " x " + std::to_string(max_cols_));
+  }
+  const std::size_t r0 = row_begin >= w_ ? row_begin - w_ : 0, r1 = std::min(n, row_begin + rows + w_);
+  const std::size_t c0 = col_begin >= w_ ? col_begin - w_ : 0, c1 = std::min(m, col_begin + cols + w_);
+  AffinityTile in;
+  Status s = inner_->ComputeTile(r0, c0, r1 - r0, c1 - c0, &in);
+  if (!s.ok()) return s;
+  const auto at = [&](std::size_t ii, std::size_t jj) { return in.at(ii - r0, jj - c0); };
+  float min_value = kInf;
+  for (std::size_t r = 0; r < rows; ++r) {
+    float* out_row = out_.data() + r * cols;
+    for (std::size_t c = 0; c < cols; ++c) {
+      const float v = SmoothCell(at, r0, r1, c0, c1, row_begin + r, col_begin + c, w_);
+      out_row[c] = v;
+      min_value = std::min(min_value, v);
+    }
+  }
+  *tile = AffinityTile{row_begin, col_begin, rows, cols, cols, out_.data(), min_value};
+  return Status::Ok();
+}
+
+}  // namespace commerge
