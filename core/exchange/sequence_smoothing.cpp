@@ -72,7 +72,8 @@ Result<SequenceSmoothedTileSource> SequenceSmoothedTileSource::Create(AffinityTi
   s.w_ = half_window;
   s.max_rows_ = max_tile_rows;
   s.max_cols_ = max_tile_cols;
-  s.out_.resize(max_tile_rows * max_tile_cols);  // start-up allocation
+  s.out_.resize(max_tile_rows * max_tile_cols);  // start-up allocations
+  s.smoothed_.resize((max_tile_rows + 2) * (max_tile_cols + 2));
   return s;
 }
 
@@ -86,17 +87,35 @@ Status SequenceSmoothedTileSource::ComputeTile(std::size_t row_begin, std::size_
                            std::to_string(n) + " x " + std::to_string(m) + " matrix or above the capacity " +
                            std::to_string(max_rows_) + " x " + std::to_string(max_cols_));
   }
-  const std::size_t r0 = row_begin >= w_ ? row_begin - w_ : 0, r1 = std::min(n, row_begin + rows + w_);
-  const std::size_t c0 = col_begin >= w_ ? col_begin - w_ : 0, c1 = std::min(m, col_begin + cols + w_);
+  // S over the tile grown by one cell (the 3 x 3 minimum's reach), from A over the tile grown by w + 1.
+  const std::size_t e_r0 = row_begin > 0 ? row_begin - 1 : 0, e_r1 = std::min(n, row_begin + rows + 1);
+  const std::size_t e_c0 = col_begin > 0 ? col_begin - 1 : 0, e_c1 = std::min(m, col_begin + cols + 1);
+  const std::size_t r0 = e_r0 >= w_ ? e_r0 - w_ : 0, r1 = std::min(n, e_r1 + w_);
+  const std::size_t c0 = e_c0 >= w_ ? e_c0 - w_ : 0, c1 = std::min(m, e_c1 + w_);
   AffinityTile in;
   Status s = inner_->ComputeTile(r0, c0, r1 - r0, c1 - c0, &in);
   if (!s.ok()) return s;
   const auto at = [&](std::size_t ii, std::size_t jj) { return in.at(ii - r0, jj - c0); };
+  const std::size_t e_cols = e_c1 - e_c0;
+  for (std::size_t i = e_r0; i < e_r1; ++i) {
+    float* s_row = smoothed_.data() + (i - e_r0) * e_cols;
+    for (std::size_t j = e_c0; j < e_c1; ++j) s_row[j - e_c0] = SmoothCell(at, r0, r1, c0, c1, i, j, w_);
+  }
   float min_value = kInf;
   for (std::size_t r = 0; r < rows; ++r) {
+    const std::size_t i = row_begin + r;
     float* out_row = out_.data() + r * cols;
     for (std::size_t c = 0; c < cols; ++c) {
-      const float v = SmoothCell(at, r0, r1, c0, c1, row_begin + r, col_begin + c, w_);
+      const std::size_t j = col_begin + c;
+      float v = kInf;
+      if (std::isfinite(at(i, j))) {  // an invalid pair never matches, whatever its neighbours
+        for (std::size_t ii = (i > e_r0 ? i - 1 : i); ii <= i + 1 && ii < e_r1; ++ii) {
+          const float* s_row = smoothed_.data() + (ii - e_r0) * e_cols;
+          for (std::size_t jj = (j > e_c0 ? j - 1 : j); jj <= j + 1 && jj < e_c1; ++jj) {
+            v = std::min(v, s_row[jj - e_c0]);
+          }
+        }
+      }
       out_row[c] = v;
       min_value = std::min(min_value, v);
     }

@@ -10,8 +10,14 @@
 // the mean along the diagonal (same direction of travel) or the anti-diagonal (opposite direction) through
 // (i, j): the sequence principle of SeqSLAM. Each mean is taken over the finite cells of that line inside the
 // matrix (the windows are truncated at the borders; invalid pairs, +inf, are left out) and S_ij = +inf when
-// A_ij itself is +inf. w = 0 gives S = A exactly. S depends only on A, never on the tile grid, so the
-// smoothed source is as deterministic and position independent as its inner source.
+// A_ij itself is +inf. w = 0 gives S = A exactly.
+//
+// Stage A thresholds V_ij = min of S over the 3 x 3 cells around (i, j) (inside the matrix), and +inf where
+// A_ij is +inf: a sequence match admits the keyframes next to it as loops too. Without that widening a
+// smoothed revisit is often one cell wide, its exchange graph a matching, and a balanced vertex cover of a
+// matching selects no loop with both endpoints, which stage C needs (measured on the generated indoor and cave
+// worlds). V depends only on A, never on the tile grid, so the source is as deterministic and position
+// independent as its inner source.
 #pragma once
 
 #include <cstddef>
@@ -25,15 +31,15 @@ namespace commerge {
 /// Largest accepted half window (a 65-keyframe sequence); bounds the halo of the inner tiles.
 constexpr std::size_t kMaxSequenceHalfWindow = 32;
 
-/// S_ij of one cell from a dense row-major N x M matrix `a` (the reference of the tests and of the source
-/// below; double sums in ascending k). Precondition: i < n, j < m, a.size() == n * m.
+/// S_ij of one cell from a dense row-major N x M matrix `a` (double sums in ascending k; the source below
+/// computes S the same way). Precondition: i < n, j < m, a.size() == n * m.
 float SequenceSmoothedCell(const float* a, std::size_t n, std::size_t m, std::size_t i, std::size_t j,
                            std::size_t half_window);
 
-/// An AffinityTileSource serving S (above) computed from an inner source. A tile of rows x cols asks the
-/// inner source for the block grown by w on every side (clipped to the matrix), so the inner source must
-/// accept blocks of up to (max_tile_rows + 2w) x (max_tile_cols + 2w). Memory: one output tile. Every tile
-/// reports its exact minimum.
+/// An AffinityTileSource serving V (above) computed from an inner source. A tile of rows x cols asks the
+/// inner source for the block grown by w + 1 on every side (clipped to the matrix), so the inner source must
+/// accept blocks of up to (max_tile_rows + 2w + 2) x (max_tile_cols + 2w + 2). Memory: one output tile and
+/// one of S grown by a cell. Every tile reports its exact minimum.
 class SequenceSmoothedTileSource final : public AffinityTileSource {
  public:
   /// Errors: half_window above kMaxSequenceHalfWindow, a zero tile capacity. `inner` is borrowed.
@@ -49,7 +55,8 @@ class SequenceSmoothedTileSource final : public AffinityTileSource {
   AffinityTileSource* inner_ = nullptr;
   std::size_t w_ = 0;
   std::size_t max_rows_ = 0, max_cols_ = 0;
-  std::vector<float> out_;
+  std::vector<float> out_;       // V of the tile
+  std::vector<float> smoothed_;  // S of the tile grown by one cell
 };
 
 }  // namespace commerge

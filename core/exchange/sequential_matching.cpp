@@ -556,7 +556,7 @@ Result<SequentialMatchResult> RunSequentialMatching(const DescriptorSetView& alp
                                                     const SequentialMatchParams& params) {
   Status s = ValidateSequentialMatchParams(params);
   if (!s.ok()) return s;
-  const std::size_t halo = 2 * params.sequence_half_window;
+  const std::size_t halo = params.sequence_half_window == 0 ? 0 : 2 * params.sequence_half_window + 2;
   Result<AffinityTileKernel> kernel =
       AffinityTileKernel::Create(alpha, beta, params.tile_rows + halo, params.tile_cols + halo);
   if (!kernel.ok()) return kernel.status();

@@ -27,9 +27,10 @@ struct SequentialMatchParams {
   std::size_t tile_rows = 256;    ///< tile height of the streaming pass, >= 1
   std::size_t tile_cols = 256;    ///< tile width, >= 1
   /// 0 = the paper's B_ij = [A_ij <= tau_inter]. w >= 1 (at most kMaxSequenceHalfWindow): threshold the
-  /// sequence-smoothed S_ij instead, the smaller of the means of A along the diagonal and the anti-diagonal
-  /// through (i, j) over k = -w .. w (sequence_smoothing.hpp). Clusters, means, L_seq's cell distances and
-  /// min_distance are then those of S. Not supported by the incremental matcher (its Create refuses it).
+  /// sequence-smoothed V_ij instead: the smaller of the means of A along the diagonal and the anti-diagonal
+  /// through (i, j) over k = -w .. w, at its lowest over the 3 x 3 cells around (i, j)
+  /// (sequence_smoothing.hpp). Clusters, means, L_seq's cell distances and min_distance are then those of V.
+  /// Not supported by the incremental matcher (its Create refuses it).
   std::size_t sequence_half_window = 0;
 };
 
@@ -78,7 +79,7 @@ struct SequentialMatchResult {
 
 /// Stage A over any tile source (two passes; the source must be deterministic). With sequence_half_window
 /// w >= 1 the source is read through a SequenceSmoothedTileSource, so it must accept blocks of up to
-/// (tile_rows + 2w) x (tile_cols + 2w). Tie-break between equal
+/// (tile_rows + 2w + 2) x (tile_cols + 2w + 2). Tie-break between equal
 /// means: smaller row_min, then col_min, then row_max, then col_max. Errors only for bad parameters or a
 /// failing source; degenerate inputs (empty sets, nothing below tau_inter, clusters too small) give an OK
 /// result with found == false and no_candidate_reason set.

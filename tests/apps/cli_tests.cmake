@@ -109,8 +109,24 @@ cm_cli_test(NAME "run: in the aliased indoor world the robots accept no false lo
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-indoor/robot_0" "${CM_CLI_OUT}/sim-indoor/robot_1" --lidar vlp-16
                     --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
                     --out "${CM_CLI_OUT}/run-indoor")
+# Stage A with the sequence-smoothed threshold (--sequence-half-window 8, README "Server cascade", step 1): the
+# corridors' single-keyframe jumps above tau_inter no longer cut the revisit's diagonal, and the same pair
+# merges within 1 m of the ground truth.
+cm_cli_test(NAME "run: in the aliased indoor world the sequence-smoothed stage A merges the pair" RC 0 LABELS heavy
+            REGEX "robot 1: T_world_robot [^\n]*; e_rmse 0\\.[0-9]+ m"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-indoor/robot_0" "${CM_CLI_OUT}/sim-indoor/robot_1" --lidar vlp-16
+                    --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
+                    --sequence-half-window 8 --out "${CM_CLI_OUT}/run-indoor-seq")
 set_tests_properties("cli: run: in the aliased indoor world the robots accept no false loop"
+                     "cli: run: in the aliased indoor world the sequence-smoothed stage A merges the pair"
                      PROPERTIES FIXTURES_REQUIRED sim_indoor)
+cm_cli_test(NAME "run: --sequence-half-window above 32 is a usage error naming the flag" RC 2
+            REGEX "--sequence-half-window: Value 33 not in range"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/none-a" "${CM_CLI_OUT}/none-b" --sequence-half-window 33
+                    --out "${CM_CLI_OUT}/run-bad")
+cm_cli_test(NAME "server: --sequence-half-window above 32 is a usage error naming the flag" RC 2
+            REGEX "--sequence-half-window: Value 33 not in range"
+            COMMAND ${CM_BIN} server --lcm-url memq:// --sequence-half-window 33 --check)
 # The default simulator setting on the campus: robot 1 drives the laps the other way round with 0.5 deg of roll
 # and pitch. The ground's range rings move with the tilt, so SOLiD on every point (the paper) finds no stage A
 # cluster; leaving the ground out (--solid-min-z-m, with the threshold it needs) merges within 1 m.

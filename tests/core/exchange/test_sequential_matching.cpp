@@ -576,6 +576,23 @@ std::vector<float> DenseSmoothed(const std::vector<float>& a, std::size_t n, std
   return s;
 }
 
+// V, what stage A thresholds: the lowest S among the (up to) 3 x 3 cells around each cell, +inf where A is.
+std::vector<float> DenseServed(const std::vector<float>& a, std::size_t n, std::size_t m, std::size_t w) {
+  const std::vector<float> s = DenseSmoothed(a, n, m, w);
+  std::vector<float> v(n * m, kInf);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < m; ++j) {
+      if (!std::isfinite(a[i * m + j])) continue;
+      for (std::size_t ii = i == 0 ? 0 : i - 1; ii <= i + 1 && ii < n; ++ii) {
+        for (std::size_t jj = j == 0 ? 0 : j - 1; jj <= j + 1 && jj < m; ++jj) {
+          v[i * m + j] = std::min(v[i * m + j], s[ii * m + jj]);
+        }
+      }
+    }
+  }
+  return v;
+}
+
 // A random matrix with bands (RandomMatrixWithBands) and a few more invalid pairs.
 std::vector<float> RandomMatrixWithHoles(std::size_t n, std::size_t m, std::uint32_t seed) {
   std::vector<float> a = RandomMatrixWithBands(n, m, 0.05, 3, seed);
@@ -592,15 +609,16 @@ TEST_CASE("Sequence smoothing: tiles grown by the halo equal the dense definitio
     const std::size_t n = nm.first, m = nm.second;
     MatrixTileSource inner(RandomMatrixWithHoles(n, m, ++seed), n, m);
     for (const std::size_t w : {std::size_t{0}, std::size_t{1}, std::size_t{3}, std::size_t{8}}) {
-      const std::vector<float> ref = DenseSmoothed(inner.matrix(), n, m, w);
+      const std::vector<float> smoothed = DenseSmoothed(inner.matrix(), n, m, w);
       if (w == 0) {  // S = A exactly
-        for (std::size_t k = 0; k < ref.size(); ++k) REQUIRE(ref[k] == inner.matrix()[k]);
+        for (std::size_t k = 0; k < smoothed.size(); ++k) REQUIRE(smoothed[k] == inner.matrix()[k]);
       }
       for (std::size_t i = 0; i < n; ++i) {
         for (std::size_t j = 0; j < m; ++j) {
-          REQUIRE(SequenceSmoothedCell(inner.matrix().data(), n, m, i, j, w) == ref[i * m + j]);
+          REQUIRE(SequenceSmoothedCell(inner.matrix().data(), n, m, i, j, w) == smoothed[i * m + j]);
         }
       }
+      const std::vector<float> ref = DenseServed(inner.matrix(), n, m, w);
       for (const auto& tile : tiles) {
         CAPTURE(n);
         CAPTURE(m);
@@ -650,7 +668,7 @@ TEST_CASE("Sequence smoothing: stage A with a half window equals the naive stage
     const std::size_t n = nm.first, m = nm.second;
     MatrixTileSource src(RandomMatrixWithHoles(n, m, ++seed), n, m);
     for (const std::size_t w : {std::size_t{1}, std::size_t{4}}) {
-      const std::vector<float> smoothed = DenseSmoothed(src.matrix(), n, m, w);
+      const std::vector<float> smoothed = DenseServed(src.matrix(), n, m, w);
       for (const std::uint64_t tau_area : {std::uint64_t{1}, std::uint64_t{400}}) {
         const RefResult ref = NaiveStageA(smoothed, n, m, 0.10, tau_area);
         for (const auto& tile : tiles) {
@@ -689,7 +707,7 @@ TEST_CASE("Sequence smoothing: stage A with a half window equals the naive stage
   p.tile_rows = 64;
   p.tile_cols = 48;
   p.sequence_half_window = 5;
-  const std::vector<float> smoothed = DenseSmoothed(matrix, n, m, p.sequence_half_window);
+  const std::vector<float> smoothed = DenseServed(matrix, n, m, p.sequence_half_window);
   const RefResult ref = NaiveStageA(smoothed, n, m, p.tau_inter, p.tau_area);
   auto got = RunSequentialMatching(a, b, p);
   REQUIRE(got.ok());
@@ -720,10 +738,15 @@ TEST_CASE("Sequence smoothing bridges a revisit cut by single-keyframe jumps, an
     REQUIRE(smoothed.ok());
     REQUIRE(smoothed->found);
     CHECK(smoothed->best.span_rows() >= 180);  // the ends lose up to w rows to the background
-    for (const SequentialLoopCell& c : smoothed->cells) {  // every loop lies on the revisit
-      REQUIRE(c.beta_index == band_col(c.alpha_index));
+    std::size_t on_band = 0;
+    for (const SequentialLoopCell& c : smoothed->cells) {  // every loop lies on the revisit or next to it
+      // (the 3 x 3 neighbours of a diagonal line: up to 2 columns aside in the same row)
+      const long offset = static_cast<long>(c.beta_index) - static_cast<long>(band_col(c.alpha_index));
+      REQUIRE(std::labs(offset) <= 2);
+      on_band += offset == 0 ? 1 : 0;
     }
-    CHECK(smoothed->cells.size() >= 180);
+    CHECK(on_band >= 180);
+    CHECK(smoothed->cells.size() >= 3 * 180);  // the 3 x 3 minimum widens the band to 3 cells
   }
 
   // Control without a revisit: 35 % of the cells scattered below tau_inter. Per cell they percolate into
@@ -733,7 +756,7 @@ TEST_CASE("Sequence smoothing bridges a revisit cut by single-keyframe jumps, an
   for (float& v : a) v = u(rng) < 0.35 ? near(rng) : background(rng);
   MatrixTileSource src(a, n, m);
   SequentialMatchParams p;
-  p.tau_area = 100;
+  p.tau_area = 400;
   auto paper = RunSequentialMatching(src, p);
   REQUIRE(paper.ok());
   CHECK(paper->found);  // the per-cell threshold does build a cluster here
@@ -744,7 +767,7 @@ TEST_CASE("Sequence smoothing bridges a revisit cut by single-keyframe jumps, an
   MESSAGE("scattered cells: per cell " << paper->num_cells_below_threshold << " below, largest span "
                                        << paper->largest_span_area << "; smoothed " << smoothed->num_cells_below_threshold
                                        << " below, largest span " << smoothed->largest_span_area);
-  CHECK(smoothed->num_cells_below_threshold * 50 < paper->num_cells_below_threshold);
+  CHECK(smoothed->num_cells_below_threshold * 20 < paper->num_cells_below_threshold);
   CHECK(smoothed->largest_span_area * 10 < paper->largest_span_area);
 }
 
