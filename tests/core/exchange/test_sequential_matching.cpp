@@ -606,43 +606,50 @@ TEST_CASE("Sequence smoothing: tiles grown by the halo equal the dense definitio
   const std::vector<std::pair<std::size_t, std::size_t>> tiles = {{1, 1}, {2, 3}, {7, 7}, {16, 5}, {64, 64}};
   std::uint32_t seed = 300;
   for (const auto& nm : sizes) {
-    const std::size_t n = nm.first, m = nm.second;
-    MatrixTileSource inner(RandomMatrixWithHoles(n, m, ++seed), n, m);
-    for (const std::size_t w : {std::size_t{0}, std::size_t{1}, std::size_t{3}, std::size_t{8}}) {
-      const std::vector<float> smoothed = DenseSmoothed(inner.matrix(), n, m, w);
-      if (w == 0) {  // S = A exactly
-        for (std::size_t k = 0; k < smoothed.size(); ++k) REQUIRE(smoothed[k] == inner.matrix()[k]);
+    for (const bool holes : {true, false}) {  // without invalid pairs the source sweeps whole rows at once
+      const std::size_t n = nm.first, m = nm.second;
+      std::vector<float> a = RandomMatrixWithHoles(n, m, ++seed);
+      if (!holes) {
+        for (float& v : a) v = std::isfinite(v) ? v : 1.3f;
       }
-      for (std::size_t i = 0; i < n; ++i) {
-        for (std::size_t j = 0; j < m; ++j) {
-          REQUIRE(SequenceSmoothedCell(inner.matrix().data(), n, m, i, j, w) == smoothed[i * m + j]);
+      MatrixTileSource inner(std::move(a), n, m);
+      for (const std::size_t w : {std::size_t{0}, std::size_t{1}, std::size_t{3}, std::size_t{8}}) {
+        const std::vector<float> smoothed = DenseSmoothed(inner.matrix(), n, m, w);
+        if (w == 0) {  // S = A exactly
+          for (std::size_t k = 0; k < smoothed.size(); ++k) REQUIRE(smoothed[k] == inner.matrix()[k]);
         }
-      }
-      const std::vector<float> ref = DenseServed(inner.matrix(), n, m, w);
-      for (const auto& tile : tiles) {
-        CAPTURE(n);
-        CAPTURE(m);
-        CAPTURE(w);
-        CAPTURE(tile.first);
-        CAPTURE(tile.second);
-        auto src = SequenceSmoothedTileSource::Create(&inner, w, tile.first, tile.second);
-        REQUIRE(src.ok());
-        REQUIRE(src->num_rows() == n);
-        REQUIRE(src->num_cols() == m);
-        std::size_t cells = 0;
-        REQUIRE(ForEachAffinityTile(*src, tile.first, tile.second, [&](const AffinityTile& t) {
-                  float tile_min = kInf;
-                  for (std::size_t r = 0; r < t.rows; ++r) {
-                    for (std::size_t c = 0; c < t.cols; ++c) {
-                      const float want = ref[(t.row_begin + r) * m + t.col_begin + c];
-                      if (!(t.at(r, c) == want)) return InvalidArgument("cell differs");
-                      tile_min = std::min(tile_min, want);
-                      ++cells;
+        for (std::size_t i = 0; i < n; ++i) {
+          for (std::size_t j = 0; j < m; ++j) {
+            REQUIRE(SequenceSmoothedCell(inner.matrix().data(), n, m, i, j, w) == smoothed[i * m + j]);
+          }
+        }
+        const std::vector<float> ref = DenseServed(inner.matrix(), n, m, w);
+        for (const auto& tile : tiles) {
+          CAPTURE(n);
+          CAPTURE(m);
+          CAPTURE(holes);
+          CAPTURE(w);
+          CAPTURE(tile.first);
+          CAPTURE(tile.second);
+          auto src = SequenceSmoothedTileSource::Create(&inner, w, tile.first, tile.second);
+          REQUIRE(src.ok());
+          REQUIRE(src->num_rows() == n);
+          REQUIRE(src->num_cols() == m);
+          std::size_t cells = 0;
+          REQUIRE(ForEachAffinityTile(*src, tile.first, tile.second, [&](const AffinityTile& t) {
+                    float tile_min = kInf;
+                    for (std::size_t r = 0; r < t.rows; ++r) {
+                      for (std::size_t c = 0; c < t.cols; ++c) {
+                        const float want = ref[(t.row_begin + r) * m + t.col_begin + c];
+                        if (!(t.at(r, c) == want)) return InvalidArgument("cell differs");
+                        tile_min = std::min(tile_min, want);
+                        ++cells;
+                      }
                     }
-                  }
-                  return t.min_distance == tile_min ? Status::Ok() : InvalidArgument("tile minimum differs");
-                }).ok());
-        CHECK(cells == n * m);
+                    return t.min_distance == tile_min ? Status::Ok() : InvalidArgument("tile minimum differs");
+                  }).ok());
+          CHECK(cells == n * m);
+        }
       }
     }
   }
