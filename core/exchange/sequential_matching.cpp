@@ -478,7 +478,7 @@ Status ValidateSequentialMatchParams(const SequentialMatchParams& p) {
 
 namespace {
 
-// Stage A proper: thresholds whatever the source serves (A, or S when the caller wrapped it).
+// Stage A proper: thresholds whatever the source serves (A, or V of a SequenceSmoothedTileSource).
 Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const SequentialMatchParams& p) {
   Status s;
   SequentialMatchResult result;
