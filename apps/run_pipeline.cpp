@@ -105,19 +105,64 @@ struct RobotRun {
 constexpr double kFalseLoopTranslationM = 2.0;
 constexpr double kFalseLoopRotationDeg = 10.0;
 
-/// Loops of `r` that disagree with its ground truth (-1 without ground truth).
-long long FalseLoops(const RobotRun& r) {
-  if (r.data.ground_truth.empty()) return -1;
+/// The robot's loops against its ground truth: how many are false (beyond the limits above), and the median
+/// and largest translation error [m]. count = -1 without ground truth.
+struct LoopErrors {
+  long long checked = -1;
   long long wrong = 0;
+  double median_m = 0.0;
+  double max_m = 0.0;
+};
+
+Eigen::Isometry3d LoopError(const RobotRun& r, const RobotRun::Loop& l) {
+  const Eigen::Isometry3d& gt_q = r.data.ground_truth[r.keyframe_scan[l.query]];
+  const Eigen::Isometry3d& gt_m = r.data.ground_truth[r.keyframe_scan[l.match]];
+  return (gt_m.inverse() * gt_q).inverse() * l.T_match_query;
+}
+
+LoopErrors CheckLoops(const RobotRun& r) {
+  LoopErrors out;
+  if (r.data.ground_truth.empty()) return out;
+  out.checked = 0;
+  std::vector<double> errors;
   for (const RobotRun::Loop& l : r.loops) {
     if (l.query >= r.keyframe_scan.size() || l.match >= r.keyframe_scan.size()) continue;
-    const Eigen::Isometry3d& gt_q = r.data.ground_truth[r.keyframe_scan[l.query]];
-    const Eigen::Isometry3d& gt_m = r.data.ground_truth[r.keyframe_scan[l.match]];
-    const Eigen::Isometry3d error = (gt_m.inverse() * gt_q).inverse() * l.T_match_query;
+    const Eigen::Isometry3d error = LoopError(r, l);
     const double rot_deg = Eigen::AngleAxisd(error.linear()).angle() * 180.0 / 3.14159265358979323846;
-    wrong += error.translation().norm() > kFalseLoopTranslationM || rot_deg > kFalseLoopRotationDeg;
+    ++out.checked;
+    out.wrong += error.translation().norm() > kFalseLoopTranslationM || rot_deg > kFalseLoopRotationDeg;
+    errors.push_back(error.translation().norm());
   }
-  return wrong;
+  if (!errors.empty()) {
+    std::nth_element(errors.begin(), errors.begin() + static_cast<std::ptrdiff_t>(errors.size() / 2), errors.end());
+    out.median_m = errors[errors.size() / 2];
+    out.max_m = *std::max_element(errors.begin(), errors.end());
+  }
+  return out;
+}
+
+// The robot's accepted loops, one line each: keyframes, the loop edge's T_match_query, and with ground truth its error
+// E = (T_match_query_gt)^-1 T_match_query expressed in the query's frame (translation and rotation angle).
+Status WriteLoops(const RobotRun& r, const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) return IoError("cannot write " + path);
+  std::fprintf(f, "# query match  tx ty tz qx qy qz qw (T_match_query: ICP, refined by GICP where the robot did)%s\n",
+               r.data.ground_truth.empty() ? "" : "  ex ey ez [m] e_rot [deg] (error against ground truth)");
+  for (const RobotRun::Loop& l : r.loops) {
+    const Eigen::Quaterniond q(l.T_match_query.linear());
+    const Eigen::Vector3d& t = l.T_match_query.translation();
+    std::fprintf(f, "%u %u %.4f %.4f %.4f %.6f %.6f %.6f %.6f", l.query, l.match, t.x(), t.y(), t.z(), q.x(), q.y(),
+                 q.z(), q.w());
+    if (!r.data.ground_truth.empty() && l.query < r.keyframe_scan.size() && l.match < r.keyframe_scan.size()) {
+      const Eigen::Isometry3d error = LoopError(r, l);
+      std::fprintf(f, " %.4f %.4f %.4f %.4f", error.translation().x(), error.translation().y(),
+                   error.translation().z(), Eigen::AngleAxisd(error.linear()).angle() * 180.0 / 3.14159265358979323846);
+    }
+    std::fprintf(f, "\n");
+  }
+  const bool ok = std::ferror(f) == 0;
+  if (std::fclose(f) != 0 || !ok) return IoError("error writing " + path);
+  return Status::Ok();
 }
 
 // The wire: encode, count, decode. The receiver only ever sees the decoded copy.
@@ -574,10 +619,16 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     const RobotRun& r = robots[static_cast<std::size_t>(ri)];
     const RobotMapper& m = r.agent->mapper();
     const ScanStoreStats& ss = r.store->stats();
-    const long long false_loops = FalseLoops(r);
+    const LoopErrors le = CheckLoops(r);
     const std::string false_text =
-        (false_loops < 0 ? std::string() : " (" + std::to_string(false_loops) + " false against ground truth)") +
-        ", " + std::to_string(m.stats().loops_implausible) + " refused as implausible";
+        (le.checked < 0 ? std::string()
+                        : " (" + std::to_string(le.wrong) + " false against ground truth" +
+                              (le.checked > 0 ? ", error median " + Fmt("%.3f", le.median_m) + " m, max " +
+                                                    Fmt("%.3f", le.max_m) + " m"
+                                              : std::string()) +
+                              ")") +
+        ", " + std::to_string(m.stats().loops_refined) + " refined by GICP, " +
+        std::to_string(m.stats().loops_implausible) + " refused as implausible";
     std::printf("  robot %d  %-40s %zu scans -> %zu keyframes (%llu invalid descriptors), %llu loops%s, store %zu "
                 "scans %s (%llu evicted), %.1f s; ground truth: %s\n",
                 ri, r.data.name.c_str(), r.scans, m.num_keyframes(),
@@ -910,6 +961,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     const std::string base = o.out_dir + "/trajectories/robot_" + std::to_string(r);
     Status st = platform::WriteTumPoses(base + (connected ? "_world.tum" : "_own_frame.tum"), Span<const platform::StampedPose>(est));
     if (st.ok() && !gt.empty()) st = platform::WriteTumPoses(base + "_gt.tum", Span<const platform::StampedPose>(gt));
+    if (st.ok()) st = WriteLoops(rr, base + "_loops.txt");
     if (!st.ok()) std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
     if (connected) AddRobotMap(rr, static_cast<std::uint16_t>(r), T, 1.0, &map_after, &ids_after);
     AddRobotMap(rr, static_cast<std::uint16_t>(r), Eigen::Isometry3d::Identity(), 1.0, &map_before, &ids_before);
@@ -1024,7 +1076,12 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     for (int ri = 0; ri < num_robots; ++ri) {
       const RobotRun& r = robots[static_cast<std::size_t>(ri)];
       kv("robot." + std::to_string(ri) + ".loops", std::to_string(r.loops.size()));
-      kv("robot." + std::to_string(ri) + ".false_loops", std::to_string(FalseLoops(r)));
+      const LoopErrors le = CheckLoops(r);
+      kv("robot." + std::to_string(ri) + ".false_loops", std::to_string(le.checked < 0 ? -1 : le.wrong));
+      if (le.checked > 0) {
+        kv("robot." + std::to_string(ri) + ".loop_error_median_m", Fmt("%.4f", le.median_m));
+        kv("robot." + std::to_string(ri) + ".loop_error_max_m", Fmt("%.4f", le.max_m));
+      }
     }
     kv("peak_rss_after_robots_bytes", std::to_string(robots_peak_rss));
     kv("peak_rss_end_bytes", std::to_string(rss.peak_bytes));

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <string>
 
+#include "core/geometry/se3.hpp"
+
 namespace commerge {
 
 Status ValidateLoopDetectorParams(const LoopDetectorParams& p) {
@@ -39,6 +41,18 @@ Status ValidateLoopDetectorParams(const LoopDetectorParams& p) {
   if (!(p.prediction_accept_inlier_ratio > 0.0)) {
     return InvalidArgument("loop detector: prediction_accept_inlier_ratio must be > 0 (> 1 disables it), got " +
                            std::to_string(p.prediction_accept_inlier_ratio));
+  }
+  if (!(p.max_refinement_m >= 0.0) || !(p.max_refinement_deg >= 0.0)) {
+    return InvalidArgument("loop detector: max_refinement_m and max_refinement_deg must be >= 0, got " +
+                           std::to_string(p.max_refinement_m) + " and " + std::to_string(p.max_refinement_deg));
+  }
+  if (p.refine_with_gicp) {
+    if (Status s = ValidateSubmapFeatureParams(p.refine_features); !s.ok()) {
+      return InvalidArgument("loop detector: refine_features: " + s.message());
+    }
+    if (Status s = ValidateGicpParams(p.refine_gicp); !s.ok()) {
+      return InvalidArgument("loop detector: refine_gicp: " + s.message());
+    }
   }
   return Status::Ok();
 }
@@ -182,7 +196,22 @@ Result<LoopCheck> LoopVerifier::Verify(std::uint32_t query, std::uint32_t match,
   check.loop.information =
       best.hessian * (p.effective_correspondences / static_cast<double>(std::max<std::size_t>(best.num_inliers, 1)));
   check.verdict = LoopVerdict::kAccepted;
+  if (p.refine_with_gicp) Refine(query_scan, match_scan, p, &check.loop);
   return check;
+}
+
+void LoopVerifier::Refine(Span<const PointXYZI> query_scan, Span<const PointXYZI> match_scan,
+                          const LoopDetectorParams& p, LoopClosure* loop) {
+  // Both scans are in their own sensor frames: normals face the frame origin.
+  query_features_.ComputeGeometry(query_scan, Span<const Eigen::Vector3d>(), p.refine_features);
+  match_features_.ComputeGeometry(match_scan, Span<const Eigen::Vector3d>(), p.refine_features);
+  const GicpResult g = gicp_.Align(query_features_, match_features_, loop->T_match_query, p.refine_gicp);
+  if (!g.converged || !IsValidRigidTransform(g.T_target_source)) return;
+  const Eigen::Isometry3d change = loop->T_match_query.inverse() * g.T_target_source;
+  const double change_deg = Eigen::AngleAxisd(change.linear()).angle() * 180.0 / M_PI;
+  if (change.translation().norm() > p.max_refinement_m || change_deg > p.max_refinement_deg) return;
+  loop->T_match_query = g.T_target_source;
+  loop->refined = true;
 }
 
 }  // namespace commerge

@@ -182,6 +182,7 @@ Status RobotMapper::FindLoop(std::uint32_t query, Span<const float> query_descri
   loop.kind = EdgeKind::kLoop;
   if (Status s = graph_.AddEdge(loop); !s.ok()) return s;
   ++stats_.loops_accepted;
+  if (check->loop.refined) ++stats_.loops_refined;
   ++stats_.pending_loops;
   if (optimised_once_ && query - last_optimisation_keyframe_ < params_.min_keyframes_between_optimisations) {
     return Status::Ok();

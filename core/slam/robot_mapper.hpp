@@ -72,6 +72,7 @@ struct RobotMapperStats {
   std::uint64_t scans_not_stored = 0;
   std::uint64_t loops_accepted = 0;
   std::uint64_t loop_candidates_rejected = 0;  ///< descriptor candidates that failed the ICP check
+  std::uint64_t loops_refined = 0;  ///< accepted loops whose transform GICP refined (LoopDetectorParams)
   std::uint64_t loops_implausible = 0;  ///< of those: ICP passed, but the correction exceeded the drift bound
   std::uint64_t optimisations = 0;
   std::uint64_t pending_loops = 0;  ///< loops in the graph not yet optimised

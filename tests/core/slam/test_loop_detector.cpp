@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -9,6 +10,7 @@
 #include "core/cloud/voxel_grid.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/memory/budget.hpp"
 #include "core/sim/synthetic_scan.hpp"
 #include "core/slam/loop_detector.hpp"
 #include "core/slam/robot_mapper.hpp"
@@ -136,4 +138,110 @@ TEST_CASE("Robot mapper: empty, NaN-only and oversized scans and NaN poses give 
   auto pending = mapper.OptimizePending();
   REQUIRE(pending.ok());
   CHECK(pending->empty());
+}
+
+TEST_CASE("LoopVerifier: the GICP refinement removes point-to-point ICP's bias on 1 m voxel scans") {
+  // Revisits of the same street a few decimetres off the first pass (along and across the road, small yaw):
+  // the loop transform is checked against the true relative pose of the two sensor poses.
+  SpinningLidar lidar;
+  lidar.azimuth_steps = 900;
+  const BoxScene scene = MakeStreetScene(21);
+  struct Revisit {
+    float x0, dx, dy, dyaw;
+  };
+  const Revisit revisits[] = {{10.0f, 0.45f, 0.6f, 0.02f},  {25.0f, -0.4f, 0.6f, -0.03f}, {40.0f, 0.3f, -0.5f, 0.0f},
+                              {55.0f, -0.25f, 0.7f, 0.05f}, {18.0f, 0.5f, 0.3f, -0.01f}, {33.0f, -0.5f, -0.6f, 0.03f}};
+  LoopDetectorParams paper;
+  paper.refine_with_gicp = false;
+  LoopDetectorParams refined;  // default: refinement on
+  LoopVerifier verifier;
+  double icp_error_sum = 0.0, refined_error_sum = 0.0;
+  int n = 0;
+  std::vector<PointXYZI> raw, a, b;
+  for (const Revisit& r : revisits) {
+    CastScan(scene, lidar, r.x0, 0.0f, 1.73f, 0.0f, 7, &raw);
+    REQUIRE(VoxelDownsample(raw, VoxelGridParams{1.0}, &a).ok());
+    CastScan(scene, lidar, r.x0 + r.dx, r.dy, 1.73f, r.dyaw, 8, &raw);
+    REQUIRE(VoxelDownsample(raw, VoxelGridParams{1.0}, &b).ok());
+    Eigen::Isometry3d T_true = Eigen::Isometry3d::Identity();  // b's sensor frame in a's
+    T_true.linear() = Eigen::AngleAxisd(r.dyaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    T_true.translation() = Eigen::Vector3d(r.dx, r.dy, 0.0);
+    auto icp = verifier.Verify(300, 10, 0.01, Span<const PointXYZI>(b), Span<const PointXYZI>(a),
+                               Eigen::Isometry3d::Identity(), paper);
+    auto gicp = verifier.Verify(300, 10, 0.01, Span<const PointXYZI>(b), Span<const PointXYZI>(a),
+                                Eigen::Isometry3d::Identity(), refined);
+    REQUIRE(icp.ok());
+    REQUIRE(gicp.ok());
+    REQUIRE(icp->verdict == LoopVerdict::kAccepted);
+    REQUIRE(gicp->verdict == LoopVerdict::kAccepted);
+    // Without the refinement the measurement is ICP's (the paper's letter).
+    CHECK_FALSE(icp->loop.refined);
+    CHECK(icp->loop.T_match_query.isApprox(icp->loop.icp.T_target_source));
+    // With it, ICP's own result and information are unchanged and the transform is GICP's.
+    CHECK(gicp->loop.refined);
+    CHECK(gicp->loop.icp.T_target_source.isApprox(icp->loop.icp.T_target_source, 1e-9));
+    CHECK(gicp->loop.information.isApprox(icp->loop.information, 1e-9));
+    const double e_icp = (T_true.inverse() * icp->loop.T_match_query).translation().norm();
+    const double e_gicp = (T_true.inverse() * gicp->loop.T_match_query).translation().norm();
+    const double rot_gicp_deg =
+        Eigen::AngleAxisd((T_true.inverse() * gicp->loop.T_match_query).linear()).angle() * 180.0 / M_PI;
+    CAPTURE(r.x0);
+    CAPTURE(e_icp);
+    CAPTURE(e_gicp);
+    CHECK(e_gicp < 0.05);
+    CHECK(rot_gicp_deg < 0.2);
+    icp_error_sum += e_icp;
+    refined_error_sum += e_gicp;
+    ++n;
+  }
+  MESSAGE("mean loop translation error: point-to-point ICP " << icp_error_sum / n << " m, refined "
+                                                              << refined_error_sum / n << " m");
+  // The point of the refinement: ICP alone is biased by decimetres on these scans, the refinement is not.
+  CHECK(icp_error_sum / n > 0.08);
+  CHECK(refined_error_sum < 0.25 * icp_error_sum);
+}
+
+TEST_CASE("LoopVerifier: a refinement that moves ICP's result too far is dropped, and its parameters are checked") {
+  SpinningLidar lidar;
+  lidar.azimuth_steps = 600;
+  const BoxScene scene = MakeStreetScene(21);
+  std::vector<PointXYZI> raw, a, b;
+  CastScan(scene, lidar, 20.0f, 0.0f, 1.73f, 0.0f, 1, &raw);
+  REQUIRE(VoxelDownsample(raw, VoxelGridParams{1.0}, &a).ok());
+  CastScan(scene, lidar, 20.4f, 0.6f, 1.73f, 0.0f, 2, &raw);
+  REQUIRE(VoxelDownsample(raw, VoxelGridParams{1.0}, &b).ok());
+  LoopDetectorParams p;
+  p.max_refinement_m = 0.0;  // any change is too large
+  LoopVerifier verifier;
+  auto check = verifier.Verify(300, 10, 0.01, Span<const PointXYZI>(b), Span<const PointXYZI>(a),
+                               Eigen::Isometry3d::Identity(), p);
+  REQUIRE(check.ok());
+  REQUIRE(check->verdict == LoopVerdict::kAccepted);
+  CHECK_FALSE(check->loop.refined);
+  CHECK(check->loop.T_match_query.isApprox(check->loop.icp.T_target_source));
+  // The robot's loop_closure budget per point of the two scans (core/memory/budget.hpp) covers what the check
+  // and its refinement hold for these scans.
+  const std::size_t points = std::max(a.size(), b.size());
+  MESSAGE("loop check workspace " << verifier.workspace_bytes() << " B for scans of " << a.size() << " and "
+                                  << b.size() << " points");
+  CHECK(verifier.workspace_bytes() > 0);
+  CHECK(static_cast<std::int64_t>(verifier.workspace_bytes()) <=
+        2 * static_cast<std::int64_t>(points) * BudgetRecordSizes::kIcpPointBytes);
+
+  CHECK(ValidateLoopDetectorParams(LoopDetectorParams{}).ok());
+  LoopDetectorParams bad;
+  bad.max_refinement_deg = -1.0;
+  Status s = ValidateLoopDetectorParams(bad);
+  CHECK(s.code() == StatusCode::kInvalidArgument);
+  CHECK(s.message().find("max_refinement_deg") != std::string::npos);
+  bad = LoopDetectorParams{};
+  bad.refine_features.covariance_neighbors = bad.refine_features.max_neighbors + 1;
+  s = ValidateLoopDetectorParams(bad);
+  CHECK(s.message().find("refine_features") != std::string::npos);
+  bad.refine_with_gicp = false;  // not used, not checked
+  CHECK(ValidateLoopDetectorParams(bad).ok());
+  bad = LoopDetectorParams{};
+  bad.refine_gicp.max_iterations = 0;
+  s = ValidateLoopDetectorParams(bad);
+  CHECK(s.message().find("refine_gicp") != std::string::npos);
 }
