@@ -615,11 +615,12 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
   const double robots_s = SecondsSince(t_robots);
   std::printf("\nrobots (%.1f s):\n", robots_s);
   std::vector<Trajectories> traj;
+  std::vector<LoopErrors> loop_errors(static_cast<std::size_t>(num_robots));  // checked once, printed twice
   for (int ri = 0; ri < num_robots; ++ri) {
     const RobotRun& r = robots[static_cast<std::size_t>(ri)];
     const RobotMapper& m = r.agent->mapper();
     const ScanStoreStats& ss = r.store->stats();
-    const LoopErrors le = CheckLoops(r);
+    const LoopErrors& le = loop_errors[static_cast<std::size_t>(ri)] = CheckLoops(r);
     const std::string false_text =
         (le.checked < 0 ? std::string()
                         : " (" + std::to_string(le.wrong) + " false against ground truth" +
@@ -1076,7 +1077,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     for (int ri = 0; ri < num_robots; ++ri) {
       const RobotRun& r = robots[static_cast<std::size_t>(ri)];
       kv("robot." + std::to_string(ri) + ".loops", std::to_string(r.loops.size()));
-      const LoopErrors le = CheckLoops(r);
+      const LoopErrors& le = loop_errors[static_cast<std::size_t>(ri)];
       kv("robot." + std::to_string(ri) + ".false_loops", std::to_string(le.checked < 0 ? -1 : le.wrong));
       if (le.checked > 0) {
         kv("robot." + std::to_string(ri) + ".loop_error_median_m", Fmt("%.4f", le.median_m));
