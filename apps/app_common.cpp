@@ -169,7 +169,8 @@ void AddMemoryFlags(CLI::App* cmd, MemoryFlags* f) {
       ->check(CLI::PositiveNumber);
   cmd->add_option("--scan-store-mb", f->scan_store_mb, "Robot scan store size [MiB] (default: per board)")
       ->check(CLI::PositiveNumber);
-  cmd->add_option("--max-submap-points", f->max_submap_points, "Points per submap on the server (default: per board)")
+  cmd->add_option("--max-submap-points", f->max_submap_points,
+                  "Points per submap on the server; larger submaps are voxelised coarser (default: 100000)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--merged-map-mb", f->merged_map_mb, "Merged map size on the server [MiB] (default: per board)")
       ->check(CLI::PositiveNumber);

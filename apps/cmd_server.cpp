@@ -146,8 +146,7 @@ int RunServer(const ServerOptions& o) {
   if (o.min_submap_scans >= 0) {
     server_params.cascade.policy.min_scans_per_robot = static_cast<std::uint32_t>(o.min_submap_scans);
   }
-  server_params.max_submap_points =
-      static_cast<std::size_t>(std::min<std::int32_t>(setup.config.max_submap_points, 100000));
+  server_params.max_submap_points = static_cast<std::size_t>(setup.config.max_submap_points);
   server_params.max_widen_steps = o.max_widen_steps;
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) {
     std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());

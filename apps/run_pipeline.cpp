@@ -482,7 +482,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
   server_params.cascade.stage_c.tau_con_m = o.tau_con_m;
   server_params.cascade.policy.min_scans_per_robot = o.min_submap_scans;
   server_params.max_widen_steps = o.max_widen_steps;
-  server_params.max_submap_points = static_cast<std::size_t>(std::min<std::int32_t>(setup.config.max_submap_points, 100000));
+  server_params.max_submap_points = static_cast<std::size_t>(setup.config.max_submap_points);
   MergeServer server(num_robots, static_cast<std::size_t>(setup.config.max_keyframes_per_robot), server_params);
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) {
     std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());

@@ -65,7 +65,6 @@ MemoryConfig DefaultMemoryConfig(BoardProfile profile) {
       c.max_keyframes_per_robot = 50000;
       c.scan_store_bytes = 512 * kMiB;
       c.max_scans_in_flight = 1024;
-      c.max_submap_points = 400000;
       c.merged_map_bytes = 256 * kMiB;
       c.message_queue_bytes = 16 * kMiB;
       c.solver_workspace_bytes = 256 * kMiB;
@@ -75,7 +74,6 @@ MemoryConfig DefaultMemoryConfig(BoardProfile profile) {
       c.max_keyframes_per_robot = 100000;
       c.scan_store_bytes = 512 * kMiB;
       c.max_scans_in_flight = 2048;
-      c.max_submap_points = 1000000;
       c.merged_map_bytes = 512 * kMiB;
       c.message_queue_bytes = 32 * kMiB;
       c.solver_workspace_bytes = 256 * kMiB;
@@ -166,8 +164,10 @@ void AddServerModules(BudgetTable* t, const MemoryConfig& c, const std::string& 
              Str(R::kStoredPointBytes) + " B");
   t->Add(prefix + "submaps", 2 * std::int64_t{c.max_submap_points} * 16,
          "2 submaps x " + Str(c.max_submap_points) + " points (--max-submap-points) x 16 B");
-  t->Add(prefix + "registration", 2 * std::int64_t{c.max_submap_points} * R::kRegistrationPointBytes,
-         "2 submaps x " + Str(c.max_submap_points) + " points x " + Str(R::kRegistrationPointBytes) + " B");
+  t->Add(prefix + "registration",
+         2 * std::int64_t{c.max_submap_points} * R::kRegistrationPointBytes + R::kRegistrationGridBytes,
+         "2 submaps x " + Str(c.max_submap_points) + " points x " + Str(R::kRegistrationPointBytes) + " B + " +
+             Str(R::kRegistrationGridBytes) + " B of bird's-eye-view grids");
   t->Add(prefix + "merged_map", c.merged_map_bytes, "--merged-map-mb");
   t->Add(prefix + "inbox", c.message_queue_bytes, "--queue-mb");
 }

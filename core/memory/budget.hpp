@@ -42,7 +42,9 @@ struct MemoryConfig {
   std::int32_t max_points_per_stored_scan = 8192;    ///< points of a 1 m voxelised scan
   std::int64_t scan_store_bytes = 160 * 1024 * 1024;  ///< robot: encoded voxelised scans kept for the server
   std::int32_t max_scans_in_flight = 512;            ///< server: requested scans being reassembled
-  std::int32_t max_submap_points = 200000;           ///< server: points of one submap
+  /// server: points of one submap (1 m voxels: about 300 x 300 m of street). Registration's workspace and time
+  /// grow with it; larger submaps are voxelised coarser until both fit.
+  std::int32_t max_submap_points = 100000;
   std::int64_t merged_map_bytes = 64 * 1024 * 1024;  ///< server: the merged global map
   std::int64_t message_queue_bytes = 8 * 1024 * 1024;     ///< outgoing/incoming message queues per process
   std::int64_t solver_workspace_bytes = 64 * 1024 * 1024;  ///< server: LP relaxations and branch-and-bound
@@ -74,9 +76,11 @@ class BudgetTable {
 /// Per-record sizes that the budget formulas use (exact sizes of the structures the modules hold).
 struct BudgetRecordSizes {
   static constexpr std::int64_t kDescriptorRecordBytes = 512;  ///< R-SOLiD + A-SOLiD floats, pose, index
-  /// Node (128 B), the mapper's odometry pose (128 B), ~1 edge (432 B) and the sparse solver's workspace
-  /// (~2.4 kB per node measured by profiling/bench_pose_graph at 2k-20k nodes).
-  static constexpr std::int64_t kPoseGraphBytesPerKeyframe = 3200;
+  /// Node (128 B), the mapper's odometry pose (128 B), its edges (432 B each: odometry and loops) and the sparse
+  /// solver's workspace (~2.4 kB per node on a plain circuit, profiling/bench_pose_graph; more with the fill-in
+  /// of many loops). Measured: 5.3 kB with a loop at every keyframe (pose-graph test), 4.3 kB on the Town
+  /// mission (robot 1, 10 000 keyframes). 3 200 B before those measurements.
+  static constexpr std::int64_t kPoseGraphBytesPerKeyframe = 5632;
   static constexpr std::int64_t kRawPointWorkBytes = 48;  ///< raw point + voxel key/index + descriptor scratch
   static constexpr std::int64_t kStoredPointBytes = 6;    ///< int16 centimetres x 3
   /// Loop check per point of the two scans: k-d trees and ICP scratch, plus the GICP refinement's neighbour
@@ -85,7 +89,12 @@ struct BudgetRecordSizes {
   static constexpr std::int64_t kIcpPointBytes = 384;
   /// The loop check's path lengths (KeyframeGraphDistance): link 8, CSR 12, steps and frontiers 16 B, rounded.
   static constexpr std::int64_t kLoopPathBytesPerKeyframe = 40;
-  static constexpr std::int64_t kRegistrationPointBytes = 256;  ///< normals, covariances, 33-D features, k-d tree
+  /// Registration per point of each submap: k-d tree, neighbour lists, normals, GICP covariances, SPFH and
+  /// FPFH-style features, the matcher's descriptor copies and GICP's target data. ~1.07 kB measured on
+  /// generated street submaps (Merge server memory test), ~0.85 kB on the Town mission; 256 B before.
+  static constexpr std::int64_t kRegistrationPointBytes = 1152;
+  /// The bird's-eye-view fallback's grids (BevSearch: ~44 x grid_cells^2 bytes at its 256-cell default).
+  static constexpr std::int64_t kRegistrationGridBytes = 3 * 1024 * 1024;
   static constexpr std::int64_t kRuntimeBytes = 48 * 1024 * 1024;  ///< code, stacks, LCM/glib, allocator segments
 };
 

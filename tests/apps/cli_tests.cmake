@@ -38,7 +38,7 @@ cm_cli_test(NAME "budget: over the board exits 3 naming module, need and limit" 
 cm_cli_test(NAME "budget: over a cgroup v2 limit exits 3" RC 3
             REGEX "over memory budget: module 'scan_store'.*cgroup memory limit \\(256.0 MiB\\)"
             FAKE_CGROUP "${CM_CLI_OUT}/fake-cgroup|268435456"
-            COMMAND ${CM_BIN} budget --app robot --board desktop --scan-store-mb 400
+            COMMAND ${CM_BIN} budget --app robot --board desktop --scan-store-mb 600
                     --proc-root "${CM_CLI_OUT}/fake-cgroup/proc" --cgroup-root "${CM_CLI_OUT}/fake-cgroup/cgroup")
 cm_cli_test(NAME "budget: a negative size is a usage error" RC 2 REGEX "scan-store-mb"
             COMMAND ${CM_BIN} budget --scan-store-mb -5)

@@ -339,6 +339,10 @@ TEST_CASE("Merge server memory: the cascade, the submaps and the registration co
   // registration: per point of both submaps at least a normal (3 floats) and a GICP covariance (3 x 3 doubles).
   CHECK(Module(use, "registration").used_bytes >=
         submap_points * static_cast<std::int64_t>(sizeof(Eigen::Vector3f) + sizeof(Eigen::Matrix3d)));
+  // ... and at most the budget's share per submap point (plus the fallback's fixed grids, not run here).
+  MESSAGE("registration " << Module(use, "registration").used_bytes << " B for " << submap_points << " points");
+  CHECK(Module(use, "registration").used_bytes <=
+        submap_points * BudgetRecordSizes::kRegistrationPointBytes + BudgetRecordSizes::kRegistrationGridBytes);
 
   // A new round drops the cascade results: the marks stay.
   const std::int64_t solvers = Module(use, "solvers").used_bytes;

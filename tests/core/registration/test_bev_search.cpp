@@ -6,10 +6,12 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "core/memory/budget.hpp"
 #include "core/registration/bev_search.hpp"
 #include "core/registration/submap_registration.hpp"
 #include "tests/core/registration/registration_test_support.hpp"
@@ -105,6 +107,12 @@ TEST_CASE("Global search: the truth is the first candidate of generated street p
     CHECK(test::RotationErrorDeg(truth, candidates[0].T_target_source) < 2.0);
     CHECK(test::TranslationErrorM(truth, candidates[0].T_target_source) < 3.0);
   }
+  // The server's registration budget holds the grids apart from the per-point share (core/memory/budget.hpp):
+  // they do not depend on the submaps' size, and the ones at the default grid_cells fit that constant.
+  MESSAGE("global search grids " << bev.workspace_bytes() << " B at " << params.grid_cells << " cells");
+  CHECK(params.grid_cells == 256);
+  CHECK(bev.workspace_bytes() >= static_cast<std::size_t>(params.grid_cells * params.grid_cells) * 8);
+  CHECK(static_cast<std::int64_t>(bev.workspace_bytes()) <= BudgetRecordSizes::kRegistrationGridBytes);
 }
 
 TEST_CASE("Registration falls back to the global search when the feature stage fails, and only then") {

@@ -17,6 +17,7 @@
 
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
+#include "core/memory/budget.hpp"
 #include "core/slam/pose_graph.hpp"
 
 namespace commerge {
@@ -252,6 +253,27 @@ TEST_CASE("acceptance: loop closures cut the drift of a two-lap trajectory by at
   }
   CHECK(drifted > 400);
   CHECK(r->workspace_bytes > 0);
+}
+
+TEST_CASE("memory per keyframe stays within the robot budget's pose-graph share with a loop at every keyframe") {
+  // A robot re-driving its laps closes a loop at nearly every keyframe (the long campus mission: 1 284 loops
+  // in 3 000 keyframes). The budget's kPoseGraphBytesPerKeyframe must cover nodes, the mapper's odometry pose,
+  // every edge and the solver's workspace there, as RobotAgent::MemoryUse() counts them.
+  ScenarioParams p;
+  p.laps = 4;
+  p.loop_every = 1;
+  const Scenario sc = MakeScenario(p);
+  PoseGraph graph = MakeGraph(sc, true);
+  REQUIRE(graph.num_loop_edges() == 900);
+  const Result<PoseGraphResult> r = graph.Optimize();
+  REQUIRE(r.ok());
+  CHECK(r->converged);
+  const double bytes = static_cast<double>(2 * graph.num_nodes() * sizeof(Eigen::Isometry3d) +
+                                           graph.num_edges() * sizeof(PoseGraphEdge) + graph.workspace_bytes());
+  const double per_keyframe = bytes / static_cast<double>(graph.num_nodes());
+  MESSAGE(graph.num_nodes() << " nodes, " << graph.num_edges() << " edges: " << per_keyframe
+                            << " B per keyframe (workspace " << graph.workspace_bytes() << " B)");
+  CHECK(per_keyframe <= static_cast<double>(BudgetRecordSizes::kPoseGraphBytesPerKeyframe));
 }
 
 TEST_CASE("loop edges may point backwards (later node -> earlier node) with the same result") {
