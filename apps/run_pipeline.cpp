@@ -106,7 +106,7 @@ constexpr double kFalseLoopTranslationM = 2.0;
 constexpr double kFalseLoopRotationDeg = 10.0;
 
 /// The robot's loops against its ground truth: how many are false (beyond the limits above), and the median
-/// and largest translation error [m]. count = -1 without ground truth.
+/// and largest translation error [m]. checked = -1 without ground truth.
 struct LoopErrors {
   long long checked = -1;
   long long wrong = 0;
@@ -120,6 +120,8 @@ Eigen::Isometry3d LoopError(const RobotRun& r, const RobotRun::Loop& l) {
   return (gt_m.inverse() * gt_q).inverse() * l.T_match_query;
 }
 
+double RotationDeg(const Eigen::Isometry3d& T) { return RotationAngleRad(T.linear()) * 180.0 / 3.14159265358979323846; }
+
 LoopErrors CheckLoops(const RobotRun& r) {
   LoopErrors out;
   if (r.data.ground_truth.empty()) return out;
@@ -128,9 +130,8 @@ LoopErrors CheckLoops(const RobotRun& r) {
   for (const RobotRun::Loop& l : r.loops) {
     if (l.query >= r.keyframe_scan.size() || l.match >= r.keyframe_scan.size()) continue;
     const Eigen::Isometry3d error = LoopError(r, l);
-    const double rot_deg = Eigen::AngleAxisd(error.linear()).angle() * 180.0 / 3.14159265358979323846;
     ++out.checked;
-    out.wrong += error.translation().norm() > kFalseLoopTranslationM || rot_deg > kFalseLoopRotationDeg;
+    out.wrong += error.translation().norm() > kFalseLoopTranslationM || RotationDeg(error) > kFalseLoopRotationDeg;
     errors.push_back(error.translation().norm());
   }
   if (!errors.empty()) {
@@ -156,7 +157,7 @@ Status WriteLoops(const RobotRun& r, const std::string& path) {
     if (!r.data.ground_truth.empty() && l.query < r.keyframe_scan.size() && l.match < r.keyframe_scan.size()) {
       const Eigen::Isometry3d error = LoopError(r, l);
       std::fprintf(f, " %.4f %.4f %.4f %.4f", error.translation().x(), error.translation().y(),
-                   error.translation().z(), Eigen::AngleAxisd(error.linear()).angle() * 180.0 / 3.14159265358979323846);
+                   error.translation().z(), RotationDeg(error));
     }
     std::fprintf(f, "\n");
   }

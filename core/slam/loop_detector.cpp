@@ -208,7 +208,7 @@ void LoopVerifier::Refine(Span<const PointXYZI> query_scan, Span<const PointXYZI
   const GicpResult g = gicp_.Align(query_features_, match_features_, loop->T_match_query, p.refine_gicp);
   if (!g.converged || !IsValidRigidTransform(g.T_target_source)) return;
   const Eigen::Isometry3d change = loop->T_match_query.inverse() * g.T_target_source;
-  const double change_deg = Eigen::AngleAxisd(change.linear()).angle() * 180.0 / M_PI;
+  const double change_deg = RotationAngleRad(change.linear()) * 180.0 / M_PI;
   if (change.translation().norm() > p.max_refinement_m || change_deg > p.max_refinement_deg) return;
   loop->T_match_query = g.T_target_source;
   loop->refined = true;
