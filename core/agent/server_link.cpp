@@ -35,7 +35,11 @@ Status ValidateServerLinkParams(const ServerLinkParams& params) {
 }
 
 ServerLink::ServerLink(std::int64_t session, const ServerLinkParams& params, MergeServer* server)
-    : session_(session), params_(params), params_status_(ValidateServerLinkParams(params)), server_(server) {
+    : session_(session),
+      params_(params),
+      params_status_(ValidateServerLinkParams(params)),
+      server_(server),
+      merge_round_(server, MergeRoundParams{params.mode, /*run_cascades=*/true}) {
   if (params_status_.ok() && session <= 0) {
     params_status_ = InvalidArgument("session id " + std::to_string(session) + " must be > 0");
   }
@@ -71,41 +75,6 @@ bool ServerLink::robot_left(int robot) const {
   return r.left_session != 0 && r.left_session == r.session;
 }
 
-void KeepVerifiedPairs(int round, Span<const std::int64_t> sessions, std::vector<VerifiedPair>* verified,
-                       std::vector<PairMergeResult>* results) {
-  auto session_of = [&](int robot) {
-    return robot >= 0 && static_cast<std::size_t>(robot) < sessions.size() ? sessions[static_cast<std::size_t>(robot)]
-                                                                           : std::int64_t{0};
-  };
-  for (PairMergeResult& p : *results) {
-    auto it = std::find_if(verified->begin(), verified->end(), [&](const VerifiedPair& v) {
-      return v.result.alpha == p.alpha && v.result.beta == p.beta;
-    });
-    const std::int64_t alpha_session = session_of(p.alpha), beta_session = session_of(p.beta);
-    if (p.attempted && p.registration.success()) {
-      VerifiedPair v{p, round, alpha_session, beta_session};
-      if (it == verified->end()) {
-        verified->push_back(std::move(v));
-      } else {
-        *it = std::move(v);
-      }
-      continue;
-    }
-    if (p.alpha_missing + p.beta_missing == 0 || it == verified->end()) continue;
-    if (it->alpha_session != alpha_session || it->beta_session != beta_session || alpha_session == 0 ||
-        beta_session == 0) {
-      continue;  // a robot restarted since: its map frame is new
-    }
-    std::string why = p.attempted ? "refused with " + std::to_string(p.alpha_missing + p.beta_missing) +
-                                        " selected scans missing: " + p.reason
-                                  : p.reason;
-    PairMergeResult kept = it->result;
-    kept.kept_from_round = it->round;
-    kept.reason = "kept from round " + std::to_string(it->round) + " (this round: " + why + ")";
-    if (kept.reason.size() > 255) kept.reason.resize(255);  // merge_result_t's text limit
-    p = std::move(kept);
-  }
-}
 
 Status ServerLink::CheckSession(int robot_id, std::int64_t session, const char* what) {
   if (robot_id < 0 || robot_id >= static_cast<int>(robots_.size())) return Status::Ok();  // MergeServer refuses it
@@ -302,38 +271,29 @@ Status ServerLink::StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* 
   round_requested_ = false;
   last_round_us_ = now_us;
   delivered_at_last_round_ = DeliveredKeyframes();
-  if (Status st = server_->RunCascades(); !st.ok()) return st;
-  auto plan = server_->Plan(params_.mode);
-  if (!plan.ok()) return plan.status();
-  round_pairs_ = plan->pairs;
-  round_active_ = true;
   round_keyframes_.assign(robots_.size(), 0);
+  std::vector<std::int64_t> sessions(robots_.size(), 0);
   for (int r = 0; r < static_cast<int>(robots_.size()); ++r) {
     round_keyframes_[static_cast<std::size_t>(r)] = static_cast<std::uint32_t>(DeliveredKeyframes(r));
+    sessions[static_cast<std::size_t>(r)] = robots_[static_cast<std::size_t>(r)].session;
   }
+  if (Status st = merge_round_.Begin(Span<const std::int64_t>(sessions), &round_requests_); !st.ok()) return st;
+  round_active_ = true;
   round_start_us_ = now_us;
-  pending_pairs_ = round_pairs_;
-  round_results_.clear();
-  widen_step_ = 0;
-  SendRequests(*plan, now_us, out);
+  // A round whose scans are all held (or whose robots all left) continues at the next Poll.
+  SendRequests(round_requests_, now_us, out);
   return Status::Ok();
 }
 
-std::size_t ServerLink::SendRequests(const ExchangePlan& plan, std::int64_t now_us, std::vector<ServerOutgoing>* out) {
+std::size_t ServerLink::SendRequests(const std::vector<ScanRequest>& requests, std::int64_t now_us,
+                                     std::vector<ServerOutgoing>* out) {
   std::size_t sent = 0;
-  for (const ScanRequest& planned : plan.requests) {
-    RobotState& r = robots_[static_cast<std::size_t>(planned.robot_id)];
+  for (const ScanRequest& planned : requests) {
     if (robot_left(planned.robot_id)) continue;  // it sends nothing any more: the round uses the scans held
-    ScanRequest request;
-    request.utime_us = now_us;
-    request.robot_id = planned.robot_id;
-    request.server_session = session_;
-    for (std::uint32_t k : planned.keyframes) {  // scans held from earlier rounds are not asked again
-      if (!server_->has_scan(planned.robot_id, k)) request.keyframes.push_back(k);
-    }
-    if (request.keyframes.empty()) continue;
-    request.request_id = next_request_id_++;
-    r.request = std::move(request);
+    RobotState& r = robots_[static_cast<std::size_t>(planned.robot_id)];
+    r.request = planned;
+    r.request.utime_us = now_us;
+    r.request.server_session = session_;
     r.request_complete = false;
     r.last_policy_us = now_us;
     ServerOutgoing o;
@@ -346,24 +306,7 @@ std::size_t ServerLink::SendRequests(const ExchangePlan& plan, std::int64_t now_
   return sent;
 }
 
-Status ServerLink::MergePairs(const std::vector<PairSelection>& pairs) {
-  for (const PairSelection& pair : pairs) {
-    auto merged = server_->MergePair(pair);
-    if (!merged.ok()) return merged.status();
-    auto it = std::find_if(round_results_.begin(), round_results_.end(), [&](const PairMergeResult& r) {
-      return r.alpha == pair.alpha && r.beta == pair.beta;
-    });
-    if (it == round_results_.end()) {
-      round_results_.push_back(std::move(*merged));
-    } else {
-      *it = std::move(*merged);
-    }
-  }
-  return Status::Ok();
-}
-
-Status ServerLink::FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
-  round_active_ = false;
+void ServerLink::WithdrawIncompleteRequests() {
   for (RobotState& r : robots_) {
     // A complete request stays (the status keeps saying so); an incomplete one is withdrawn, so the robot stops
     // sending once its status shows no request.
@@ -372,78 +315,39 @@ Status ServerLink::FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>*
       r.request.request_id = -1;
     }
   }
-  if (Status st = MergePairs(pending_pairs_); !st.ok()) return st;
-  pending_pairs_.clear();
-  // Widening: pairs that registration refused ask for more of stage A's scans and are registered again.
-  while (widen_step_ < server_->params().max_widen_steps) {
-    ExchangePlan current;
-    current.mode = params_.mode;
-    current.pairs = round_pairs_;
-    auto wider = server_->WidenPlan(current, Span<const PairMergeResult>(round_results_), next_request_id_);
-    if (!wider.ok()) return wider.status();
-    if (wider->pairs.empty()) break;
-    ++widen_step_;
-    stats_.widened_pairs += wider->pairs.size();
-    AdoptSelections(Span<const PairSelection>(wider->pairs), &round_pairs_);
-    if (SendRequests(*wider, now_us, out) > 0) {  // wait for the extra scans, then register these pairs again
-      pending_pairs_ = wider->pairs;
+}
+
+Status ServerLink::ContinueRound(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
+  round_active_ = false;
+  WithdrawIncompleteRequests();
+  while (true) {
+    auto done = merge_round_.Continue(&round_requests_);
+    stats_.widened_pairs = merge_round_.widened_selections();
+    if (!done.ok()) return done.status();
+    if (*done) break;
+    if (SendRequests(round_requests_, now_us, out) > 0) {  // wait for the extra scans
       round_active_ = true;
       round_start_us_ = now_us;
       return Status::Ok();
     }
-    if (Status st = MergePairs(wider->pairs); !st.ok()) return st;  // every scan is held already
   }
-  std::vector<PairMergeResult> results = std::move(round_results_);
-  round_results_.clear();
-  std::vector<std::int64_t> sessions(robots_.size(), 0);
-  for (std::size_t r = 0; r < robots_.size(); ++r) sessions[r] = robots_[r].session;
-  KeepVerifiedPairs(round_ + 1, Span<const std::int64_t>(sessions), &verified_pairs_, &results);
-  auto frames = server_->SolveFrames(Span<const PairMergeResult>(results));
-  if (!frames.ok()) return frames.status();
+  const MergeRoundResult& round = merge_round_.result();
+  if (!round.frames_ok) return InvalidArgument("frame solver: " + round.frames_error);
   ++round_;
   ++stats_.rounds_merged;
-  MergeResultMessage m;
-  m.utime_us = now_us;
-  m.server_session = session_;
-  m.round = round_;
+  std::vector<int> ids;
+  std::vector<std::uint32_t> keyframes;
   for (int r = 0; r < server_->max_robots(); ++r) {
-    if (robots_[static_cast<std::size_t>(r)].session == 0 || static_cast<std::size_t>(r) >= frames->robots.size()) {
-      continue;
-    }
-    const RobotFrame& f = frames->robots[static_cast<std::size_t>(r)];
-    m.robot_ids.push_back(r);
-    m.in_world.push_back(f.connected_to_robot0 ? 1 : 0);
-    m.T_world_map.push_back(f.connected_to_robot0 ? f.T_world_robot : Eigen::Isometry3d::Identity());
-    m.keyframes.push_back(static_cast<std::size_t>(r) < round_keyframes_.size() ? round_keyframes_[static_cast<std::size_t>(r)] : 0);
+    if (robots_[static_cast<std::size_t>(r)].session == 0) continue;
+    ids.push_back(r);
+    keyframes.push_back(static_cast<std::size_t>(r) < round_keyframes_.size() ? round_keyframes_[static_cast<std::size_t>(r)] : 0);
   }
-  std::size_t measurement = 0;  // SolveFrames numbers the successful pairs in order
-  for (const PairMergeResult& p : results) {
-    MergePairOutcome o;
-    o.alpha = p.alpha;
-    o.beta = p.beta;
-    o.success = p.attempted && p.registration.success();
-    o.verdict = !p.attempted || p.kept_from_round > 0 ? p.reason : RegistrationVerdictName(p.registration.verdict);
-    o.T_alpha_beta = o.success ? p.registration.T_target_source : Eigen::Isometry3d::Identity();
-    o.alpha_scans = static_cast<std::uint32_t>(p.alpha_scans);
-    o.beta_scans = static_cast<std::uint32_t>(p.beta_scans);
-    o.overlap = static_cast<float>(p.registration.overlap_ratio);
-    o.inliers = static_cast<std::uint32_t>(p.registration.num_fine_inliers);
-    if (const ExchangeCascadeResult* c = server_->cascade(p.alpha, p.beta)) {
-      o.loops_stage_a = static_cast<std::uint32_t>(c->stage_a.cells.size());
-      o.loops_stage_c = static_cast<std::uint32_t>(c->stage_c.selected_loops.size());
-    }
-    if (o.success && measurement < frames->measurements.size()) {
-      o.consistent = frames->measurements[measurement].verdict != MeasurementVerdict::kRejected;
-      ++measurement;
-    }
-    m.pairs.push_back(std::move(o));
-  }
-  last_result_ = m;
-  last_pairs_ = std::move(results);
-  last_frames_ = std::move(*frames);
+  last_result_ = MakeMergeResultMessage(round, *server_, Span<const int>(ids), Span<const std::uint32_t>(keyframes),
+                                        session_, now_us);
+  last_result_.round = round_;
   ServerOutgoing o;
   o.kind = ServerOutgoing::Kind::kMergeResult;
-  o.result = std::move(m);
+  o.result = last_result_;
   out->push_back(std::move(o));
   return Status::Ok();
 }
@@ -467,7 +371,7 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
     const bool timed_out = Elapsed(round_start_us_, now_us, params_.request_timeout_s);
     if (complete || timed_out) {
       if (!complete) ++stats_.rounds_timed_out;
-      if (Status st = FinishRound(now_us, out); !st.ok()) return st;
+      if (Status st = ContinueRound(now_us, out); !st.ok()) return st;
     }
   } else {
     // Counting the delivered keyframes walks every database: only when a round could start.

@@ -7,13 +7,12 @@
 //   * Every status_interval_s each robot with a session gets a TransferStatus: which keyframes the server holds
 //     (contiguous prefix + gaps), the pose-update sequences it received, and for the robot's active scan request
 //     the chunks it still misses. The robot re-announces and retransmits from it (RobotLink).
-//   * Rounds: when enough keyframes arrived (or the robots went quiet with new data), the server runs the
-//     cascade for every pair, asks each robot for the scans it does not hold yet (its exchange policy,
-//     repeated every policy_repeat_s until the scans are complete), and when every request is complete, or after
-//     request_timeout_s, registers every pair. A pair that registration refused is widened (MergeServer::WidenPlan,
-//     at most max_widen_steps times): the server asks for the extra scans, waits for them as above (a fresh
-//     request_timeout_s), and registers that pair again. Then it solves the robot frames and emits a
-//     MergeResultMessage.
+//   * Rounds: when enough keyframes arrived (or the robots went quiet with new data), the server begins a
+//     MergeRound (core/agent/merge_round.hpp: cascade, plan, registration, widening, frames) and sends each robot
+//     the round's scan request (its exchange policy, repeated every policy_repeat_s until the scans are complete).
+//     When every request is complete, or after request_timeout_s, the round continues; when widening asks for
+//     more scans, they are requested and waited for the same way (a fresh request_timeout_s). A finished round
+//     is emitted as a MergeResultMessage.
 //   * Chunks must belong to the robot's active request; others (stale retransmissions, a previous server's
 //     requests) are refused and counted.
 #pragma once
@@ -24,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "core/agent/merge_round.hpp"
 #include "core/agent/merge_server.hpp"
 #include "core/agent/messages.hpp"
 #include "core/common/span.hpp"
@@ -71,24 +71,6 @@ struct ServerLinkStats {
   std::string last_rejection;
 };
 
-/// A pair registration a round verified, with the robot sessions it holds for.
-struct VerifiedPair {
-  PairMergeResult result;
-  int round = 0;
-  std::int64_t alpha_session = 0, beta_session = 0;
-};
-
-/// Keeps what earlier rounds verified when a later round lacks the data to judge. For each of this round's
-/// `results` (round number `round`; sessions[r] = robot r's current session): a success is recorded in *verified
-/// (replacing that pair's earlier one). A pair this round did not register, with selected scans missing
-/// (alpha_missing or beta_missing > 0: a robot left, or its scans did not arrive before request_timeout_s), gets
-/// back the result *verified holds for the same two sessions, marked kept_from_round, its reason naming this
-/// round's cause. The frame between two robot maps does not change when they grow, so a verified transform stays
-/// valid; a restarted robot (new session, new map frame) invalidates it. A pair registered with every selected
-/// scan and refused, or with nothing selected, is left as it is.
-void KeepVerifiedPairs(int round, Span<const std::int64_t> sessions, std::vector<VerifiedPair>* verified,
-                       std::vector<PairMergeResult>* results);
-
 class ServerLink {
  public:
   /// `server` is not owned. `session` > 0 (e.g. the process start time in us).
@@ -128,9 +110,10 @@ class ServerLink {
   void AppendRobotStatus(ServerStatus* status) const;
   /// The last merge result (round 0 = none yet).
   const MergeResultMessage& last_result() const noexcept { return last_result_; }
-  /// The pairwise results and frames behind last_result().
-  const std::vector<PairMergeResult>& last_pairs() const noexcept { return last_pairs_; }
-  const FrameSolution& last_frames() const noexcept { return last_frames_; }
+  /// The round behind last_result(): selections, pairwise results, frames.
+  const MergeRoundResult& last_round() const noexcept { return merge_round_.result(); }
+  const std::vector<PairMergeResult>& last_pairs() const noexcept { return merge_round_.result().pairs; }
+  const FrameSolution& last_frames() const noexcept { return merge_round_.result().frames; }
   const ServerLinkStats& stats() const noexcept { return stats_; }
   /// "collecting", "waiting for scans (n chunks)", "merged k/n robots".
   std::string state() const;
@@ -151,11 +134,13 @@ class ServerLink {
   Status Refuse(Status status);
   bool RequestComplete(int robot) const;
   Status StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
-  Status FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
-  /// Registers `pairs` and keeps the results in round_results_ (a pair registered before is replaced).
-  Status MergePairs(const std::vector<PairSelection>& pairs);
-  /// Sends the scan requests of `plan` for the keyframes not held yet; returns how many it sent.
-  std::size_t SendRequests(const ExchangePlan& plan, std::int64_t now_us, std::vector<ServerOutgoing>* out);
+  /// Continues the round until it waits for scans it asked for, or is finished (then emits the result).
+  Status ContinueRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
+  /// Withdraws the robots' incomplete requests (the robot stops sending once its status shows no request).
+  void WithdrawIncompleteRequests();
+  /// Sends `requests` (not to robots that left); returns how many it sent.
+  std::size_t SendRequests(const std::vector<ScanRequest>& requests, std::int64_t now_us,
+                           std::vector<ServerOutgoing>* out);
   /// Keyframes delivered by every robot, or by `only_robot` alone.
   std::size_t DeliveredKeyframes(int only_robot = -1) const;
 
@@ -164,20 +149,14 @@ class ServerLink {
   Status params_status_;
   MergeServer* server_;
   std::vector<RobotState> robots_;
-  std::int32_t next_request_id_ = 1;
+  MergeRound merge_round_;
+  std::vector<ScanRequest> round_requests_;
   bool round_active_ = false, round_requested_ = false;
   std::int64_t round_start_us_ = -1, last_round_us_ = -1, last_message_us_ = -1, last_round_check_us_ = -1;
   std::size_t delivered_at_last_round_ = 0;
-  std::vector<PairSelection> round_pairs_;    ///< every pair's current selection (widened ones replaced)
-  std::vector<PairSelection> pending_pairs_;  ///< to register when the active requests complete
-  std::vector<PairMergeResult> round_results_;
-  int widen_step_ = 0;
   std::vector<std::uint32_t> round_keyframes_;  ///< per robot: delivered keyframes when the round started
   int round_ = 0;
   MergeResultMessage last_result_;
-  std::vector<PairMergeResult> last_pairs_;
-  std::vector<VerifiedPair> verified_pairs_;  ///< per robot pair: the last verified registration
-  FrameSolution last_frames_;
   ServerLinkStats stats_;
 };
 

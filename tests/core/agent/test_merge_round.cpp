@@ -1,0 +1,328 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The merge round (core/agent/merge_round.hpp) on a MergeServer without a network: its requests are the plan's
+// scans the server lacks; every pair is registered with its selection exactly as MergeServer::MergePair does;
+// refused pairs are widened by the brute-force rule until nothing is left; a pair verified in an earlier round is
+// kept while its scans are missing (not after a restart); and ServerLink, which drives the same round over
+// messages, emits the merge result the direct round makes.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <iterator>
+#include <memory>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include "core/agent/merge_round.hpp"
+#include "core/agent/merge_server.hpp"
+#include "core/agent/server_link.hpp"
+#include "core/cloud/scan_codec.hpp"
+#include "tests/core/agent/keyframe_batch_fixtures.hpp"
+#include "tests/core/agent/scan_chunk_fixtures.hpp"
+#include "tests/core/registration/registration_test_support.hpp"
+
+using namespace commerge;
+using commerge::test::ChunksOf;
+using commerge::test::EncodeForTest;
+using commerge::test::LatticePoints;
+using commerge::test::MakeBatch;
+using commerge::test::RandomDescriptor;
+using commerge::test::ShiftedPairBatches;
+
+namespace {
+
+constexpr int kN = 40, kShift = 5;
+
+// Robots 0 and 1 whose descriptors repeat with a shift (stage A finds the diagonal), stage A's tau_area 100.
+std::unique_ptr<MergeServer> ShiftedServer(int max_widen_steps) {
+  MergeServerParams params;
+  params.cascade.stage_a.tau_area = 100;
+  params.max_widen_steps = max_widen_steps;
+  auto server = std::make_unique<MergeServer>(2, 100, params);
+  for (const KeyframeBatch& b : ShiftedPairBatches(kN, kShift)) REQUIRE(server->OnKeyframeBatch(b).ok());
+  return server;
+}
+
+// Answers `requests` with scans of 2 points each: too few to register, so registration refuses the pair.
+void AnswerTiny(MergeServer* server, const std::vector<ScanRequest>& requests) {
+  for (const ScanRequest& q : requests) {
+    for (std::uint32_t k : q.keyframes) {
+      for (const ScanChunk& c : ChunksOf(q.robot_id, k, EncodeForTest(LatticePoints(2)))) {
+        REQUIRE(server->OnScanChunk(c).ok());
+      }
+    }
+  }
+}
+
+// The reference widening (as in test_merge_server.cpp): `selected` plus the keyframes of `pool` nearest in index to
+// any of `selected` (ties: the lower index) until there are `target`, by brute force.
+std::vector<std::uint32_t> BruteForceWiden(const std::vector<std::uint32_t>& selected,
+                                           const std::vector<std::uint32_t>& pool, std::size_t target) {
+  std::vector<std::pair<long, std::uint32_t>> ranked;
+  for (std::uint32_t k : pool) {
+    if (std::find(selected.begin(), selected.end(), k) != selected.end()) continue;
+    long d = 1L << 40;
+    for (std::uint32_t s : selected) d = std::min(d, std::labs(static_cast<long>(k) - static_cast<long>(s)));
+    ranked.emplace_back(d, k);
+  }
+  std::sort(ranked.begin(), ranked.end());
+  std::vector<std::uint32_t> out = selected;
+  for (std::size_t i = 0; i < ranked.size() && out.size() < target; ++i) out.push_back(ranked[i].second);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<std::uint32_t> Minus(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
+  std::vector<std::uint32_t> out;
+  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
+  return out;
+}
+
+const std::vector<std::int64_t> kSessions = {1, 1};
+
+}  // namespace
+
+TEST_CASE("Merge round: its requests are the plan's scans the server lacks, and each pair is registered as MergePair does") {
+  for (ExchangeMode mode : {ExchangeMode::kStageA, ExchangeMode::kStageAB, ExchangeMode::kStageAC, ExchangeMode::kStageABC}) {
+    CAPTURE(ExchangeModeName(mode));
+    std::unique_ptr<MergeServer> server = ShiftedServer(0);
+    REQUIRE(server->RunCascades().ok());
+    auto plan = server->Plan(mode);
+    REQUIRE(plan.ok());
+    REQUIRE(plan->requests.size() == 2);
+    // One scan of the plan is held already: it is not asked for again.
+    const std::uint32_t held = plan->requests[0].keyframes.front();
+    AnswerTiny(server.get(), {ScanRequest{0, 0, 0, 0, {held}}});
+
+    MergeRound round(server.get(), MergeRoundParams{mode, /*run_cascades=*/true});
+    std::vector<ScanRequest> requests;
+    REQUIRE(round.Begin(Span<const std::int64_t>(kSessions), &requests).ok());
+    CHECK(round.active());
+    REQUIRE(requests.size() == 2);
+    CHECK(requests[0].robot_id == 0);
+    CHECK(requests[0].request_id == 1);
+    CHECK(requests[0].keyframes == Minus(plan->requests[0].keyframes, {held}));
+    CHECK(requests[1].robot_id == 1);
+    CHECK(requests[1].request_id == 2);
+    CHECK(requests[1].keyframes == plan->requests[1].keyframes);
+    AnswerTiny(server.get(), requests);
+
+    auto done = round.Continue(&requests);
+    REQUIRE(done.ok());
+    CHECK(*done);
+    CHECK(requests.empty());
+    CHECK_FALSE(round.active());
+    const MergeRoundResult& r = round.result();
+    CHECK(r.round == 1);
+    REQUIRE(r.pairs.size() == 1);
+    auto direct = server->MergePair(plan->pairs[0]);
+    REQUIRE(direct.ok());
+    CHECK(r.pairs[0].attempted == direct->attempted);
+    CHECK(r.pairs[0].reason == direct->reason);
+    CHECK(r.pairs[0].alpha_scans == direct->alpha_scans);
+    CHECK(r.pairs[0].beta_scans == direct->beta_scans);
+    CHECK(r.pairs[0].alpha_scans == plan->pairs[0].alpha_keyframes.size());
+    CHECK(r.pairs[0].registration.verdict == direct->registration.verdict);
+    CHECK_FALSE(r.pairs[0].registration.success());
+    CHECK(r.widenings == std::vector<int>{0});
+    REQUIRE(r.plan.pairs.size() == 1);
+    CHECK(r.plan.pairs[0].alpha_keyframes == plan->pairs[0].alpha_keyframes);
+    CHECK(r.plan.requests.size() == 2);
+    REQUIRE(r.frames_ok);
+    CHECK(r.in_world(0));
+    CHECK_FALSE(r.in_world(1));
+    CHECK(r.T_world_map(1).isApprox(Eigen::Isometry3d::Identity()));
+  }
+}
+
+TEST_CASE("Merge round: a refused pair is widened by the brute-force rule, max_widen_steps times at most") {
+  std::vector<std::uint32_t> pool_a, pool_b;  // L_seq's endpoints
+  for (int i = kShift; i < kN; ++i) pool_a.push_back(static_cast<std::uint32_t>(i));
+  for (int j = 0; j + kShift < kN; ++j) pool_b.push_back(static_cast<std::uint32_t>(j));
+  for (int steps : {0, 1, 2, 8}) {
+    CAPTURE(steps);
+    std::unique_ptr<MergeServer> server = ShiftedServer(steps);
+    MergeRound round(server.get(), MergeRoundParams{});
+    std::vector<ScanRequest> requests;
+    REQUIRE(round.Begin(Span<const std::int64_t>(kSessions), &requests).ok());
+    REQUIRE(requests.size() == 2);
+    std::vector<std::uint32_t> selected_a = requests[0].keyframes, selected_b = requests[1].keyframes;
+    int widened = 0;
+    while (true) {
+      AnswerTiny(server.get(), requests);
+      auto done = round.Continue(&requests);
+      REQUIRE(done.ok());
+      if (*done) break;
+      ++widened;
+      REQUIRE(widened <= steps);
+      const std::vector<std::uint32_t> wider_a = BruteForceWiden(selected_a, pool_a, 2 * selected_a.size());
+      const std::vector<std::uint32_t> wider_b = BruteForceWiden(selected_b, pool_b, 2 * selected_b.size());
+      REQUIRE(requests.size() == 2);
+      CHECK(requests[0].keyframes == Minus(wider_a, selected_a));
+      CHECK(requests[1].keyframes == Minus(wider_b, selected_b));
+      CHECK(round.widened_selections() == static_cast<std::uint64_t>(widened));
+      selected_a = wider_a;
+      selected_b = wider_b;
+    }
+    // Stage A's loops hold 35 keyframes per robot: the selection can double a few times only.
+    const bool used_up = selected_a == pool_a && selected_b == pool_b;
+    CHECK((widened == steps || used_up));
+    const MergeRoundResult& r = round.result();
+    REQUIRE(r.pairs.size() == 1);
+    CHECK(r.widenings[0] == widened);
+    CHECK(r.pairs[0].alpha_scans == selected_a.size());
+    CHECK(r.pairs[0].beta_scans == selected_b.size());
+    CHECK(r.plan.pairs[0].alpha_keyframes == selected_a);
+    std::size_t asked = 0;
+    for (const ScanRequest& q : r.plan.requests) asked += q.keyframes.size();
+    CHECK(asked == selected_a.size() + selected_b.size());
+  }
+}
+
+TEST_CASE("Merge round: Continue before Begin is an error") {
+  std::unique_ptr<MergeServer> server = ShiftedServer(0);
+  MergeRound round(server.get(), MergeRoundParams{});
+  std::vector<ScanRequest> requests;
+  CHECK_FALSE(round.Continue(&requests).ok());
+}
+
+TEST_CASE("Merge round: a pair verified in an earlier round is kept while its scans are missing, not after a restart") {
+  SyntheticSubmapPair pair;
+  REQUIRE(MakeStreetSubmapPair(test::LightStreetSpec(41, test::YawOffset(70.0, 12.0, -6.0, 0.3)), &pair).ok());
+  // Robot 0's keyframe 3 and robot 1's keyframe 0 share a descriptor (stage A's only loop) and hold the two
+  // submaps: the cascade asks for exactly them and registration recovers the true transform.
+  MergeServerParams params;
+  params.cascade.stage_a.tau_area = 1;
+  MergeServer server(2, 100, params);
+  std::mt19937 rng(3);
+  std::vector<std::array<float, kKeyframeDescriptorDim>> d4 = {RandomDescriptor(&rng), RandomDescriptor(&rng),
+                                                               RandomDescriptor(&rng), RandomDescriptor(&rng)};
+  std::vector<Eigen::Vector3d> p4(4, Eigen::Vector3d::Zero());
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(0, 0, d4, p4, 0)).ok());
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(1, 0, {d4[3]}, {Eigen::Vector3d::Zero()}, 0)).ok());
+  const auto deliver = [&](const std::vector<ScanRequest>& requests) {
+    for (const ScanRequest& q : requests) {
+      for (std::uint32_t k : q.keyframes) {
+        const bool target = q.robot_id == 0;
+        REQUIRE(k == (target ? 3u : 0u));
+        for (const ScanChunk& c : ChunksOf(q.robot_id, k, EncodeForTest(target ? pair.target.points : pair.source.points), 1200)) {
+          REQUIRE(server.OnScanChunk(c).ok());
+        }
+      }
+    }
+  };
+  MergeRound round(&server, MergeRoundParams{});
+  std::vector<ScanRequest> requests;
+  std::vector<std::int64_t> sessions = {10, 20};
+  REQUIRE(round.Begin(Span<const std::int64_t>(sessions), &requests).ok());
+  deliver(requests);
+  auto done = round.Continue(&requests);
+  REQUIRE(done.ok());
+  REQUIRE(*done);
+  REQUIRE(round.result().pairs.size() == 1);
+  REQUIRE(round.result().pairs[0].registration.success());
+  CHECK(round.result().in_world(1));
+  CHECK(test::TranslationErrorM(pair.T_target_source, round.result().T_world_map(1)) < 0.2);
+  CHECK(round.verified_pairs().size() == 1);
+
+  // Round 2: the scans are gone and nobody sends them: the round keeps round 1's registration.
+  server.ClearScans();
+  REQUIRE(round.Begin(Span<const std::int64_t>(sessions), &requests).ok());
+  CHECK(requests.size() == 2);
+  done = round.Continue(&requests);
+  REQUIRE(done.ok());
+  REQUIRE(*done);
+  const MergeRoundResult r2 = round.result();  // a copy: round 3 replaces result()
+  CHECK(r2.round == 2);
+  CHECK(r2.pairs[0].kept_from_round == 1);
+  CHECK(r2.pairs[0].registration.success());
+  CHECK(r2.in_world(1));
+  CHECK(r2.T_world_map(1).isApprox(round.verified_pairs()[0].result.registration.T_target_source));
+
+  // Round 3: robot 1 restarted (a new session, a new map frame): the old registration no longer holds.
+  sessions[1] = 21;
+  REQUIRE(round.Begin(Span<const std::int64_t>(sessions), &requests).ok());
+  done = round.Continue(&requests);
+  REQUIRE(done.ok());
+  REQUIRE(*done);
+  CHECK(round.result().pairs[0].kept_from_round == 0);
+  CHECK_FALSE(round.result().pairs[0].registration.success());
+  CHECK_FALSE(round.result().in_world(1));
+
+  // The merge result message says what the round found, robot by robot and pair by pair.
+  const MergeResultMessage m = MakeMergeResultMessage(r2, server, Span<const int>(std::vector<int>{0, 1}),
+                                                      Span<const std::uint32_t>(std::vector<std::uint32_t>{4, 1}), 77, 5);
+  CHECK(m.server_session == 77);
+  CHECK(m.utime_us == 5);
+  CHECK(m.round == 2);
+  CHECK(m.robot_ids == std::vector<int>{0, 1});
+  CHECK(m.in_world == std::vector<std::uint8_t>{1, 1});
+  CHECK(m.keyframes == std::vector<std::uint32_t>{4, 1});
+  REQUIRE(m.pairs.size() == 1);
+  CHECK(m.pairs[0].success);
+  CHECK(m.pairs[0].consistent);
+  CHECK(m.pairs[0].verdict.find("kept from round 1") != std::string::npos);
+  CHECK(m.pairs[0].loops_stage_a == 1);
+  CHECK(m.T_world_map[1].isApprox(r2.T_world_map(1)));
+}
+
+TEST_CASE("Server link emits the merge result the direct round makes on the same data") {
+  for (int steps : {0, 2}) {
+    CAPTURE(steps);
+    // Direct: the round driven by calls, as commerge run does.
+    std::unique_ptr<MergeServer> direct_server = ShiftedServer(steps);
+    MergeRound round(direct_server.get(), MergeRoundParams{});
+    std::vector<ScanRequest> requests;
+    const std::vector<std::int64_t> sessions = {1000, 1001};  // ShiftedPairBatches' sessions
+    REQUIRE(round.Begin(Span<const std::int64_t>(sessions), &requests).ok());
+    for (bool done = false; !done;) {
+      AnswerTiny(direct_server.get(), requests);
+      auto next = round.Continue(&requests);
+      REQUIRE(next.ok());
+      done = *next;
+    }
+    const MergeResultMessage direct =
+        MakeMergeResultMessage(round.result(), *direct_server, Span<const int>(std::vector<int>{0, 1}),
+                               Span<const std::uint32_t>(std::vector<std::uint32_t>{kN, kN}), 500, 0);
+
+    // Over messages, as commerge server does.
+    MergeServerParams mp;
+    mp.cascade.stage_a.tau_area = 100;
+    mp.max_widen_steps = steps;
+    MergeServer server(2, 100, mp);
+    ServerLinkParams lp;
+    lp.automatic_rounds = false;
+    ServerLink link(500, lp, &server);
+    std::int64_t now = 1000000;
+    for (const KeyframeBatch& b : ShiftedPairBatches(kN, kShift, 1000)) REQUIRE(link.OnKeyframeBatch(b, now).ok());
+    link.RequestRound();
+    const MergeResultMessage* result = nullptr;
+    std::vector<ServerOutgoing> out;
+    for (int poll = 0; poll < 20 && result == nullptr; ++poll, now += 100000) {
+      out.clear();
+      REQUIRE(link.Poll(now, &out).ok());
+      for (const ServerOutgoing& o : out) {
+        if (o.kind == ServerOutgoing::Kind::kMergeResult) result = &o.result;
+        if (o.kind != ServerOutgoing::Kind::kScanRequest) continue;
+        for (std::uint32_t k : o.request.keyframes) {
+          for (ScanChunk c : ChunksOf(o.request.robot_id, k, EncodeForTest(LatticePoints(2)))) {
+            c.request_id = o.request.request_id;
+            (void)link.OnScanChunk(c, now);  // repeated requests: duplicates are fine
+          }
+        }
+      }
+    }
+    REQUIRE(result != nullptr);
+    CHECK(result->robot_ids == direct.robot_ids);
+    CHECK(result->in_world == direct.in_world);
+    CHECK(result->keyframes == direct.keyframes);
+    REQUIRE(result->pairs.size() == direct.pairs.size());
+    CHECK(result->pairs[0].verdict == direct.pairs[0].verdict);
+    CHECK(result->pairs[0].alpha_scans == direct.pairs[0].alpha_scans);
+    CHECK(result->pairs[0].beta_scans == direct.pairs[0].beta_scans);
+    CHECK(result->pairs[0].loops_stage_a == direct.pairs[0].loops_stage_a);
+    CHECK(result->pairs[0].loops_stage_c == direct.pairs[0].loops_stage_c);
+    CHECK(link.last_round().widenings == round.result().widenings);
+  }
+}
