@@ -7,7 +7,6 @@
 #include <optional>
 
 #include "core/common/bytes.hpp"
-#include "core/exchange/sequence_smoothing.hpp"
 #include "platform/memory/allocator.hpp"
 #include "platform/memory/budget_check.hpp"
 #include "platform/memory/memory_limits.hpp"
@@ -115,19 +114,9 @@ void AddSolidMinZFlag(CLI::App* cmd, double* min_z_m) {
   cmd->add_option("--solid-min-z-m", *min_z_m,
                   "leave points below this z of the sensor frame out of the SOLiD descriptor (our extension; "
                   "default: off, every point as the paper). About -0.5 on a sensor 1.8 m up drops the ground, "
-                  "whose rings move with roll and pitch; raise --tau-inter with it on the server (0.2 in the "
-                  "README's table). Every robot of a team needs the same value")
+                  "whose rings move with roll and pitch; raise --tau-inter with it on the server (see core/README.md, "
+                  "\"SOLiD without the ground\"). Every robot of a team needs the same value")
       ->check(CLI::Range(-1000.0, 1000.0));
-}
-
-void AddSequenceHalfWindowFlag(CLI::App* cmd, std::size_t* half_window) {
-  cmd->add_option("--sequence-half-window", *half_window,
-                  "stage A thresholds the mean descriptor distance along 2w+1 keyframes of the diagonal or "
-                  "anti-diagonal through each cell instead of the cell alone (sequence matching as in SeqSLAM; "
-                  "our extension). Bridges single keyframes that jump above --tau-inter in corridors; 0 = the "
-                  "paper's per-cell threshold (README \"Server cascade\")")
-      ->check(CLI::Range(std::size_t{0}, kMaxSequenceHalfWindow))
-      ->capture_default_str();
 }
 
 Result<SolidParams> SolidParamsFromFlags(const std::string& lidar, double min_z_m) {

@@ -44,8 +44,6 @@ void AddMemoryFlags(CLI::App* cmd, MemoryFlags* flags);
 /// --solid-min-z-m for the subcommands that compute descriptors (robot, run): SolidParams::min_z_m, off
 /// (-infinity) unless given.
 void AddSolidMinZFlag(CLI::App* cmd, double* min_z_m);
-/// --sequence-half-window of commerge run and commerge server (stage A's SequentialMatchParams).
-void AddSequenceHalfWindowFlag(CLI::App* cmd, std::size_t* half_window);
 /// The SOLiD preset named by --lidar with --solid-min-z-m applied, validated. Errors name the flag and value.
 Result<SolidParams> SolidParamsFromFlags(const std::string& lidar, double min_z_m);
 /// "every point" or "points below z -0.5 m left out", for banners and reports.

@@ -73,388 +73,465 @@ struct Inbox {
   std::string last_rejection;
 };
 
-int RunRobot(const RobotOptions& o) {
-  const char* tag = "commerge robot";
-  MemorySetup setup;
-  if (int rc = SetUpMemory(AppKind::kRobot, o.memory, &setup, false); rc != kExitOk) return rc;
-  if (o.live == !o.data.empty()) {
-    std::fprintf(stderr, "%s: give exactly one input: --data DIR (replay) or --live (odometry stack on LCM)\n", tag);
+// The robot process: configuration, the transport-free robot (RobotAgent + RobotLink), its input (a replayed
+// dataset or the live odometry stack) and the LCM bus; Run() is its loop.
+class RobotProcess {
+ public:
+  explicit RobotProcess(const RobotOptions& o) : o_(o), bucket_(o.bandwidth_kbps * 1000.0 / 8.0, 16384.0) {}
+  /// Flags, memory budget, input, descriptor, agent, authentication; kExitOk when Run may follow (also after
+  /// --check: see checked()).
+  int Configure();
+  bool checked() const { return o_.auth.check; }
+  int Run();
+
+ private:
+  int OpenBuses();
+  void SayStart() const;
+  bool MapScan(Span<const PointXYZI> points, const Eigen::Isometry3d& T_odom_sensor, const char* what);
+  bool FinishInput(std::int64_t now);
+  /// Replay: the next scan of the dataset when it is due. False on a fatal error.
+  bool ReplayInput(std::int64_t now);
+  /// Live: decodes the odometry stack's messages and maps the scans synchronised so far. False on a fatal error.
+  bool LiveInput(std::int64_t now);
+  /// The server's messages: policies, transfer statuses, merge results.
+  void HandleServerMessages(std::int64_t wall);
+  /// Publishes what the link has to send while the bandwidth allows. False on a fatal error.
+  bool SendOutgoing(std::int64_t now, std::int64_t wall);
+  void PublishStatus(std::int64_t wall, bool done);
+  int Finish(bool merged);
+  void PrintLiveInputSummary() const;
+
+  static constexpr const char* kTag = "commerge robot";
+  const RobotOptions& o_;
+  MemorySetup setup_;
+  SolidParams solid_params_;
+  platform::RobotDataset data_;
+  std::unique_ptr<SolidDescriptor> solid_;
+  std::unique_ptr<ScanStore> store_;
+  std::unique_ptr<RobotAgent> agent_;
+  std::unique_ptr<RobotLink> link_;
+  std::int64_t session_ = 0;
+  platform::LcmBusParams bus_params_;
+  std::unique_ptr<platform::LcmBus> bus_;
+  // Live input: its own bus (the odometry stack's URL on this board), decoder and time synchronisation.
+  std::unique_ptr<ScanOdometrySync> sync_;
+  std::unique_ptr<platform::LcmBus> input_;
+  platform::LidarScanDecoder scan_decoder_;
+  LidarScan scan_in_;
+  std::uint64_t input_rejected_ = 0, nonfinite_points_ = 0, scans_after_end_ = 0;
+  std::string last_input_rejection_;
+  Inbox inbox_;
+  TokenBucket bucket_;  ///< --bandwidth-kbps
+  std::int64_t bytes_sent_ = 0, bytes_resent_ = 0, publish_failures_ = 0;
+  // The map frame is the first scan's sensor frame: poses are relative to the first odometry pose.
+  Eigen::Isometry3d T_first_inv_ = Eigen::Isometry3d::Identity();
+  bool have_first_ = false;
+  std::int64_t last_scan_us_ = -1, next_scan_us_ = 0, data_end_us_ = -1;
+  std::size_t scan_ = 0;
+  // The server session whose merge result placed this robot (0: none yet). Kept once set: a duplicated or late
+  // copy of an earlier result must not undo it; a new server session (a restarted server) starts over.
+  std::int64_t merged_session_ = 0;
+  std::vector<std::uint8_t> buffer_;
+  platform::BusMessage message_;
+};
+
+int RobotProcess::Configure() {
+  if (int rc = SetUpMemory(AppKind::kRobot, o_.memory, &setup_, false); rc != kExitOk) return rc;
+  if (o_.live == !o_.data.empty()) {
+    std::fprintf(stderr, "%s: give exactly one input: --data DIR (replay) or --live (odometry stack on LCM)\n", kTag);
     return kExitUsage;
   }
-  auto solid_params = SolidParamsFromFlags(o.lidar, o.solid_min_z_m);
+  auto solid_params = SolidParamsFromFlags(o_.lidar, o_.solid_min_z_m);
   if (!solid_params.ok()) {
-    std::fprintf(stderr, "%s: %s\n", tag, solid_params.status().message().c_str());
+    std::fprintf(stderr, "%s: %s\n", kTag, solid_params.status().message().c_str());
     return kExitUsage;
   }
-  platform::RobotDataset data;
-  if (!o.live) {
-    auto spec = platform::ParseRobotDatasetSpec(o.data);
+  solid_params_ = *solid_params;
+  if (!o_.live) {
+    auto spec = platform::ParseRobotDatasetSpec(o_.data);
     if (!spec.ok()) {
-      std::fprintf(stderr, "%s: %s\n", tag, spec.status().message().c_str());
+      std::fprintf(stderr, "%s: %s\n", kTag, spec.status().message().c_str());
       return kExitUsage;
     }
     auto opened = platform::OpenRobotDataset(*spec, /*gt_from_poses=*/true);
     if (!opened.ok()) {
-      std::fprintf(stderr, "%s: %s\n", tag, opened.status().message().c_str());
+      std::fprintf(stderr, "%s: %s\n", kTag, opened.status().message().c_str());
       return kExitFailure;
     }
-    data = std::move(*opened);
+    data_ = std::move(*opened);
   }
-  auto solid = SolidDescriptor::Create(*solid_params);
-  auto store_params = ScanStoreParamsFromBudget(setup.config, ScanStorePolicy::kEvictOldest);
+  auto solid = SolidDescriptor::Create(solid_params_);
+  auto store_params = ScanStoreParamsFromBudget(setup_.config, ScanStorePolicy::kEvictOldest);
   if (!solid.ok() || !store_params.ok()) {
-    std::fprintf(stderr, "%s: %s\n", tag, (!solid.ok() ? solid.status() : store_params.status()).message().c_str());
+    std::fprintf(stderr, "%s: %s\n", kTag, (!solid.ok() ? solid.status() : store_params.status()).message().c_str());
     return kExitFailure;
   }
+  solid_ = std::make_unique<SolidDescriptor>(std::move(*solid));
   auto store = ScanStore::Create(*store_params);
   if (!store.ok()) {
-    std::fprintf(stderr, "%s: scan store: %s\n", tag, store.status().message().c_str());
+    std::fprintf(stderr, "%s: scan store: %s\n", kTag, store.status().message().c_str());
     return kExitFailure;
   }
+  store_ = std::move(*store);
   RobotMapperCapacity capacity;
-  capacity.max_keyframes = static_cast<std::size_t>(setup.config.max_keyframes_per_robot);
-  capacity.max_points_per_raw_scan = static_cast<std::size_t>(setup.config.max_points_per_raw_scan);
-  capacity.max_points_per_stored_scan = static_cast<std::size_t>(setup.config.max_points_per_stored_scan);
+  capacity.max_keyframes = static_cast<std::size_t>(setup_.config.max_keyframes_per_robot);
+  capacity.max_points_per_raw_scan = static_cast<std::size_t>(setup_.config.max_points_per_raw_scan);
+  capacity.max_points_per_stored_scan = static_cast<std::size_t>(setup_.config.max_points_per_stored_scan);
   RobotAgentParams agent_params;
-  agent_params.mapper.keyframer.keyframe_spacing_m = o.keyframe_spacing_m;
-  agent_params.max_records_per_batch = o.records_per_batch;
-  agent_params.max_poses_per_update = o.poses_per_update;
-  if (Status st = ValidateRobotAgentParams(agent_params); !st.ok()) {
-    std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
-    return kExitUsage;
-  }
-  RobotAgent agent(o.id, agent_params, capacity, &*solid, store->get());
+  agent_params.mapper.keyframer.keyframe_spacing_m = o_.keyframe_spacing_m;
+  agent_params.max_records_per_batch = o_.records_per_batch;
+  agent_params.max_poses_per_update = o_.poses_per_update;
   RobotLinkParams link_params;
-  link_params.resend_timeout_s = o.resend_timeout_s;
-  if (Status st = ValidateRobotLinkParams(link_params); !st.ok()) {
-    std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
-    return kExitUsage;
+  link_params.resend_timeout_s = o_.resend_timeout_s;
+  for (const Status& st : {ValidateRobotAgentParams(agent_params), ValidateRobotLinkParams(link_params)}) {
+    if (!st.ok()) {
+      std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
+      return kExitUsage;
+    }
   }
-  const std::int64_t session = platform::WallTimeUs();
-  RobotLink link(session, link_params, &agent);
-
-  platform::LcmBusParams bus_params;
-  bus_params.url = o.lcm_url;
-  bus_params.delay_ms = o.delay_ms;
-  bus_params.jitter_ms = o.jitter_ms;
-  bus_params.duplicate_pct = o.duplicate_pct;
-  bus_params.fault_seed = static_cast<std::uint32_t>(session) ^ static_cast<std::uint32_t>(o.id);
-  bus_params.receive_thread = true;  // mapping a scan can take longer than LCM's 30-message queue lasts
-  if (int rc = SetUpAuth(tag, o.auth, static_cast<std::uint16_t>(o.id), session, setup.config.max_robots, &bus_params);
+  agent_ = std::make_unique<RobotAgent>(o_.id, agent_params, capacity, solid_.get(), store_.get());
+  session_ = platform::WallTimeUs();
+  link_ = std::make_unique<RobotLink>(session_, link_params, agent_.get());
+  bus_params_.url = o_.lcm_url;
+  bus_params_.delay_ms = o_.delay_ms;
+  bus_params_.jitter_ms = o_.jitter_ms;
+  bus_params_.duplicate_pct = o_.duplicate_pct;
+  bus_params_.fault_seed = static_cast<std::uint32_t>(session_) ^ static_cast<std::uint32_t>(o_.id);
+  bus_params_.receive_thread = true;  // mapping a scan can take longer than LCM's 30-message queue lasts
+  if (int rc = SetUpAuth(kTag, o_.auth, static_cast<std::uint16_t>(o_.id), session_, setup_.config.max_robots,
+                         &bus_params_);
       rc != kExitOk) {
     return rc;
   }
-  if (o.auth.check) {
-    const std::string input = o.live ? "live on " + o.input_lcm_url
-                                     : std::to_string(data.scan_files.size()) + " scans from " + o.data;
-    std::printf("%s %d: configuration OK (--check): board %s, memory budget %s of %s; input %s; LCM %s; %s\n", tag,
-                o.id, o.memory.board.c_str(), FormatBytes(setup.table.total_bytes()).c_str(),
-                FormatBytes(setup.limit_bytes).c_str(), input.c_str(),
-                o.lcm_url.empty() ? "LCM_DEFAULT_URL" : o.lcm_url.c_str(), AuthDescription(o.auth, bus_params).c_str());
-    return kExitOk;
+  if (o_.auth.check) {
+    const std::string input = o_.live ? "live on " + o_.input_lcm_url
+                                      : std::to_string(data_.scan_files.size()) + " scans from " + o_.data;
+    std::printf("%s %d: configuration OK (--check): board %s, memory budget %s of %s; input %s; LCM %s; %s\n", kTag,
+                o_.id, o_.memory.board.c_str(), FormatBytes(setup_.table.total_bytes()).c_str(),
+                FormatBytes(setup_.limit_bytes).c_str(), input.c_str(),
+                o_.lcm_url.empty() ? "LCM_DEFAULT_URL" : o_.lcm_url.c_str(), AuthDescription(o_.auth, bus_params_).c_str());
   }
-  auto bus = platform::OpenLcmBus(bus_params, {platform::kPolicyChannel, platform::kStatusChannel, platform::kMergeResultChannel});
+  return kExitOk;
+}
+
+int RobotProcess::OpenBuses() {
+  auto bus = platform::OpenLcmBus(bus_params_, {platform::kPolicyChannel, platform::kStatusChannel,
+                                                platform::kMergeResultChannel});
   if (!bus.ok()) {
-    std::fprintf(stderr, "%s: %s\n", tag, bus.status().message().c_str());
+    std::fprintf(stderr, "%s: %s\n", kTag, bus.status().message().c_str());
     return kExitFailure;
   }
-  // Live input: its own bus (the odometry stack's URL on this board), decoder and time synchronisation.
+  bus_ = std::move(*bus);
+  if (!o_.live) return kExitOk;
   ScanOdometrySyncParams sync_params;
-  sync_params.max_points_per_scan = capacity.max_points_per_raw_scan;
-  if (Status st = ValidateScanOdometrySyncParams(sync_params); o.live && !st.ok()) {
-    std::fprintf(stderr, "%s: live input: %s\n", tag, st.message().c_str());
+  sync_params.max_points_per_scan = static_cast<std::size_t>(setup_.config.max_points_per_raw_scan);
+  if (Status st = ValidateScanOdometrySyncParams(sync_params); !st.ok()) {
+    std::fprintf(stderr, "%s: live input: %s\n", kTag, st.message().c_str());
     return kExitUsage;
   }
-  std::unique_ptr<ScanOdometrySync> sync;
-  std::unique_ptr<platform::LcmBus> input;
-  platform::LidarScanDecoder scan_decoder;
-  LidarScan scan_in;
-  std::uint64_t input_rejected = 0, nonfinite_points = 0, scans_after_end = 0;
-  std::string last_input_rejection;
-  if (o.live) {
-    sync = std::make_unique<ScanOdometrySync>(sync_params);
-    platform::LcmBusParams input_params;
-    input_params.url = o.input_lcm_url;
-    input_params.max_queued_bytes = 64u << 20;  // a few 4 MiB scans plus odometry
-    input_params.receive_thread = true;
-    auto opened = platform::OpenLcmBus(input_params, {o.scan_channel.c_str(), o.odometry_channel.c_str()});
-    if (!opened.ok()) {
-      std::fprintf(stderr, "%s: live input: %s\n", tag, opened.status().message().c_str());
-      return kExitFailure;
-    }
-    input = std::move(*opened);
+  sync_ = std::make_unique<ScanOdometrySync>(sync_params);
+  platform::LcmBusParams input_params;
+  input_params.url = o_.input_lcm_url;
+  input_params.max_queued_bytes = 64u << 20;  // a few 4 MiB scans plus odometry
+  input_params.receive_thread = true;
+  auto opened = platform::OpenLcmBus(input_params, {o_.scan_channel.c_str(), o_.odometry_channel.c_str()});
+  if (!opened.ok()) {
+    std::fprintf(stderr, "%s: live input: %s\n", kTag, opened.status().message().c_str());
+    return kExitFailure;
   }
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
-  if (!o.quiet) {
-    if (o.live) {
-      std::fprintf(stderr, "%s %d: session %lld, live input %s / %s on %s\n", tag, o.id, static_cast<long long>(session),
-                   o.scan_channel.c_str(), o.odometry_channel.c_str(), o.input_lcm_url.c_str());
+  input_ = std::move(*opened);
+  return kExitOk;
+}
+
+void RobotProcess::SayStart() const {
+  if (!o_.quiet) {
+    if (o_.live) {
+      std::fprintf(stderr, "%s %d: session %lld, live input %s / %s on %s\n", kTag, o_.id,
+                   static_cast<long long>(session_), o_.scan_channel.c_str(), o_.odometry_channel.c_str(),
+                   o_.input_lcm_url.c_str());
     } else {
-      std::fprintf(stderr, "%s %d: session %lld, %zu scans from %s at %.1f Hz\n", tag, o.id,
-                   static_cast<long long>(session), data.scan_files.size(), o.data.c_str(), o.rate_hz);
+      std::fprintf(stderr, "%s %d: session %lld, %zu scans from %s at %.1f Hz\n", kTag, o_.id,
+                   static_cast<long long>(session_), data_.scan_files.size(), o_.data.c_str(), o_.rate_hz);
     }
     // The id is not in the messages: the operator compares it across the team's robots.
     std::fprintf(stderr, "%s %d: descriptor SOLiD %s, %s, parameter id 0x%08X (every robot must show the same)\n",
-                 tag, o.id, o.lidar.c_str(), SolidMinZText(*solid_params).c_str(),
-                 static_cast<unsigned>(SolidParameterId(*solid_params)));
+                 kTag, o_.id, o_.lidar.c_str(), SolidMinZText(solid_params_).c_str(),
+                 static_cast<unsigned>(SolidParameterId(solid_params_)));
   }
-  if (!o.quiet || !bus_params.authenticate) {
-    std::fprintf(stderr, "%s %d: %s\n", tag, o.id, AuthDescription(o.auth, bus_params).c_str());
+  if (!o_.quiet || !bus_params_.authenticate) {
+    std::fprintf(stderr, "%s %d: %s\n", kTag, o_.id, AuthDescription(o_.auth, bus_params_).c_str());
   }
+}
 
-  TokenBucket bucket(o.bandwidth_kbps * 1000.0 / 8.0, 16384.0);
-  Inbox inbox;
-  std::int64_t bytes_sent = 0, bytes_resent = 0, publish_failures = 0;
-  std::string last_publish_error;
-  Eigen::Isometry3d T_first_inv = o.live ? Eigen::Isometry3d::Identity() : data.poses.front().inverse();
-  bool have_first = !o.live;
-  std::int64_t last_scan_us = -1;
-  const std::int64_t period_us = static_cast<std::int64_t>(1e6 / o.rate_hz);
-  std::int64_t next_scan_us = platform::MonotonicUs(), next_status_us = next_scan_us, data_end_us = -1;
-  std::size_t scan = 0;
-  // The server session whose merge result placed this robot (0: none yet). Kept once set: a duplicated or late
-  // copy of an earlier result must not undo it; a new server session (a restarted server) starts over.
-  std::int64_t merged_session = 0;
-  bool merged = false;
-  std::vector<std::uint8_t> buffer;
-  RobotOutgoing out;
-  platform::BusMessage message;
-  // The map frame is the first scan's sensor frame: poses are relative to the first odometry pose.
-  auto map_scan = [&](Span<const PointXYZI> points, const Eigen::Isometry3d& T_odom_sensor, const char* what) {
-    if (!have_first) {
-      T_first_inv = T_odom_sensor.inverse();
-      have_first = true;
+bool RobotProcess::MapScan(Span<const PointXYZI> points, const Eigen::Isometry3d& T_odom_sensor, const char* what) {
+  if (!have_first_) {
+    T_first_inv_ = T_odom_sensor.inverse();
+    have_first_ = true;
+  }
+  auto step = agent_->AddScan(points, T_first_inv_ * T_odom_sensor);
+  if (!step.ok()) std::fprintf(stderr, "%s: scan %s: %s\n", kTag, what, step.status().message().c_str());
+  return step.ok();
+}
+
+bool RobotProcess::FinishInput(std::int64_t now) {
+  if (Status st = agent_->Finish(); !st.ok()) {
+    std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
+    return false;
+  }
+  data_end_us_ = now;
+  return true;
+}
+
+bool RobotProcess::ReplayInput(std::int64_t now) {
+  if (scan_ >= data_.scan_files.size() || now < next_scan_us_) return true;
+  next_scan_us_ += static_cast<std::int64_t>(1e6 / o_.rate_hz);
+  auto cloud = platform::ReadKittiBin(data_.scan_files[scan_]);
+  if (!cloud.ok()) {
+    std::fprintf(stderr, "%s: %s\n", kTag, cloud.status().message().c_str());
+    return false;
+  }
+  if (!MapScan(Span<const PointXYZI>(cloud->points), data_.poses[scan_], data_.scan_files[scan_].c_str())) return false;
+  return ++scan_ < data_.scan_files.size() || FinishInput(now);
+}
+
+bool RobotProcess::LiveInput(std::int64_t now) {
+  if (Status st = input_->Poll(0); !st.ok()) {
+    std::fprintf(stderr, "%s: live input: %s\n", kTag, st.message().c_str());
+    return false;
+  }
+  while (input_->Take(&message_)) {
+    const Span<const std::uint8_t> bytes(message_.bytes.data(), message_.bytes.size());
+    Status st;
+    if (message_.channel == o_.scan_channel) {
+      st = scan_decoder_.Decode(bytes, &scan_in_);
+      if (st.ok() && data_end_us_ >= 0) {
+        ++scans_after_end_;  // the mapper is closed
+      } else if (st.ok()) {
+        nonfinite_points_ += scan_in_.dropped_nonfinite;
+        sync_->PushScan(scan_in_);
+        last_scan_us_ = now;
+      }
+    } else if (message_.channel == o_.odometry_channel) {
+      auto odometry = platform::DecodeOdometry(bytes);
+      if (odometry.ok()) {
+        sync_->PushOdometry(*odometry);
+      } else {
+        st = odometry.status();
+      }
     }
-    auto step = agent.AddScan(points, T_first_inv * T_odom_sensor);
-    if (!step.ok()) std::fprintf(stderr, "%s: scan %s: %s\n", tag, what, step.status().message().c_str());
-    return step.ok();
-  };
-  auto finish_input = [&](std::int64_t now) {
-    if (Status st = agent.Finish(); !st.ok()) {
-      std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
+    if (!st.ok()) {
+      ++input_rejected_;
+      last_input_rejection_ = message_.channel + ": " + st.message();
+    }
+  }
+  SyncedScan ready;
+  while (data_end_us_ < 0 && sync_->PopReady(&ready)) {
+    if (!MapScan(ready.points, ready.T_odom_sensor, "from the odometry stack")) return false;
+  }
+  // The input is over after --idle-finish-s without a scan, or at the first signal.
+  const bool idle = last_scan_us_ >= 0 && static_cast<double>(now - last_scan_us_) > o_.idle_finish_s * 1e6;
+  if (data_end_us_ >= 0 || !(idle || g_stop == 1)) return true;
+  sync_->DropWaiting();
+  while (sync_->PopReady(&ready)) {
+    if (!MapScan(ready.points, ready.T_odom_sensor, "from the odometry stack")) return false;
+  }
+  if (!FinishInput(now)) return false;
+  if (!o_.quiet) {
+    const ScanOdometrySyncStats& s = sync_->stats();
+    std::fprintf(stderr, "%s %d: live input ended (%s): %llu scans mapped, %llu dropped, %llu odometry samples "
+                 "rejected, %llu non-finite points, %llu messages rejected\n", kTag, o_.id,
+                 idle ? "no scan for --idle-finish-s" : "signal", static_cast<unsigned long long>(s.scans_taken),
+                 static_cast<unsigned long long>(s.scans_dropped()), static_cast<unsigned long long>(s.odometry_rejected()),
+                 static_cast<unsigned long long>(nonfinite_points_), static_cast<unsigned long long>(input_rejected_));
+  }
+  return true;
+}
+
+void RobotProcess::HandleServerMessages(std::int64_t wall) {
+  while (bus_->Take(&message_)) {
+    const Span<const std::uint8_t> bytes(message_.bytes.data(), message_.bytes.size());
+    // Every channel this robot reads is the server's: a robot's signature there is a team member misbehaving.
+    Status st = CheckSigner(message_, platform::kAuthServerSender);
+    if (st.ok() && message_.channel == platform::kPolicyChannel) {
+      auto request = platform::DecodeScanRequest(bytes);
+      st = !request.ok() ? request.status() : (request->robot_id == o_.id ? link_->OnScanRequest(*request, wall) : Status::Ok());
+    } else if (st.ok() && message_.channel == platform::kStatusChannel) {
+      auto status = platform::DecodeTransferStatus(bytes);
+      st = !status.ok() ? status.status() : (status->robot_id == o_.id ? link_->OnTransferStatus(*status, wall) : Status::Ok());
+    } else if (st.ok() && message_.channel == platform::kMergeResultChannel) {
+      auto result = platform::DecodeMergeResult(bytes);
+      if (!result.ok()) {
+        st = result.status();
+      } else if (result->server_session == link_->server_session() && data_end_us_ >= 0) {
+        // Robot 0 is always "in the world" (its map is the world frame): count the robots placed with it.
+        // The round must have seen every keyframe of this robot, not an early part of its data.
+        int placed = 0;
+        bool self = false;
+        for (std::size_t i = 0; i < result->robot_ids.size(); ++i) {
+          if (!result->in_world[i]) continue;
+          ++placed;
+          self = self || (result->robot_ids[i] == o_.id && result->keyframes[i] == agent_->mapper().num_keyframes());
+        }
+        if (self && o_.exit_when_merged > 0 && placed >= o_.exit_when_merged) merged_session_ = result->server_session;
+      }
+    }
+    if (!st.ok()) {
+      ++inbox_.rejected;
+      inbox_.last_rejection = message_.channel + ": " + st.message();
+    }
+  }
+}
+
+bool RobotProcess::SendOutgoing(std::int64_t now, std::int64_t wall) {
+  RobotOutgoing out;
+  while (bucket_.CanSend(now)) {
+    auto more = link_->Next(wall, &out);
+    if (!more.ok()) {
+      std::fprintf(stderr, "%s: %s\n", kTag, more.status().message().c_str());
       return false;
     }
-    data_end_us = now;
-    return true;
-  };
-  while (g_stop == 0 || (o.live && g_stop == 1)) {  // live: the first signal ends the input, the second the robot
+    if (!*more) break;
+    const char* channel = platform::kScansChannel;
+    Status st;
+    switch (out.kind) {
+      case RobotOutgoing::Kind::kKeyframeBatch:
+        st = platform::EncodeKeyframeBatch(out.batch, &buffer_);
+        channel = platform::kKeyframesChannel;
+        break;
+      case RobotOutgoing::Kind::kPoseUpdate:
+        st = platform::EncodePoseUpdate(out.poses, &buffer_);
+        channel = platform::kPosesChannel;
+        break;
+      case RobotOutgoing::Kind::kScanChunk: st = platform::EncodeScanChunk(out.chunk, &buffer_); break;
+    }
+    if (!st.ok()) {  // an encoder refusing the agent's own message is a bug, not a network fault
+      std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
+      return false;
+    }
+    // A failed publish is a lost message: counted, and the transfer status brings it back.
+    if (Status pub = bus_->Publish(channel, buffer_); !pub.ok()) {
+      if (publish_failures_++ == 0 && !o_.quiet) std::fprintf(stderr, "%s %d: %s\n", kTag, o_.id, pub.message().c_str());
+    }
+    bucket_.Take(buffer_.size());
+    bytes_sent_ += static_cast<std::int64_t>(buffer_.size());
+    if (out.resend) bytes_resent_ += static_cast<std::int64_t>(buffer_.size());
+  }
+  return true;
+}
+
+void RobotProcess::PublishStatus(std::int64_t wall, bool done) {
+  RobotStatus status;
+  status.utime_us = wall;
+  status.robot_id = o_.id;
+  status.session = session_;
+  status.peak_rss_bytes = platform::ReadRss().peak_bytes;
+  status.budget_total_bytes = static_cast<std::int64_t>(setup_.table.total_bytes());
+  status.budget_limit_bytes = setup_.limit_bytes;
+  status.modules = StatusModules(setup_.table, agent_->MemoryUse());
+  status.keyframes = static_cast<std::uint32_t>(agent_->mapper().num_keyframes());
+  status.keyframes_acked = link_->stats().keyframes_acked;
+  status.queued_keyframes = static_cast<std::uint32_t>(agent_->unsent_keyframes() + agent_->queued_resends());
+  status.queued_poses = static_cast<std::uint32_t>(agent_->queued_poses());
+  status.queued_chunks = static_cast<std::uint32_t>(link_->queued_chunks());
+  status.bytes_sent = bytes_sent_;
+  status.bytes_resent = bytes_resent_;
+  status.request_id = link_->active_request();
+  status.state = done ? "merged" : data_end_us_ < 0 ? "mapping" : link_->queued_chunks() > 0 ? "sending scans" : "waiting";
+  // The server lingers until every placed robot said "merged": the last status goes out three times, so one
+  // lost datagram does not keep the server waiting for --linger-s.
+  if (platform::EncodeRobotStatus(status, &buffer_).ok()) {
+    for (int copy = 0; copy < (done ? 3 : 1); ++copy) (void)bus_->Publish(platform::kRobotStatusChannel, buffer_);
+  }
+  if (!o_.quiet) {
+    std::fprintf(stderr, "%s %d: %s, %u/%u keyframes acknowledged, %lld bytes sent (%lld resent), %llu rejected\n",
+                 kTag, o_.id, status.state.c_str(), status.keyframes_acked, status.keyframes,
+                 static_cast<long long>(bytes_sent_), static_cast<long long>(bytes_resent_),
+                 static_cast<unsigned long long>(inbox_.rejected + AuthRejected(*bus_)));
+  }
+}
+
+int RobotProcess::Run() {
+  if (int rc = OpenBuses(); rc != kExitOk) return rc;
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  SayStart();
+  if (!o_.live) T_first_inv_ = data_.poses.front().inverse();
+  have_first_ = !o_.live;
+  next_scan_us_ = platform::MonotonicUs();
+  std::int64_t next_status_us = next_scan_us_;
+  bool merged = false;
+  while (g_stop == 0 || (o_.live && g_stop == 1)) {  // live: the first signal ends the input, the second the robot
     const std::int64_t now = platform::MonotonicUs();
     const std::int64_t wall = platform::WallTimeUs();
-    if (!o.live && scan < data.scan_files.size() && now >= next_scan_us) {
-      next_scan_us += period_us;
-      auto cloud = platform::ReadKittiBin(data.scan_files[scan]);
-      if (!cloud.ok()) {
-        std::fprintf(stderr, "%s: %s\n", tag, cloud.status().message().c_str());
-        return kExitFailure;
-      }
-      if (!map_scan(Span<const PointXYZI>(cloud->points), data.poses[scan], data.scan_files[scan].c_str())) {
-        return kExitFailure;
-      }
-      if (++scan == data.scan_files.size() && !finish_input(now)) return kExitFailure;
-    }
-    if (o.live) {
-      if (Status st = input->Poll(0); !st.ok()) {
-        std::fprintf(stderr, "%s: live input: %s\n", tag, st.message().c_str());
-        return kExitFailure;
-      }
-      while (input->Take(&message)) {
-        const Span<const std::uint8_t> bytes(message.bytes.data(), message.bytes.size());
-        Status st;
-        if (message.channel == o.scan_channel) {
-          st = scan_decoder.Decode(bytes, &scan_in);
-          if (st.ok() && data_end_us >= 0) {
-            ++scans_after_end;  // the mapper is closed
-          } else if (st.ok()) {
-            nonfinite_points += scan_in.dropped_nonfinite;
-            sync->PushScan(scan_in);
-            last_scan_us = now;
-          }
-        } else if (message.channel == o.odometry_channel) {
-          auto odometry = platform::DecodeOdometry(bytes);
-          if (odometry.ok()) {
-            sync->PushOdometry(*odometry);
-          } else {
-            st = odometry.status();
-          }
-        }
-        if (!st.ok()) {
-          ++input_rejected;
-          last_input_rejection = message.channel + ": " + st.message();
-        }
-      }
-      SyncedScan ready;
-      while (data_end_us < 0 && sync->PopReady(&ready)) {
-        if (!map_scan(ready.points, ready.T_odom_sensor, "from the odometry stack")) return kExitFailure;
-      }
-      // The input is over after --idle-finish-s without a scan, or at the first signal.
-      const bool idle = last_scan_us >= 0 && static_cast<double>(now - last_scan_us) > o.idle_finish_s * 1e6;
-      if (data_end_us < 0 && (idle || g_stop == 1)) {
-        sync->DropWaiting();
-        while (sync->PopReady(&ready)) {
-          if (!map_scan(ready.points, ready.T_odom_sensor, "from the odometry stack")) return kExitFailure;
-        }
-        if (!finish_input(now)) return kExitFailure;
-        if (!o.quiet) {
-          const ScanOdometrySyncStats& s = sync->stats();
-          std::fprintf(stderr, "%s %d: live input ended (%s): %llu scans mapped, %llu dropped, %llu odometry samples "
-                       "rejected, %llu non-finite points, %llu messages rejected\n", tag, o.id,
-                       idle ? "no scan for --idle-finish-s" : "signal", static_cast<unsigned long long>(s.scans_taken),
-                       static_cast<unsigned long long>(s.scans_dropped()),
-                       static_cast<unsigned long long>(s.odometry_rejected()),
-                       static_cast<unsigned long long>(nonfinite_points), static_cast<unsigned long long>(input_rejected));
-        }
-      }
-    }
-    if (Status st = (*bus)->Poll(5); !st.ok()) {
-      std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
+    if (!(o_.live ? LiveInput(now) : ReplayInput(now))) return kExitFailure;
+    if (Status st = bus_->Poll(5); !st.ok()) {
+      std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
       return kExitFailure;
     }
-    while ((*bus)->Take(&message)) {
-      const Span<const std::uint8_t> bytes(message.bytes.data(), message.bytes.size());
-      // Every channel this robot reads is the server's: a robot's signature there is a team member misbehaving.
-      Status st = CheckSigner(message, platform::kAuthServerSender);
-      if (st.ok() && message.channel == platform::kPolicyChannel) {
-        auto request = platform::DecodeScanRequest(bytes);
-        st = !request.ok() ? request.status()
-                           : (request->robot_id == o.id ? link.OnScanRequest(*request, wall) : Status::Ok());
-      } else if (st.ok() && message.channel == platform::kStatusChannel) {
-        auto status = platform::DecodeTransferStatus(bytes);
-        st = !status.ok() ? status.status()
-                          : (status->robot_id == o.id ? link.OnTransferStatus(*status, wall) : Status::Ok());
-      } else if (st.ok() && message.channel == platform::kMergeResultChannel) {
-        auto result = platform::DecodeMergeResult(bytes);
-        if (!result.ok()) {
-          st = result.status();
-        } else if (result->server_session == link.server_session() && data_end_us >= 0) {
-          // Robot 0 is always "in the world" (its map is the world frame): count the robots placed with it.
-          // The round must have seen every keyframe of this robot, not an early part of its data.
-          int placed = 0;
-          bool self = false;
-          for (std::size_t i = 0; i < result->robot_ids.size(); ++i) {
-            if (!result->in_world[i]) continue;
-            ++placed;
-            self = self || (result->robot_ids[i] == o.id && result->keyframes[i] == agent.mapper().num_keyframes());
-          }
-          if (self && o.exit_when_merged > 0 && placed >= o.exit_when_merged) merged_session = result->server_session;
-        }
-      }
-      if (!st.ok()) {
-        ++inbox.rejected;
-        inbox.last_rejection = message.channel + ": " + st.message();
-      }
-    }
-    while (bucket.CanSend(now)) {
-      auto more = link.Next(wall, &out);
-      if (!more.ok()) {
-        std::fprintf(stderr, "%s: %s\n", tag, more.status().message().c_str());
-        return kExitFailure;
-      }
-      if (!*more) break;
-      const char* channel = platform::kScansChannel;
-      Status st;
-      switch (out.kind) {
-        case RobotOutgoing::Kind::kKeyframeBatch:
-          st = platform::EncodeKeyframeBatch(out.batch, &buffer);
-          channel = platform::kKeyframesChannel;
-          break;
-        case RobotOutgoing::Kind::kPoseUpdate:
-          st = platform::EncodePoseUpdate(out.poses, &buffer);
-          channel = platform::kPosesChannel;
-          break;
-        case RobotOutgoing::Kind::kScanChunk: st = platform::EncodeScanChunk(out.chunk, &buffer); break;
-      }
-      if (!st.ok()) {  // an encoder refusing the agent's own message is a bug, not a network fault
-        std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
-        return kExitFailure;
-      }
-      // A failed publish is a lost message: counted, and the transfer status brings it back.
-      if (Status pub = (*bus)->Publish(channel, buffer); !pub.ok()) {
-        if (publish_failures++ == 0 && !o.quiet) std::fprintf(stderr, "%s %d: %s\n", tag, o.id, pub.message().c_str());
-        last_publish_error = pub.message();
-      }
-      bucket.Take(buffer.size());
-      bytes_sent += static_cast<std::int64_t>(buffer.size());
-      if (out.resend) bytes_resent += static_cast<std::int64_t>(buffer.size());
-    }
-    const bool all_acked = data_end_us >= 0 && link.stats().keyframes_acked >= agent.mapper().num_keyframes() &&
-                           agent.queued_resends() == 0 && agent.queued_poses() == 0 && link.queued_chunks() == 0;
-    merged = merged_session != 0 && merged_session == link.server_session();
+    HandleServerMessages(wall);
+    if (!SendOutgoing(now, wall)) return kExitFailure;
+    const bool all_acked = data_end_us_ >= 0 && link_->stats().keyframes_acked >= agent_->mapper().num_keyframes() &&
+                           agent_->queued_resends() == 0 && agent_->queued_poses() == 0 && link_->queued_chunks() == 0;
+    merged = merged_session_ != 0 && merged_session_ == link_->server_session();
     const bool done = merged && all_acked;
     if (now >= next_status_us || done) {
       next_status_us = now + 1000000;
-      RobotStatus status;
-      status.utime_us = wall;
-      status.robot_id = o.id;
-      status.session = session;
-      status.peak_rss_bytes = platform::ReadRss().peak_bytes;
-      status.budget_total_bytes = static_cast<std::int64_t>(setup.table.total_bytes());
-      status.budget_limit_bytes = setup.limit_bytes;
-      status.modules = StatusModules(setup.table, agent.MemoryUse());
-      status.keyframes = static_cast<std::uint32_t>(agent.mapper().num_keyframes());
-      status.keyframes_acked = link.stats().keyframes_acked;
-      status.queued_keyframes = static_cast<std::uint32_t>(agent.unsent_keyframes() + agent.queued_resends());
-      status.queued_poses = static_cast<std::uint32_t>(agent.queued_poses());
-      status.queued_chunks = static_cast<std::uint32_t>(link.queued_chunks());
-      status.bytes_sent = bytes_sent;
-      status.bytes_resent = bytes_resent;
-      status.request_id = link.active_request();
-      status.state = done ? "merged" : data_end_us < 0 ? "mapping" : link.queued_chunks() > 0 ? "sending scans" : "waiting";
-      // The server lingers until every placed robot said "merged": the last status goes out three times, so one
-      // lost datagram does not keep the server waiting for --linger-s.
-      if (platform::EncodeRobotStatus(status, &buffer).ok()) {
-        for (int copy = 0; copy < (done ? 3 : 1); ++copy) (void)(*bus)->Publish(platform::kRobotStatusChannel, buffer);
-      }
-      if (!o.quiet) {
-        std::fprintf(stderr, "%s %d: %s, %u/%u keyframes acknowledged, %lld bytes sent (%lld resent), %llu rejected\n",
-                     tag, o.id, status.state.c_str(), status.keyframes_acked, status.keyframes,
-                     static_cast<long long>(bytes_sent), static_cast<long long>(bytes_resent),
-                     static_cast<unsigned long long>(inbox.rejected + AuthRejected(**bus)));
-      }
+      PublishStatus(wall, done);
     }
     if (done) break;
-    if (data_end_us >= 0 && o.exit_when_merged > 0 && static_cast<double>(now - data_end_us) > o.linger_s * 1e6) break;
+    if (data_end_us_ >= 0 && o_.exit_when_merged > 0 && static_cast<double>(now - data_end_us_) > o_.linger_s * 1e6) break;
   }
-  // Let delayed messages out before leaving (Poll returns at once while messages are queued: drop them).
-  for (int i = 0; i < 400 && (*bus)->delayed() > 0; ++i) {
-    (void)(*bus)->Poll(10);
-    while ((*bus)->Take(&message)) {
+  return Finish(merged);
+}
+
+// Lets delayed messages out, then the exit summary: delivery, authentication, live input, digest, memory.
+int RobotProcess::Finish(bool merged) {
+  for (int i = 0; i < 400 && bus_->delayed() > 0; ++i) {  // Poll returns at once while messages are queued
+    (void)bus_->Poll(10);
+    while (bus_->Take(&message_)) {
     }
   }
-  const bool ok = o.exit_when_merged == 0 || merged;  // 0: ended by a signal, as asked
+  const bool ok = o_.exit_when_merged == 0 || merged;  // 0: ended by a signal, as asked
   std::printf("robot %d: %s; keyframes %zu, acknowledged %u; bytes sent %lld, resent %lld; publish failures %lld; "
               "rejected messages %llu%s%s\n",
-              o.id, ok ? "merged" : "NOT merged", agent.mapper().num_keyframes(), link.stats().keyframes_acked,
-              static_cast<long long>(bytes_sent), static_cast<long long>(bytes_resent),
-              static_cast<long long>(publish_failures),
-              static_cast<unsigned long long>(inbox.rejected + AuthRejected(**bus)),
-              inbox.last_rejection.empty() ? "" : "; last: ", inbox.last_rejection.c_str());
-  std::printf("robot %d %s\n", o.id, AuthSummary(**bus).c_str());
-  if (o.live) {
-    const ScanOdometrySyncStats& s = sync->stats();
-    std::printf("robot %d live input: %llu scans received, %llu mapped, %llu dropped (no odometry yet %llu, odometry "
-                "gap %llu, queue full %llu, at the end %llu, too many points %llu, out of order %llu), %llu after the "
-                "end; odometry %llu received, %llu rejected; %llu non-finite points dropped; %llu input messages "
-                "rejected%s%s\n",
-                o.id, static_cast<unsigned long long>(s.scans_received), static_cast<unsigned long long>(s.scans_taken),
-                static_cast<unsigned long long>(s.scans_dropped()),
-                static_cast<unsigned long long>(s.scans_dropped_before_odometry),
-                static_cast<unsigned long long>(s.scans_dropped_odometry_gap),
-                static_cast<unsigned long long>(s.scans_dropped_queue_full),
-                static_cast<unsigned long long>(s.scans_dropped_at_end),
-                static_cast<unsigned long long>(s.scans_dropped_too_many_points),
-                static_cast<unsigned long long>(s.scans_dropped_time_not_increasing),
-                static_cast<unsigned long long>(scans_after_end), static_cast<unsigned long long>(s.odometry_received),
-                static_cast<unsigned long long>(s.odometry_rejected()), static_cast<unsigned long long>(nonfinite_points),
-                static_cast<unsigned long long>(input_rejected), last_input_rejection.empty() ? "" : "; last: ",
-                last_input_rejection.c_str());
-  }
-  auto digest = RobotDeliveryDigest(agent.mapper());
-  std::printf("robot %d session %lld: %s\n", o.id, static_cast<long long>(session),
+              o_.id, ok ? "merged" : "NOT merged", agent_->mapper().num_keyframes(), link_->stats().keyframes_acked,
+              static_cast<long long>(bytes_sent_), static_cast<long long>(bytes_resent_),
+              static_cast<long long>(publish_failures_), static_cast<unsigned long long>(inbox_.rejected + AuthRejected(*bus_)),
+              inbox_.last_rejection.empty() ? "" : "; last: ", inbox_.last_rejection.c_str());
+  std::printf("robot %d %s\n", o_.id, AuthSummary(*bus_).c_str());
+  if (o_.live) PrintLiveInputSummary();
+  auto digest = RobotDeliveryDigest(agent_->mapper());
+  std::printf("robot %d session %lld: %s\n", o_.id, static_cast<long long>(session_),
               digest.ok() ? digest->ToText().c_str() : digest.status().message().c_str());
   std::printf("%s\n", PeakRssLine().c_str());
-  std::fprintf(stderr, "%s", MemorySummary(setup.table, agent.MemoryUse(), platform::ReadRss().peak_bytes).c_str());
+  std::fprintf(stderr, "%s", MemorySummary(setup_.table, agent_->MemoryUse(), platform::ReadRss().peak_bytes).c_str());
   return ok ? kExitOk : kExitFailure;
+}
+
+void RobotProcess::PrintLiveInputSummary() const {
+  const ScanOdometrySyncStats& s = sync_->stats();
+  std::printf("robot %d live input: %llu scans received, %llu mapped, %llu dropped (no odometry yet %llu, odometry "
+              "gap %llu, queue full %llu, at the end %llu, too many points %llu, out of order %llu), %llu after the "
+              "end; odometry %llu received, %llu rejected; %llu non-finite points dropped; %llu input messages "
+              "rejected%s%s\n",
+              o_.id, static_cast<unsigned long long>(s.scans_received), static_cast<unsigned long long>(s.scans_taken),
+              static_cast<unsigned long long>(s.scans_dropped()),
+              static_cast<unsigned long long>(s.scans_dropped_before_odometry),
+              static_cast<unsigned long long>(s.scans_dropped_odometry_gap),
+              static_cast<unsigned long long>(s.scans_dropped_queue_full),
+              static_cast<unsigned long long>(s.scans_dropped_at_end),
+              static_cast<unsigned long long>(s.scans_dropped_too_many_points),
+              static_cast<unsigned long long>(s.scans_dropped_time_not_increasing),
+              static_cast<unsigned long long>(scans_after_end_), static_cast<unsigned long long>(s.odometry_received),
+              static_cast<unsigned long long>(s.odometry_rejected()), static_cast<unsigned long long>(nonfinite_points_),
+              static_cast<unsigned long long>(input_rejected_), last_input_rejection_.empty() ? "" : "; last: ",
+              last_input_rejection_.c_str());
+}
+
+int RunRobot(const RobotOptions& o) {
+  RobotProcess process(o);
+  if (int rc = process.Configure(); rc != kExitOk || process.checked()) return rc;
+  return process.Run();
 }
 
 }  // namespace

@@ -143,6 +143,55 @@ std::string InfoText(const SimOptions& o, const MissionPlan& plan, const LidarMo
   return t;
 }
 
+struct ScanCasting {
+  std::size_t scans = 0, points = 0;
+  double seconds = 0.0;
+};
+
+// Casts every robot's keyframe scans in the world (o.threads workers) and writes them as they come.
+Status CastScans(const SimOptions& o, const MissionParams& params, const MissionPlan& plan, const World& world,
+                 const LidarModel& lidar, platform::KittiDatasetWriter* writer, ScanCasting* cast) {
+  const std::size_t per_robot = static_cast<std::size_t>(params.keyframes_per_robot);
+  const std::size_t total = per_robot * plan.robots.size();
+  Progress progress(total);
+  std::atomic<std::size_t> next{0}, done{0}, points{0};
+  std::atomic<bool> failed{false};
+  std::mutex error_mutex;
+  Status error;
+  const auto t1 = Clock::now();
+  auto worker = [&]() {
+    LidarScanWorkspace ws;
+    std::vector<PointXYZI> scan;
+    while (!failed.load()) {
+      const std::size_t job = next.fetch_add(1);
+      if (job >= total) return;
+      const int r = static_cast<int>(job / per_robot);
+      const std::size_t k = job % per_robot;
+      const RobotMission& robot = plan.robots[static_cast<std::size_t>(r)];
+      Status st = SimulateLidarScan(world, lidar, robot.WorldPose(k), ScanNoiseSeed(params, r, k), k, &ws, &scan);
+      if (st.ok()) st = writer->WriteScan(r, k, Span<const PointXYZI>(scan));
+      if (!st.ok()) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!failed.exchange(true)) error = st;
+        return;
+      }
+      points += scan.size();
+      progress.Update(++done);
+    }
+  };
+  const int threads = std::max(1, o.threads);
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+  if (failed) return error;
+  progress.Update(done, /*final=*/true);
+  cast->scans = done;
+  cast->points = points;
+  cast->seconds = std::chrono::duration<double>(Clock::now() - t1).count();
+  return Status::Ok();
+}
+
 }  // namespace
 
 int RunSim(const SimOptions& o) {
@@ -231,52 +280,13 @@ int RunSim(const SimOptions& o) {
     return kExitFailure;
   }
 
-  std::size_t scans_done = 0, points_written = 0;
-  double scan_s = 0.0;
+  ScanCasting cast;
   if (!o.poses_only) {
-    const std::size_t per_robot = static_cast<std::size_t>(params.keyframes_per_robot);
-    const std::size_t total = per_robot * plan->robots.size();
-    Progress progress(total);
-    std::atomic<std::size_t> next{0}, done{0}, points{0};
-    std::atomic<bool> failed{false};
-    std::mutex error_mutex;
-    std::string error;
-    const auto t1 = Clock::now();
-    auto worker = [&]() {
-      LidarScanWorkspace ws;
-      std::vector<PointXYZI> scan;
-      while (!failed.load()) {
-        const std::size_t job = next.fetch_add(1);
-        if (job >= total) return;
-        const int r = static_cast<int>(job / per_robot);
-        const std::size_t k = job % per_robot;
-        const RobotMission& robot = plan->robots[static_cast<std::size_t>(r)];
-        Status st = SimulateLidarScan(*world, lidar, robot.WorldPose(k), ScanNoiseSeed(params, r, k), k, &ws, &scan);
-        if (st.ok()) st = writer->WriteScan(r, k, Span<const PointXYZI>(scan));
-        if (!st.ok()) {
-          std::lock_guard<std::mutex> lock(error_mutex);
-          if (!failed.exchange(true)) error = st.message();
-          return;
-        }
-        points += scan.size();
-        progress.Update(++done);
-      }
-    };
-    const int threads = std::max(1, o.threads);
-    std::vector<std::thread> pool;
-    for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-    worker();
-    for (std::thread& t : pool) t.join();
-    if (failed) {
-      std::fprintf(stderr, "\n%s: %s\n", tag, error.c_str());
+    if (Status st = CastScans(o, params, *plan, *world, lidar, &*writer, &cast); !st.ok()) {
+      std::fprintf(stderr, "\n%s: %s\n", tag, st.message().c_str());
       return kExitFailure;
     }
-    progress.Update(done, /*final=*/true);
-    scans_done = done;
-    points_written = points;
-    scan_s = std::chrono::duration<double>(Clock::now() - t1).count();
   }
-
   for (const RobotMission& r : plan->robots) {
     const Eigen::Vector3d end_gt = r.gt.back().translation(), end_odo = r.odometry.back().translation();
     double path_m = 0.0;
@@ -289,10 +299,10 @@ int RunSim(const SimOptions& o) {
                 (end_odo - end_gt).norm(), path_m > 0 ? 100.0 * (end_odo - end_gt).norm() / path_m : 0.0);
   }
   if (!o.poses_only) {
-    std::printf("  scans: %zu in %.1f s (%.1f scans/s, %d thread%s), %.0f points/scan, %s of .bin files\n", scans_done,
-                scan_s, scan_s > 0 ? static_cast<double>(scans_done) / scan_s : 0.0, std::max(1, o.threads),
-                o.threads > 1 ? "s" : "", scans_done ? static_cast<double>(points_written) / static_cast<double>(scans_done) : 0.0,
-                FormatBytes(static_cast<std::int64_t>(points_written * sizeof(PointXYZI))).c_str());
+    std::printf("  scans: %zu in %.1f s (%.1f scans/s, %d thread%s), %.0f points/scan, %s of .bin files\n", cast.scans,
+                cast.seconds, cast.seconds > 0 ? static_cast<double>(cast.scans) / cast.seconds : 0.0, std::max(1, o.threads),
+                o.threads > 1 ? "s" : "", cast.scans ? static_cast<double>(cast.points) / static_cast<double>(cast.scans) : 0.0,
+                FormatBytes(static_cast<std::int64_t>(cast.points * sizeof(PointXYZI))).c_str());
   }
   std::printf("  wrote %s (sim_info.txt, start_transforms.txt, robot_0..robot_%d)\n", o.out_dir.c_str(), params.robots - 1);
   std::printf("  %s\n", PeakRssLine().c_str());

@@ -10,7 +10,6 @@
 
 #include "apps/app_common.hpp"
 #include "core/agent/merge_server.hpp"
-#include "core/exchange/exchange_policy.hpp"
 
 namespace commerge::app {
 
@@ -22,17 +21,13 @@ struct RunOptions {
   std::string sensor = "hdl-64e";  ///< SOLiD preset of the robots' LiDAR
   double solid_min_z_m = SolidParams{}.min_z_m;  ///< --solid-min-z-m (off: -infinity)
   bool gt_from_poses = false;
-  double tau_inter = 0.10;
-  std::int64_t tau_area = 10000;
-  std::size_t sequence_half_window = 0;  ///< stage A's sequence smoothing (0 = the paper's)
-  double tau_con_m = 5.0;
-  std::uint32_t min_submap_scans = ExchangePolicyParams{}.min_scans_per_robot;
-  int max_widen_steps = MergeServerParams{}.max_widen_steps;
+  /// The merge server's parameters: the flags `run` shares with `server` (apps/merge_flags.hpp); max_submap_points
+  /// comes from the memory configuration.
+  MergeServerParams server;
   double keyframe_spacing_m = 1.0;  ///< the robots' keyframe spacing (paper: 1 m)
   int threads = 2;                  ///< robots processed at once
   bool report = true;
   bool progress = true;
-  std::size_t merged_map_max_points = 4000000;
   MemoryFlags memory;
   std::string tag = "commerge run";  ///< message prefix
 };

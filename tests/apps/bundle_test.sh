@@ -160,10 +160,10 @@ step_empty_root() {
           --tau-area 1000 --board jetson-nano --scan-store-mb 16 --max-keyframes 300 --no-report --no-progress \
           --out /out 2>&1) || rc=$?
   [[ $rc == 0 ]] || fail "commerge run in the empty root exited $rc:"$'\n'"$out"
-  grep -q '^1 1 ' "$root/out/transforms.txt" ||
+  grep -q '^robot 1 merged ' "$root/out/transforms.txt" ||
     fail "/out/transforms.txt does not connect robot 1:"$'\n'"$(cat "$root/out/transforms.txt")"
   [[ -s $root/out/merged_map.pcd ]] || fail "commerge run wrote no merged_map.pcd"
-  echo "commerge run: $(grep -m1 -o 'robot 1: T_world_robot.*' <<<"$out") ($(elapsed "$t"))"
+  echo "commerge run: $(grep -m1 -o 'robot 1: T_world_map.*' <<<"$out") ($(elapsed "$t"))"
   # No /proc: the budget check falls back to the board profile and says so; peak RSS is n/a. Nothing crashes.
   grep -q 'warning: no MemAvailable in /proc/meminfo (is /proc mounted?)' <<<"$out" ||
     fail "no warning about the missing /proc/meminfo in:"$'\n'"$(head -n3 <<<"$out")"

@@ -44,7 +44,7 @@ cm_cli_test(NAME "budget: a negative size is a usage error" RC 2 REGEX "scan-sto
             COMMAND ${CM_BIN} budget --scan-store-mb -5)
 # The demo is the main job end to end (about 30 s natively): host only.
 cm_cli_test(NAME "demo merges the two robots correctly and writes the report" RC 0 LABELS heavy
-            REGEX "\\| A\\+B\\+C \\|.*T_world_robot.*wrote .*merged_map.*commerge demo: correct merge, alignment RMSE 0\\.[0-9]+ m"
+            REGEX "\\| A\\+B\\+C \\|.*T_world_map.*wrote .*merged_map.*commerge demo: correct merge, alignment RMSE 0\\.[0-9]+ m"
             COMMAND ${CM_BIN} demo --out "${CM_CLI_OUT}/demo")
 set_tests_properties("cli: demo merges the two robots correctly and writes the report" PROPERTIES FIXTURES_SETUP demo_out)
 cm_cli_test(NAME "voxelize reads the demo's merged map" RC 0 LABELS heavy
@@ -116,7 +116,7 @@ cm_cli_test(NAME "run: in the aliased indoor world the robots accept no false lo
 # corridors' single-keyframe jumps above tau_inter no longer cut the revisit's diagonal, and the same pair
 # merges within 1 m of the ground truth.
 cm_cli_test(NAME "run: in the aliased indoor world the sequence-smoothed stage A merges the pair" RC 0 LABELS heavy
-            REGEX "robot 1: T_world_robot [^\n]*; e_rmse 0\\.[0-9]+ m"
+            REGEX "robot 1: T_world_map [^\n]*; e_rmse 0\\.[0-9]+ m"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-indoor/robot_0" "${CM_CLI_OUT}/sim-indoor/robot_1" --lidar vlp-16
                     --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
                     --sequence-half-window 8 --out "${CM_CLI_OUT}/run-indoor-seq")
@@ -140,7 +140,7 @@ cm_cli_test(NAME "sim: a campus world driven both ways with roll and pitch, two 
 set_tests_properties("cli: sim: a campus world driven both ways with roll and pitch, two robots, 800 keyframes"
                      PROPERTIES FIXTURES_SETUP sim_campus)
 cm_cli_test(NAME "run: campus with roll and pitch merges once SOLiD leaves the ground out" RC 0 LABELS heavy
-            REGEX "robot 1: T_world_robot [^\n]*; e_rmse 0\\.[0-9]+ m"
+            REGEX "robot 1: T_world_map [^\n]*; e_rmse 0\\.[0-9]+ m"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-campus/robot_0" "${CM_CLI_OUT}/sim-campus/robot_1" --lidar vlp-16
                     --solid-min-z-m -0.5 --tau-inter 0.2 --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C
                     --no-report --no-progress --out "${CM_CLI_OUT}/run-campus-z")
@@ -221,9 +221,11 @@ set_tests_properties("cli: run: tiny dataset, every mode, no pair merged is exit
 set(CM_KITTI00 "${CM_SHARED_DATA_DIR}/kitti/kitti00_frames0-15")
 if(EXISTS "${CM_KITTI00}/velodyne")
   cm_cli_test(NAME "run: KITTI 00 split into two robots by time merges against ground truth" RC 0 LABELS heavy
-              REGEX "robot 1: T_world_robot .* e_rmse 0\\.[0-2][0-9]* m"
+              REGEX "robot 1: T_world_map .* e_rmse 0\\.[0-2][0-9]* m"
               COMMAND ${CM_BIN} run "${CM_KITTI00}:0-10" "${CM_KITTI00}:5-16" --gt-from-poses --tau-area 4 --no-report
                       --scan-store-mb 64 --max-keyframes 100 --out "${CM_CLI_OUT}/run-kitti00")
 else()
   message(STATUS "CM-SKIP: ${CM_KITTI00} is absent: the KITTI 00 run test is not registered")
 endif()
+
+include("${CMAKE_CURRENT_SOURCE_DIR}/apps/house_tests.cmake")

@@ -1,0 +1,85 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "apps/merge_flags.hpp"
+
+#include <cstdint>
+#include <sstream>
+
+#include "core/exchange/exchange_policy.hpp"
+#include "core/exchange/sequence_smoothing.hpp"
+
+namespace commerge::app {
+
+namespace {
+
+using T = MergeFlag::Type;
+
+const MergeFlag kMergeFlags[] = {
+    {"--tau-inter", "cascade.stage_a.tau_inter", "", 0.0, 2.0, "tau_inter",
+     "stage A: a keyframe pair is a candidate when its R-SOLiD descriptor distance is at most this", T::kDouble,
+     [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.tau_inter; }},
+    {"--tau-area", "cascade.stage_a.tau_area", "cells", 0.0, 1e12, "tau_area",
+     "stage A: smallest span area (rows x columns of the bounding box) of an accepted cluster", T::kUint64,
+     [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.tau_area; }},
+    {"--sequence-half-window", "cascade.stage_a.sequence_half_window", "keyframes", 0.0,
+     static_cast<double>(kMaxSequenceHalfWindow), "ours",
+     "stage A thresholds the mean descriptor distance along 2w+1 keyframes of the diagonal or anti-diagonal "
+     "through each cell instead of the cell alone (sequence matching as in SeqSLAM); bridges single keyframes "
+     "that jump above --tau-inter in corridors; 0 = the paper's per-cell threshold",
+     T::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.sequence_half_window; }},
+    {"--tau-con-m", "cascade.stage_c.tau_con_m", "m", 1e-3, 1e4, "tau_con",
+     "stage C: two loops are compatible when their positional inconsistency is below this", T::kDouble,
+     [](MergeServerParams* p) -> void* { return &p->cascade.stage_c.tau_con_m; }},
+    {"--min-submap-scans", "cascade.policy.min_scans_per_robot", "scans", 0.0,
+     static_cast<double>(kMaxMinScansPerRobot), "ours",
+     "fewest scans asked of each robot per pair: L_K's keyframes plus the nearest other keyframes of stage A's "
+     "loops (0 = exactly L_K's, the paper's policy)",
+     T::kUint32, [](MergeServerParams* p) -> void* { return &p->cascade.policy.min_scans_per_robot; }},
+    {"--max-widen-steps", "max_widen_steps", "steps", 0.0, 8.0, "ours",
+     "when registration refuses a pair, ask again for up to twice its scans (more of stage A's keyframes) and "
+     "register again, at most this many times per round (0 = the paper's single exchange)",
+     T::kInt, [](MergeServerParams* p) -> void* { return &p->max_widen_steps; }},
+};
+
+template <typename V>
+CLI::Option* AddTyped(CLI::App* cmd, const std::string& name, void* field, const std::string& help) {
+  return cmd->add_option(name, *static_cast<V*>(field), help);
+}
+
+}  // namespace
+
+Span<const MergeFlag> MergeFlagTable() { return Span<const MergeFlag>(kMergeFlags, std::size(kMergeFlags)); }
+
+std::string MergeFlagValue(const MergeFlag& f, MergeServerParams* params) {
+  std::ostringstream text;
+  void* field = f.bind(params);
+  switch (f.type) {
+    case T::kDouble: text << *static_cast<double*>(field); break;
+    case T::kUint64: text << *static_cast<std::uint64_t*>(field); break;
+    case T::kSize: text << *static_cast<std::size_t*>(field); break;
+    case T::kUint32: text << *static_cast<std::uint32_t*>(field); break;
+    case T::kInt: text << *static_cast<int*>(field); break;
+  }
+  return text.str();
+}
+
+void AddMergeFlags(CLI::App* cmd, MergeServerParams* params) {
+  for (const MergeFlag& f : MergeFlagTable()) {
+    std::string help = f.help;
+    help += std::string(" [") + (f.unit[0] != '\0' ? f.unit : "dimensionless") + "; " +
+            (std::string(f.paper_symbol) == "ours" ? std::string("ours, not in the paper")
+                                                   : std::string("paper: ") + f.paper_symbol) +
+            "]";
+    void* field = f.bind(params);
+    CLI::Option* o = nullptr;
+    switch (f.type) {
+      case T::kDouble: o = AddTyped<double>(cmd, f.flag, field, help); break;
+      case T::kUint64: o = AddTyped<std::uint64_t>(cmd, f.flag, field, help); break;
+      case T::kSize: o = AddTyped<std::size_t>(cmd, f.flag, field, help); break;
+      case T::kUint32: o = AddTyped<std::uint32_t>(cmd, f.flag, field, help); break;
+      case T::kInt: o = AddTyped<int>(cmd, f.flag, field, help); break;
+    }
+    o->check(CLI::Range(f.min_value, f.max_value))->capture_default_str();
+  }
+}
+
+}  // namespace commerge::app

@@ -1,0 +1,435 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// `commerge run`'s results: the modes side by side and the final mode's result on stdout, the merge files
+// (platform/io/merge_outputs: transforms.txt, trajectories/, merged_map.pcd/.ply) and the report folder
+// (affinity matrices, selected scans, top views, bytes per mode, summary.md, metrics.tsv).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "apps/run_job.hpp"
+#include "core/agent/merge_round.hpp"
+#include "core/common/bytes.hpp"
+#include "core/geometry/se3.hpp"
+#include "core/merge/merged_map.hpp"
+#include "platform/io/merge_outputs.hpp"
+#include "platform/memory/peak_rss.hpp"
+#include "platform/report/png_writer.hpp"
+#include "platform/report/report_charts.hpp"
+
+namespace commerge::app {
+
+namespace {
+
+constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
+
+std::string Bytes(std::uint64_t b) { return FormatBytes(static_cast<std::int64_t>(b)); }
+
+std::string PoseText(const Eigen::Isometry3d& T) {
+  const Eigen::Vector3d t = T.translation();
+  return "t = (" + Fmt("%.2f", t.x()) + ", " + Fmt("%.2f", t.y()) + ", " + Fmt("%.2f", t.z()) + ") m, yaw " +
+         Fmt("%.2f", YawRad(T.linear()) * kRadToDeg) + " deg";
+}
+
+// ---- stdout
+
+std::string ModeRow(const RunJob& job, const ModeOutcome& m) {
+  const std::uint64_t total = job.stream_bytes() + m.ledger->Total().bytes;
+  std::string vs = "-";
+  if (const ModeOutcome* all = job.send_all()) {
+    const double all_bytes = static_cast<double>(job.stream_bytes() + all->ledger->Total().bytes);
+    vs = Fmt("%.2f %% less", 100.0 * (1.0 - static_cast<double>(total) / all_bytes));
+  }
+  std::string rmse;
+  for (std::size_t r = 1; r < m.robot_eval.size(); ++r) {
+    if (!rmse.empty()) rmse += ", ";
+    rmse += m.robot_eval[r].has_gt ? Fmt("%.3f m", m.robot_eval[r].rmse_m) : std::string("-");
+  }
+  return "| " + std::string(ExchangeModeName(m.mode)) + " | " + std::to_string(m.scans_requested()) + " | " +
+         Bytes(m.scan_bytes()) + " | " + Bytes(m.ledger->KindTotal(MessageKind::kPolicies).bytes) + " | " +
+         Bytes(m.ledger->KindTotal(MessageKind::kPoseUpdates).bytes) + " | " + Bytes(total) + " | " + vs + " | " +
+         std::to_string(m.pairs_merged()) + "/" + std::to_string(m.round.pairs.size()) + " | " +
+         (rmse.empty() ? "-" : rmse) + " | " + Fmt("%.2f", m.merge_s) + " |";
+}
+
+std::string PairText(const ModeOutcome& m, std::size_t i) {
+  const PairMergeResult& p = m.round.pairs[i];
+  const PairEval& e = m.pair_eval[i];
+  std::string s = "  pair " + std::to_string(p.alpha) + "-" + std::to_string(p.beta) + ": ";
+  if (!p.attempted) return s + "not merged: " + p.reason;
+  const RegistrationResult& g = p.registration;
+  s += std::to_string(p.alpha_scans) + " + " + std::to_string(p.beta_scans) + " scans, submaps " +
+       std::to_string(p.alpha_submap_points) + " / " + std::to_string(p.beta_submap_points) + " points; " +
+       RegistrationVerdictName(g.verdict) + " (coarse inliers " + std::to_string(g.num_coarse_inliers) + ", overlap " +
+       Fmt("%.2f", g.overlap_ratio) + ", fitness " + Fmt("%.3f m", g.fitness_rmse_m) + "), " +
+       Fmt("%.2f s", m.round.registration_s[i]);
+  if (m.round.widenings[i] > 0) {
+    s += " (selection widened " + std::to_string(m.round.widenings[i]) +
+         "x after registration refused it; core/README.md \"Server cascade\")";
+  }
+  if (g.success()) {
+    s += "\n    T_" + std::to_string(p.alpha) + "_" + std::to_string(p.beta) + ": " + PoseText(g.T_target_source);
+    if (e.has_gt) {
+      s += "\n    against ground truth: " + Fmt("%.3f m", e.transform_error.translation_m) + ", " +
+           Fmt("%.2f deg", e.transform_error.rotation_deg) + "; e_rmse " + Fmt("%.3f m", e.rmse_m) + " (max " +
+           Fmt("%.3f m", e.max_error_m) + ")";
+    }
+  }
+  return s;
+}
+
+void FinalResult(const RunJob& job, const ModeOutcome& m, const std::function<void(const std::string&)>& line) {
+  line("");
+  line("final result (" + std::string(ExchangeModeName(m.mode)) + "):");
+  for (std::size_t i = 0; i < m.round.pairs.size(); ++i) line(PairText(m, i));
+  if (!m.round.frames_ok) {
+    line("  frames: " + m.round.frames_error);
+    return;
+  }
+  for (int r = 0; r < job.num_robots(); ++r) {
+    std::string s = "  robot " + std::to_string(r) + ": ";
+    if (r == 0) {
+      s += "world frame (robot 0's map)";
+    } else if (!m.round.in_world(r)) {
+      s += "not connected to robot 0 (no consistent merge)";
+    } else {
+      s += "T_world_map " + PoseText(m.round.T_world_map(r));
+      const PairEval& e = m.robot_eval[static_cast<std::size_t>(r)];
+      if (e.has_gt) s += "; e_rmse " + Fmt("%.3f m", e.rmse_m);
+    }
+    line(s);
+  }
+  for (const MeasurementOutcome& mo : m.round.frames.measurements) {
+    if (mo.verdict == MeasurementVerdict::kRejected) {
+      line("  a pairwise merge was rejected as inconsistent with the others (cycle error " +
+           Fmt("%.2f m", mo.cycle_translation_m) + ", " + Fmt("%.1f deg", mo.cycle_rotation_deg) + ")");
+    }
+  }
+}
+
+// ---- files
+
+MergeResultMessage FinalMessage(const RunJob& job) {
+  std::vector<int> ids;
+  std::vector<std::uint32_t> keyframes;
+  for (int r = 0; r < job.num_robots(); ++r) {
+    ids.push_back(r);
+    keyframes.push_back(static_cast<std::uint32_t>(job.server->robot(r).size()));
+  }
+  return MakeMergeResultMessage(job.outcomes.back().round, *job.server, Span<const int>(ids),
+                                Span<const std::uint32_t>(keyframes), 0, 0);
+}
+
+// Robot r's stored scans placed with T_world_map (identity: its own frame) into `map`.
+void AddRobotScans(const RobotRun& r, int robot, const Eigen::Isometry3d& T_world_map, MergedMapBuilder* map) {
+  std::vector<PointXYZI> scan;
+  std::vector<std::uint8_t> spill;
+  const RobotMapper& m = r.agent->mapper();
+  map->BeginRobot(static_cast<std::uint16_t>(robot), T_world_map);
+  for (std::size_t k = 0; k < m.num_keyframes(); ++k) {
+    if (!r.store->GetPoints(static_cast<std::uint32_t>(k), &scan, &spill).ok()) continue;
+    map->AddScan(Span<const PointXYZI>(scan), m.pose(k));
+  }
+}
+
+void Warn(const RunJob& job, const Status& st) {
+  if (!st.ok()) std::fprintf(stderr, "%s: %s\n", job.tag, st.message().c_str());
+}
+
+// transforms.txt, trajectories/, and both maps (merged, and every robot in its own frame for the report).
+// `before` may be null (no report).
+void WriteMergeFiles(const RunJob& job, MergedMapBuilder* after, MergedMapBuilder* before) {
+  const ModeOutcome& final_mode = job.outcomes.back();
+  const std::string& dir = job.options.out_dir;
+  Warn(job, platform::WriteTransforms(dir + "/transforms.txt", FinalMessage(job),
+                                      std::string(job.options.tag) + ", mode " + ExchangeModeName(final_mode.mode)));
+  for (int r = 0; r < job.num_robots(); ++r) {
+    const RobotRun& rr = job.robots[static_cast<std::size_t>(r)];
+    const Trajectories& tr = job.trajectories[static_cast<std::size_t>(r)];
+    platform::RobotTrajectory t;
+    t.robot = r;
+    t.in_world = final_mode.round.in_world(r);
+    t.T_world_map = final_mode.round.T_world_map(r);
+    t.T_map_sensor = tr.estimated;
+    t.times_s = tr.times_s;
+    t.ground_truth = tr.ground_truth;
+    Status st = platform::WriteTrajectory(dir + "/trajectories", t);
+    if (st.ok()) st = WriteLoops(rr, dir + "/trajectories/robot_" + std::to_string(r) + "_loops.txt");
+    Warn(job, st);
+    if (t.in_world) AddRobotScans(rr, r, t.T_world_map, after);
+  }
+  after->Finish();  // one map's workspace at a time
+  if (before != nullptr) {
+    for (int r = 0; r < job.num_robots(); ++r) {
+      AddRobotScans(job.robots[static_cast<std::size_t>(r)], r, Eigen::Isometry3d::Identity(), before);
+    }
+    before->Finish();
+  }
+  Warn(job, platform::WriteMergedMap(dir, *after));
+}
+
+// Min-pooled descriptor distance matrix (rows = alpha keyframes) for the report picture.
+platform::HeatmapInput AffinityPicture(const RobotKeyframeDb& a, const RobotKeyframeDb& b, int max_cells) {
+  platform::HeatmapInput h;
+  h.rows = static_cast<int>(std::min<std::size_t>(a.size(), static_cast<std::size_t>(max_cells)));
+  h.cols = static_cast<int>(std::min<std::size_t>(b.size(), static_cast<std::size_t>(max_cells)));
+  h.values.assign(static_cast<std::size_t>(h.rows) * static_cast<std::size_t>(h.cols), std::nanf(""));
+  const std::size_t D = kKeyframeDescriptorDim;
+  // Subsample very large matrices (at most ~40M distances): the picture needs the structure, not every cell.
+  const std::size_t stride_a = std::max<std::size_t>(1, a.size() * b.size() / 40000000 + 1);
+  for (std::size_t i = 0; i < a.size(); i += (stride_a > 1 ? stride_a : 1)) {
+    if (!a.valid[i]) continue;
+    const int pr = static_cast<int>(i * static_cast<std::size_t>(h.rows) / a.size());
+    const float* x = &a.descriptors[i * D];
+    for (std::size_t j = 0; j < b.size(); ++j) {
+      if (!b.valid[j]) continue;
+      const float* y = &b.descriptors[j * D];
+      float dot = 0.0f;
+      for (std::size_t d = 0; d < D; ++d) dot += x[d] * y[d];
+      const float dist = std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot));
+      const int pc = static_cast<int>(j * static_cast<std::size_t>(h.cols) / b.size());
+      float& v = h.values[static_cast<std::size_t>(pr) * static_cast<std::size_t>(h.cols) + static_cast<std::size_t>(pc)];
+      if (std::isnan(v) || dist < v) v = dist;
+    }
+  }
+  h.vmin = 0.0f;
+  h.vmax = 0.6f;
+  h.max_grid_px = 800;
+  return h;
+}
+
+int CellOf(std::size_t index, std::size_t n, int cells) {
+  return n == 0 ? 0 : static_cast<int>(index * static_cast<std::size_t>(cells) / n);
+}
+
+struct ReportWriter {
+  std::string dir;
+  std::vector<std::string> failed;
+  void Write(const std::string& name, const Result<platform::RgbImage>& image) {
+    const std::string path = dir + "/" + name;
+    if (!image.ok()) {
+      failed.push_back(name + ": " + image.status().message());
+      return;
+    }
+    if (Status st = platform::WritePng(path, *image); !st.ok()) failed.push_back(st.message());
+  }
+};
+
+// Affinity matrix per pair with stage A's cluster and L_K's loops.
+void WriteAffinityPictures(const RunJob& job, ReportWriter* rep) {
+  for (int a = 0; a < job.num_robots(); ++a) {
+    for (int b = a + 1; b < job.num_robots(); ++b) {
+      const ExchangeCascadeResult* c = job.server->cascade(a, b);
+      if (!c) continue;
+      const RobotKeyframeDb& A = job.server->robot(a);
+      const RobotKeyframeDb& B = job.server->robot(b);
+      platform::HeatmapInput h = AffinityPicture(A, B, 800);
+      if (c->stage_a.found) {
+        platform::HeatmapRect rect;
+        rect.row0 = CellOf(c->stage_a.best.row_min, A.size(), h.rows);
+        rect.row1 = CellOf(c->stage_a.best.row_max, A.size(), h.rows);
+        rect.col0 = CellOf(c->stage_a.best.col_min, B.size(), h.cols);
+        rect.col1 = CellOf(c->stage_a.best.col_max, B.size(), h.cols);
+        h.rects.push_back(rect);
+      }
+      for (const SequentialLoopCell& l : c->stage_c.selected_loops) {
+        platform::HeatmapMark mark;
+        mark.row = CellOf(l.alpha_index, A.size(), h.rows);
+        mark.col = CellOf(l.beta_index, B.size(), h.cols);
+        h.marks.push_back(mark);
+      }
+      h.title = "R-SOLiD distance, robot " + std::to_string(a) + " x robot " + std::to_string(b) +
+                " (red: stage A cluster, dots: L_K)";
+      h.row_label = "robot " + std::to_string(a) + " keyframe";
+      h.col_label = "robot " + std::to_string(b) + " keyframe";
+      rep->Write("affinity_" + std::to_string(a) + "_" + std::to_string(b) + ".png", platform::RenderHeatmap(h));
+    }
+  }
+}
+
+// Trajectories in the world frame with the scans the final mode requested.
+void WriteTrajectoryPicture(const RunJob& job, ReportWriter* rep) {
+  const ModeOutcome& final_mode = job.outcomes.back();
+  platform::TrajectoryPlotInput tp;
+  tp.title = "trajectories (world = robot 0), discs: scans sent in mode " + std::string(ExchangeModeName(final_mode.mode));
+  for (int r = 0; r < job.num_robots(); ++r) {
+    platform::TrajectorySeries s;
+    s.name = "robot " + std::to_string(r);
+    s.robot_index = r;
+    const Eigen::Isometry3d T = final_mode.round.T_world_map(r);
+    if (!final_mode.round.in_world(r)) s.name += " (own frame: not merged)";
+    for (const Eigen::Isometry3d& P : job.trajectories[static_cast<std::size_t>(r)].estimated) {
+      const Eigen::Vector3d p = (T * P).translation();
+      s.path.push_back({static_cast<float>(p.x()), static_cast<float>(p.y())});
+    }
+    for (const ScanRequest& q : final_mode.round.plan.requests) {
+      if (q.robot_id != r) continue;
+      for (std::uint32_t k : q.keyframes) {
+        if (k < s.path.size()) s.highlighted.push_back(static_cast<int>(k));
+      }
+    }
+    tp.robots.push_back(std::move(s));
+  }
+  rep->Write("trajectories_selected.png", platform::RenderTrajectories(tp));
+}
+
+void WriteMapAndBytePictures(const RunJob& job, const MergedMapBuilder& after, const MergedMapBuilder& before,
+                             ReportWriter* rep) {
+  std::vector<std::string> names;
+  for (int r = 0; r < job.num_robots(); ++r) names.push_back("robot " + std::to_string(r));
+  platform::TopViewInput view;
+  view.points = Span<const PointXYZI>(before.points());
+  view.robot_ids = Span<const std::uint16_t>(before.robot_ids());
+  view.robot_names = names;
+  view.title = "before merging: every robot's map in its own frame";
+  rep->Write("map_before.png", platform::RenderTopView(view));
+  view.points = Span<const PointXYZI>(after.points());
+  view.robot_ids = Span<const std::uint16_t>(after.robot_ids());
+  view.title = "after merging (" + std::string(ExchangeModeName(job.outcomes.back().mode)) + "): world = robot 0";
+  rep->Write("map_after.png", platform::RenderTopView(view));
+  platform::BarChartInput bars;
+  bars.series = {"keyframes", "pose updates", "policies", "scans"};
+  bars.log_scale = true;
+  bars.title = "bytes exchanged per mode (LCM-encoded)";
+  bars.value_label = "bytes";
+  for (const ModeOutcome& m : job.outcomes) {
+    bars.groups.push_back(ExchangeModeName(m.mode));
+    bars.values.push_back(static_cast<double>(job.stream_ledger->KindTotal(MessageKind::kKeyframes).bytes));
+    bars.values.push_back(static_cast<double>(job.stream_ledger->KindTotal(MessageKind::kPoseUpdates).bytes +
+                                              m.ledger->KindTotal(MessageKind::kPoseUpdates).bytes));
+    bars.values.push_back(static_cast<double>(m.ledger->KindTotal(MessageKind::kPolicies).bytes));
+    bars.values.push_back(static_cast<double>(m.scan_bytes()));
+  }
+  rep->Write("bytes_per_mode.png", platform::RenderBarChart(bars));
+}
+
+// Machine-readable figures (profiling/bench_scenarios.sh reads them).
+void WriteMetrics(const RunJob& job) {
+  std::string t = "key\tvalue\n";
+  auto kv = [&t](const std::string& k, const std::string& v) { t += k + "\t" + v + "\n"; };
+  kv("robots", std::to_string(job.num_robots()));
+  std::size_t keyframes = 0;
+  for (const RobotRun& r : job.robots) keyframes += r.agent->mapper().num_keyframes();
+  kv("keyframes_total", std::to_string(keyframes));
+  kv("robots_s", Fmt("%.3f", job.robots_s));
+  kv("cascade_s", Fmt("%.3f", job.cascade_s));
+  kv("stream_bytes", std::to_string(job.stream_bytes()));
+  kv("raw_keyframe_scan_bytes", std::to_string(job.raw_keyframe_bytes()));
+  for (int ri = 0; ri < job.num_robots(); ++ri) {
+    const std::string p = "robot." + std::to_string(ri) + ".";
+    const LoopErrors& le = job.loop_errors[static_cast<std::size_t>(ri)];
+    kv(p + "loops", std::to_string(job.robots[static_cast<std::size_t>(ri)].loops.size()));
+    kv(p + "false_loops", std::to_string(le.checked < 0 ? -1 : le.wrong));
+    if (le.checked > 0) {
+      kv(p + "loop_error_median_m", Fmt("%.4f", le.median_m));
+      kv(p + "loop_error_max_m", Fmt("%.4f", le.max_m));
+    }
+  }
+  kv("peak_rss_after_robots_bytes", std::to_string(job.robots_peak_rss));
+  kv("peak_rss_end_bytes", std::to_string(platform::ReadRss().peak_bytes));
+  for (const ModeOutcome& m : job.outcomes) {
+    const std::string p = std::string("mode.") + ExchangeModeName(m.mode) + ".";
+    std::size_t widened_pairs = 0;
+    for (int w : m.round.widenings) widened_pairs += w > 0;
+    kv(p + "scans", std::to_string(m.scans_requested()));
+    kv(p + "widened_pairs", std::to_string(widened_pairs));
+    kv(p + "scan_bytes", std::to_string(m.scan_bytes()));
+    kv(p + "total_bytes", std::to_string(job.stream_bytes() + m.ledger->Total().bytes));
+    kv(p + "pairs_merged", std::to_string(m.pairs_merged()) + "/" + std::to_string(m.round.pairs.size()));
+    kv(p + "merge_s", Fmt("%.3f", m.merge_s));
+    double worst = -1.0;
+    std::size_t connected = 0;
+    for (std::size_t r = 1; r < m.robot_eval.size(); ++r) {
+      if (m.robot_eval[r].has_gt) {
+        worst = std::max(worst, m.robot_eval[r].rmse_m);
+        ++connected;
+      }
+    }
+    kv(p + "robots_merged", std::to_string(connected) + "/" + std::to_string(job.num_robots() - 1));
+    kv(p + "worst_rmse_m", Fmt("%.3f", worst));
+  }
+  if (std::FILE* f = std::fopen((job.report_dir + "/metrics.tsv").c_str(), "w")) {
+    std::fputs(t.c_str(), f);
+    std::fclose(f);
+  }
+}
+
+}  // namespace
+
+Eigen::Isometry3d LoopError(const RobotRun& r, const RobotRun::Loop& l) {
+  const Eigen::Isometry3d& gt_q = r.data.ground_truth[r.keyframe_scan[l.query]];
+  const Eigen::Isometry3d& gt_m = r.data.ground_truth[r.keyframe_scan[l.match]];
+  return (gt_m.inverse() * gt_q).inverse() * l.T_match_query;
+}
+
+double RotationDeg(const Eigen::Isometry3d& T) { return RotationAngleRad(T.linear()) * kRadToDeg; }
+
+Status WriteLoops(const RobotRun& r, const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) return IoError("cannot write " + path);
+  std::fprintf(f, "# query match  tx ty tz qx qy qz qw (T_match_query: ICP, refined by GICP where the robot did)%s\n",
+               r.data.ground_truth.empty() ? "" : "  ex ey ez [m] e_rot [deg] (error against ground truth)");
+  for (const RobotRun::Loop& l : r.loops) {
+    const Eigen::Quaterniond q(l.T_match_query.linear());
+    const Eigen::Vector3d& t = l.T_match_query.translation();
+    std::fprintf(f, "%u %u %.4f %.4f %.4f %.6f %.6f %.6f %.6f", l.query, l.match, t.x(), t.y(), t.z(), q.x(), q.y(),
+                 q.z(), q.w());
+    if (!r.data.ground_truth.empty() && l.query < r.keyframe_scan.size() && l.match < r.keyframe_scan.size()) {
+      const Eigen::Isometry3d error = LoopError(r, l);
+      std::fprintf(f, " %.4f %.4f %.4f %.4f", error.translation().x(), error.translation().y(),
+                   error.translation().z(), RotationDeg(error));
+    }
+    std::fprintf(f, "\n");
+  }
+  const bool ok = std::ferror(f) == 0;
+  if (std::fclose(f) != 0 || !ok) return IoError("error writing " + path);
+  return Status::Ok();
+}
+
+std::string PrintResults(const RunJob& job) {
+  std::string summary;
+  auto line = [&summary](const std::string& s) {
+    std::printf("%s\n", s.c_str());
+    summary += s + "\n";
+  };
+  line("");
+  line("| mode | scans sent | scan bytes | policies | pose refresh | total exchanged | vs send-all | pairs merged | e_rmse (robots vs robot 0) | merge s |");
+  line("|---|---|---|---|---|---|---|---|---|---|");
+  for (const ModeOutcome& m : job.outcomes) line(ModeRow(job, m));
+  line("(total exchanged = streamed keyframe records " + Bytes(job.stream_ledger->KindTotal(MessageKind::kKeyframes).bytes) +
+       " + streamed pose updates " + Bytes(job.stream_ledger->KindTotal(MessageKind::kPoseUpdates).bytes) +
+       ", the same in every mode, + policies + the requested keyframes' current poses + scans; LCM-encoded sizes)");
+  const std::uint64_t raw_bytes = job.raw_keyframe_bytes();
+  if (raw_bytes > 0) {
+    const ModeOutcome& last = job.outcomes.back();
+    line("(the paper's baseline, every keyframe's scan at full resolution as recorded (16 B per point), would be " +
+         Bytes(raw_bytes) + "; " + std::string(ExchangeModeName(last.mode)) + " exchanges " +
+         Fmt("%.2f %% less", 100.0 * (1.0 - static_cast<double>(job.stream_bytes() + last.ledger->Total().bytes) /
+                                              static_cast<double>(raw_bytes))) +
+         ". send-all above ships the robots' stored voxel-downsampled scans, a much smaller baseline)");
+  }
+  FinalResult(job, job.outcomes.back(), line);
+  return summary;
+}
+
+std::size_t WriteRunOutputs(const RunJob& job, const std::string& summary) {
+  MergedMapBuilder after{MergedMapParams{}}, before{MergedMapParams{}};
+  WriteMergeFiles(job, &after, job.options.report ? &before : nullptr);
+  if (job.options.report) {
+    ReportWriter rep{job.report_dir, {}};
+    WriteAffinityPictures(job, &rep);
+    WriteTrajectoryPicture(job, &rep);
+    WriteMapAndBytePictures(job, after, before, &rep);
+    for (const std::string& f : rep.failed) std::fprintf(stderr, "%s: report: %s\n", job.tag, f.c_str());
+    if (std::FILE* f = std::fopen((job.report_dir + "/summary.md").c_str(), "w")) {
+      std::fputs(("# commerge run\n\n```\n" + summary + "```\n").c_str(), f);
+      std::fclose(f);
+    }
+  }
+  WriteMetrics(job);
+  return after.points().size();
+}
+
+}  // namespace commerge::app

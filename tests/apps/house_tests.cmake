@@ -1,0 +1,29 @@
+# SPDX-License-Identifier: BSD-3-Clause
+# The house rules that keep the code readable, as tests (host only: they read the sources, not the binaries):
+# no function in apps/ longer than 150 lines, README.md an entry page of at most 300 lines, and `run` and
+# `server` sharing the merge flags of one table. Included from cli_tests.cmake.
+if(CMAKE_CROSSCOMPILING)
+  return()
+endif()
+set(cm_lengths "${CMAKE_CURRENT_SOURCE_DIR}/apps/function_lengths.sh")
+file(GLOB cm_app_sources CONFIGURE_DEPENDS "${PROJECT_SOURCE_DIR}/apps/*.cpp" "${PROJECT_SOURCE_DIR}/apps/*.hpp")
+add_test(NAME "house: no function in apps/ is longer than 150 lines" COMMAND bash "${cm_lengths}" 150 ${cm_app_sources})
+# The checker itself: a 151-line function is found and named, a 150-line one passes; braces in strings and
+# comments do not count, and a lambda inside a function is part of it.
+set(cm_long "${CMAKE_CURRENT_BINARY_DIR}/house/long_function.cpp")
+set(body "namespace x {\nstruct S {\n  int f() const {\n")
+foreach(i RANGE 1 149)
+  string(APPEND body "    g(\"}\"); // {\n")
+endforeach()
+string(APPEND body "  }\n};\nint Outer(int a) {\n  auto l = [](int b) { return b; };\n  return l(a);\n}\n}  // namespace x\n")
+file(WRITE "${cm_long}" "${body}")
+add_test(NAME "house: the function-length check names a 151-line member function"
+         COMMAND "${CMAKE_COMMAND}" "-DCMD=bash|${cm_lengths}|150|${cm_long}" -DEXPECT_RC=1
+                 "-DEXPECT_REGEX=long_function.cpp:3 f 151 lines" -P "${CM_RUN_EXPECT}")
+add_test(NAME "house: the function-length check accepts a function of exactly its limit"
+         COMMAND "${CMAKE_COMMAND}" "-DCMD=bash|${cm_lengths}|151|${cm_long}" -DEXPECT_RC=0 -P "${CM_RUN_EXPECT}")
+add_test(NAME "house: README.md has at most 300 lines"
+         COMMAND "${CMAKE_COMMAND}" -DFILE=${PROJECT_SOURCE_DIR}/README.md -DMAX=300
+                 -P "${CMAKE_CURRENT_SOURCE_DIR}/apps/check_line_count.cmake")
+add_test(NAME "cli: run and server share the merge flags: same help, range and default, the paper's values"
+         COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/shared_flags_test.sh" $<TARGET_FILE:commerge>)

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# `commerge run` and `commerge server` share the merge server's flags (apps/merge_flags.hpp): each flag's help
+# entry (type, range, default, help text) must be the same in both, and the defaults of the paper's parameters
+# must be the paper's values (Table of parameters: tau_inter 0.10, tau_area 10 000 cells, tau_con 5 m).
+# Usage: shared_flags_test.sh COMMERGE [EMULATOR...]   (the command that runs the commerge executable)
+set -euo pipefail
+entry() {  # $1 = help text, $2 = flag: the flag's line and its indented continuation lines
+  awk -v flag="$2" '
+    $1 == flag { on = 1; print; next }
+    on && /^  --/ { exit }
+    on && /^[^ ]/ { exit }
+    on { print }' <<<"$1"
+}
+run_help=$("$@" run --help)
+server_help=$("$@" server --help)
+status=0
+for flag in --tau-inter --tau-area --sequence-half-window --tau-con-m --min-submap-scans --max-widen-steps; do
+  a=$(entry "$run_help" "$flag")
+  b=$(entry "$server_help" "$flag")
+  if [[ -z $a ]]; then echo "run --help lacks $flag"; status=1; continue; fi
+  if [[ $a != "$b" ]]; then
+    printf 'run and server differ on %s:\n  run:    %s\n  server: %s\n' "$flag" "$a" "$b"
+    status=1
+  fi
+done
+for expect in "--tau-inter =0.1" "--tau-area =10000" "--tau-con-m =5"; do
+  flag=${expect%% *}
+  value=${expect#* }
+  line=$(entry "$run_help" "$flag" | head -n 1)
+  if [[ $line != *"$value" ]]; then echo "$flag: default is not the paper's (${value#=}): $line"; status=1; fi
+done
+[[ $status -eq 0 ]] && echo "run and server share 6 merge flags with identical help and the paper's defaults"
+exit $status
