@@ -138,7 +138,7 @@ int RunSize(std::size_t n, int reps, std::size_t tile_rows, std::size_t tile_col
               full.found ? "yes" : "no", full.best.row_min, full.best.row_max, full.best.col_min, full.best.col_max,
               full.cells.size(), full.num_clusters, static_cast<unsigned long long>(full.num_cells_below_threshold));
 
-  // 2b. Stage A with the sequence-smoothed threshold (README "Server cascade", step 1): same sets, w = 8.
+  // 2b. Stage A with the sequence-smoothed threshold (core/README.md "Sequence-smoothed stage A"): same sets, w = 8.
   commerge::SequentialMatchParams smoothed_params = params;
   smoothed_params.sequence_half_window = kSmoothingHalfWindow;
   commerge::SequentialMatchResult smoothed;

@@ -2,7 +2,7 @@
 # Usage: profiling/bench_scenarios.sh [--commerge BUILD/commerge] [--keyframes N] [--work DIR] [--quick]
 #                                     [--direction alternate|same] [--wobble-deg D] [--detection-reflectivity R]
 #                                     [--run-args "ARGS"] [--worlds "urban campus indoor cave"] [--reuse-data]
-# The generated-scenario table of the README: for each world (urban, campus, indoor, cave), 2 and 3 robots,
+# The generated-scenario tables of profiling/RESULTS.md: for each world (urban, campus, indoor, cave), 2 and 3 robots,
 # complete and partial overlap, `commerge sim` writes the dataset and `commerge run` (every exchange mode)
 # merges it on the jetson-nano memory profile. Prints one markdown row per scenario: robots merged, worst
 # alignment RMSE, bytes exchanged with the full cascade against sending every stored scan and against the

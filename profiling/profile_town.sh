@@ -8,8 +8,8 @@
 #             --direction same --wobble-deg 0 --seed 11`: the robots patrol the same town tour (complete overlap:
 #             the largest stage A clusters, so the heaviest cascade and registration rounds), driven the same way
 #             round on a flat road (robots driving the other way round, or with roll/pitch wobble, do not merge in
-#             urban worlds: README "Generated scenarios"; with --overlap moderate, about half of each route
-#             shared, the 3 x 10 000 mission ended with robot 1 unmerged). About 0.4 MB of .bin files per scan:
+#             urban worlds: profiling/RESULTS.md "Generated scenarios"; with --overlap moderate, about half of each
+#             route shared, the 3 x 10 000 mission ended with robot 1 unmerged). About 0.4 MB of .bin files per scan:
 #             3 x 10 000 scans take about 12 GB under --work.
 # 2. mission: `commerge server` and R `commerge robot` processes on the --board memory profile (--robots R
 #             --max-keyframes N), each under `/usr/bin/time -f %M` (peak RSS from the kernel), inside a private

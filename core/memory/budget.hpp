@@ -78,20 +78,20 @@ struct BudgetRecordSizes {
   static constexpr std::int64_t kDescriptorRecordBytes = 512;  ///< R-SOLiD + A-SOLiD floats, pose, index
   /// Node (128 B), the mapper's odometry pose (128 B), its edges (432 B each: odometry and loops) and the sparse
   /// solver's workspace (~2.4 kB per node on a plain circuit, profiling/bench_pose_graph; more with the fill-in
-  /// of many loops). Measured: 5.3 kB with a loop at every keyframe (pose-graph test), 4.3 kB on the Town
-  /// mission (robot 1, 10 000 keyframes). 3 200 B before those measurements.
+  /// of many loops). Sized for the worst case the pose-graph test measures: 5.3 kB with a loop at every
+  /// keyframe.
   static constexpr std::int64_t kPoseGraphBytesPerKeyframe = 5632;
   static constexpr std::int64_t kRawPointWorkBytes = 48;  ///< raw point + voxel key/index + descriptor scratch
   static constexpr std::int64_t kStoredPointBytes = 6;    ///< int16 centimetres x 3
   /// Loop check per point of the two scans: k-d trees and ICP scratch, plus the GICP refinement's neighbour
-  /// lists (10 per point), normals, covariances and factors; ~330 B measured on 1 800-point VLP-16 scans
-  /// (LoopVerifier test), 256 B before the refinement.
+  /// lists (10 per point), normals, covariances and factors; ~330 B on 1 800-point VLP-16 scans (LoopVerifier
+  /// test).
   static constexpr std::int64_t kIcpPointBytes = 384;
   /// The loop check's path lengths (KeyframeGraphDistance): link 8, CSR 12, steps and frontiers 16 B, rounded.
   static constexpr std::int64_t kLoopPathBytesPerKeyframe = 40;
   /// Registration per point of each submap: k-d tree, neighbour lists, normals, GICP covariances, SPFH and
-  /// FPFH-style features, the matcher's descriptor copies and GICP's target data. ~1.07 kB measured on
-  /// generated street submaps (Merge server memory test), ~0.85 kB on the Town mission; 256 B before.
+  /// FPFH-style features, the matcher's descriptor copies and GICP's target data: ~1.07 kB on generated street
+  /// submaps (Merge server memory test).
   static constexpr std::int64_t kRegistrationPointBytes = 1152;
   /// The bird's-eye-view fallback's grids (BevSearch: ~44 x grid_cells^2 bytes at its 256-cell default).
   static constexpr std::int64_t kRegistrationGridBytes = 3 * 1024 * 1024;

@@ -38,7 +38,7 @@ struct GicpParams {
   /// Two phases (ours, not small_gicp's): first with max_correspondence_distance_m (wide basin; steps below 10x
   /// the thresholds count as converged), then with this tighter gate so that pairs without a true counterpart
   /// (parts seen by one submap only) stop pulling the result; `converged` is the second phase's [m]. On KITTI 07
-  /// submaps it took the rotation error from 0.2-0.3 deg to 0.04-0.06 deg. 0 disables the second phase.
+  /// submaps the rotation error is 0.04-0.06 deg with it, 0.2-0.3 deg without. 0 disables the second phase.
   double refine_correspondence_distance_m = 1.5;
   /// The wide-gate phase uses every coarse_phase_stride-th source point (1 = all): it only has to reach the
   /// basin; the refinement phase and the final evaluation use every point.

@@ -29,7 +29,7 @@ inline Eigen::Vector3f Pos(const PointXYZI& p) { return {p.x, p.y, p.z}; }
 constexpr int kSpfhStride = 36;
 
 // atan2 with a minimax polynomial for atan on [0, 1] (max error about 1e-5 rad): the angle only selects one of
-// 11 bins, and libm's atan2f was the single largest cost of the descriptor stage.
+// 11 bins, and libm's atan2f would be the single largest cost of the descriptor stage.
 inline float FastAtan2(float y, float x) {
   const float ax = std::fabs(x), ay = std::fabs(y);
   const float mx = std::max(ax, ay), mn = std::min(ax, ay);
@@ -44,9 +44,9 @@ inline float FastAtan2(float y, float x) {
 }
 
 // The SPFH kernel evaluates kPairLanes neighbours at once with the compiler's portable 16-byte vectors (SSE on
-// x86-64, NEON on aarch64), branch-free: the scalar ComputePairFeature was latency bound (sqrt, two divisions,
-// the atan polynomial) and took a fifth of the coarse stage. (Eigen arrays were tried: their select() with a
-// bool condition is evaluated lane by lane, so they were no faster.) Every lane performs the same IEEE
+// x86-64, NEON on aarch64), branch-free: the scalar ComputePairFeature is latency bound (sqrt, two divisions,
+// the atan polynomial) and would take a fifth of the coarse stage. (Not Eigen arrays: their select() with a bool
+// condition is evaluated lane by lane, so they are no faster.) Every lane performs the same IEEE
 // operations in the same order as ComputePairFeature (dot products as x + (y + z)), FastAtan2 and the
 // histogram binning, so the bins are identical.
 constexpr int kPairLanes = 4;

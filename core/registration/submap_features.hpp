@@ -29,8 +29,8 @@ struct SubmapFeatureParams {
   /// Descriptor support and the single neighbour search radius [m] (spec: 5 x voxel size).
   double fpfh_radius_m = 5.0;
   /// Cap on the neighbour list of one point (the closest ones win). Bounds memory (points x cap x 8 bytes)
-  /// and time; at 1 m voxels a 5 m ball on a surface holds about 80-150 points. On the benchmark pairs 48 was
-  /// as good as 64 (32 lost real pairs) and the neighbour search is the largest single cost.
+  /// and time; at 1 m voxels a 5 m ball on a surface holds about 80-150 points. On the benchmark pairs 48 is
+  /// as good as 64 (32 loses real pairs), and the neighbour search is the largest single cost.
   int max_neighbors = 48;
   /// Fewer neighbours within normal_radius_m (the point included): no normal.
   int min_normal_neighbors = 3;

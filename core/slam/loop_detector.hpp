@@ -66,16 +66,13 @@ struct LoopDetectorParams {
   ///   2. T from the optimised graph, d = the shortest path through the loops already optimised into it
   ///      (KeyframeGraphDistance): where earlier loops tie the two places together, little drift is left.
   /// Descriptor search ignores position, so repetitive places (corridors, rows of identical doors or trees)
-  /// verify by ICP at the wrong copy: a corridor period away, or turned at a crossing. A check against the
-  /// graph with the whole path's allowance (the first version) let aliases in; each bent the graph, and the
-  /// bent graph then refused true loops and passed aliases that agreed with the bend (in the generated indoor
-  /// world a robot's map collapsed into a 20 m tangle that way, 109 of 198 loops false). Check 1 cannot be
-  /// bent by any loop; check 2 is the tight one once loops are closed. The defaults allow 2 % translation and
-  /// 0.1 deg/m heading drift (LiDAR odometry: ~0.5-2 % and ~0.001-0.01 deg/m). With 5 % an alias 18.4 m
-  /// off after 345 m of path still passed (bound 19.2 m) in the generated indoor world (3 robots, partial
-  /// overlap) and the aliases that followed it passed check 2; with 2 % (8.9 m) none did, while the true
-  /// loops there corrected the odometry by under 0.5 m. Raise them for worse odometry (wheels: 2-5 %), huge
-  /// values disable the checks.
+  /// verify by ICP at the wrong copy: a corridor period away, or turned at a crossing. Check 1 exists because
+  /// a check against the graph alone can be defeated: an alias that passes bends the graph, and the bent graph
+  /// then refuses true loops and passes aliases that agree with the bend. Check 1 cannot be bent by any loop;
+  /// check 2 is the tight one once loops are closed. The defaults allow 2 % translation and 0.1 deg/m heading
+  /// drift, the upper end of LiDAR odometry (~0.5-2 % and ~0.001-0.01 deg/m): a looser rate admits aliases a
+  /// corridor period away after a few hundred metres of path. Raise them for worse odometry (wheels: 2-5 %);
+  /// huge values disable the checks.
   double max_correction_m = 2.0;
   double max_correction_per_travelled = 0.02;
   double max_correction_deg = 5.0;
@@ -84,11 +81,11 @@ struct LoopDetectorParams {
   /// Loop refinement (ours, not the paper's, which uses the ICP result as the loop measurement): after the
   /// point-to-point ICP passed the paper's checks, GICP (core/registration) refines the loop transform from the
   /// ICP result; the checks and the information matrix stay the ICP's. Why: on 1 m voxel scans point-to-point
-  /// ICP is biased towards the scans' own sensor-centred sampling (ground rings, one centroid per voxel). On
-  /// the generated campus (3 robots x 3 000 keyframes, README "Long missions") its loops were off by 0.14-0.21 m
-  /// (median) against ground truth with a share along the direction of travel, and 1 284 such loops shrank
-  /// robot 0's map by 2.5 % (rigid ATE 3.2 m); refined, the loops were off by 0.005-0.007 m and the map's ATE
-  /// was 0.45 m. The refinement is kept only when GICP converged and moved the ICP result by at most
+  /// ICP is biased towards the scans' own sensor-centred sampling (ground rings, one centroid per voxel), with
+  /// a share along the direction of travel; hundreds of such loops shrink and bend a map. GICP matches local
+  /// surfaces (covariances of neighbourhoods) rather than single centroids, so the sampling pattern pulls it far
+  /// less (core/README.md "GICP refinement of intra-robot loops"). The refinement is kept only when GICP
+  /// converged and moved the ICP result by at most
   /// max_refinement_m / max_refinement_deg (otherwise the ICP result stands and the check says so).
   bool refine_with_gicp = true;
   double max_refinement_m = 1.0;

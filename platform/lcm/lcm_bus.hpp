@@ -12,7 +12,7 @@
 //
 // With `receive_thread` (the daemons), a thread of the bus's own hands every message from LCM to the bounded
 // queue as it arrives, so a caller that computes for seconds between two Poll calls (the server registering a
-// round, a robot closing a loop on a slow board) no longer lets LCM's 30-message queue per subscription fill:
+// round, a robot closing a loop on a slow board) does not let LCM's 30-message queue per subscription fill:
 // LCM drops beyond it silently, before anything can count. Poll then only waits for the queue to fill.
 #pragma once
 

@@ -3,11 +3,11 @@
 // by lcm-logplayer into `commerge server --replay`), without losing messages to LCM's own queue.
 //
 // Why not lcm-logger: LCM 1.3.1 keeps at most 30 received messages per subscription until the process handles
-// them and drops the rest silently, and lcm-logger does not raise that. On a loaded board it lost scan chunks
-// (2 chunks of one scan under two busy loops on 2 cores; the kernel dropped none), so a replay registered 13 + 14
-// scans where the recording server had 14 + 14. The recorder raises LCM's queue to lcm_queue_capacity, drains it
-// into a bounded LcmBus queue (drops there are counted), and counts what is missing from the log by the
-// senders' own sequence numbers (SequenceGapCounter), so an incomplete recording says so.
+// them and drops the rest silently, and lcm-logger does not raise that. On a loaded board its log can then miss
+// scan chunks (while the kernel drops none), and a replay registers fewer scans than the recording server did.
+// The recorder raises LCM's queue to lcm_queue_capacity, drains it into a bounded LcmBus queue (drops there are
+// counted), and counts what is missing from the log by the senders' own sequence numbers (SequenceGapCounter),
+// so an incomplete recording says so.
 #pragma once
 
 #include <array>

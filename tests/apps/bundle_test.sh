@@ -8,8 +8,9 @@
 #       --work /tmp/bt --step empty-root --emulator /usr/bin/qemu-aarch64-static
 #
 # Steps (each unpacks the tarball afresh under --work):
-#   layout      the tree: launcher, executable, loader, libraries, units, MANIFEST, licences; every DT_NEEDED of the executable
-#               and of every bundled library is in lib/; the executable's interpreter and RPATH point into the bundle
+#   layout      the tree: launcher, executable, loader, libraries, units, manual, MANIFEST, licences; every DT_NEEDED
+#               of the executable and of every bundled library is in lib/; the executable's interpreter and RPATH
+#               point into the bundle
 #   empty-root  ROOT holds only the unpacked bundle (+ the static emulator for aarch64, + the outputs): under
 #               `chroot ROOT` (as root; else `unshare -r chroot`) the bundle's loader runs `commerge --version`, the
 #               executable starts directly as /opt/commerge/libexec/commerge (symlink /opt/commerge -> the bundle),
@@ -69,7 +70,8 @@ step_layout() {
   local f
   for f in bin/commerge libexec/commerge "lib/$loader" lib/libc.so.6 lib/libm.so.6 lib/libstdc++.so.6 lib/libgcc_s.so.1 \
            lib/liblcm.so.1 lib/libglib-2.0.so.0 lib/libglpk.so.40 lib/libmimalloc.so.2 share/commerge/MANIFEST \
-           share/doc/libc6/copyright share/doc/liblcm1/copyright share/doc/libglpk40/copyright; do
+           share/doc/libc6/copyright share/doc/liblcm1/copyright share/doc/libglpk40/copyright \
+           share/doc/commerge/README.md; do
     [[ -f $b/$f ]] || fail "$name/$f missing from the bundle"
   done
   [[ -x $b/bin/commerge && -x $b/libexec/commerge && -x $b/lib/$loader ]] || fail "bin/, libexec/ or the loader not executable"
@@ -132,7 +134,7 @@ step_empty_root() {
     emu_in_root=("/$(basename "$emulator")" "${cpu[@]}")
   fi
   mkdir "$root/opt"
-  ln -s "../$name" "$root/opt/commerge"   # the README's install: /opt/commerge -> commerge-<version>-<arch>
+  ln -s "../$name" "$root/opt/commerge"   # the install of apps/README.md: /opt/commerge -> commerge-<version>-<arch>
   pick_chroot
   echo "empty root $root holds: $(ls -A "$root" | tr '\n' ' ')(entered with ${chroot_cmd[*]})"
 

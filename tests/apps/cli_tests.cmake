@@ -105,16 +105,17 @@ cm_cli_test(NAME "sim: an aliased indoor world, two robots, 800 keyframes" RC 0 
 set_tests_properties("cli: sim: an aliased indoor world, two robots, 800 keyframes"
                      PROPERTIES FIXTURES_SETUP sim_indoor)
 # The loops' median translation error against ground truth stays below 0.1 m: GICP refines each accepted loop
-# (README "Robot side", step 4). Measured: 0.067 and 0.082 m; point-to-point ICP alone gave 0.114 and 0.206 m
-# (the corridors leave GICP little to fix along their axis; on the campus it is 0.11-0.20 m -> 0.004-0.006 m).
+# (core/README.md "GICP refinement of intra-robot loops"). Measured: 0.067 and 0.082 m; point-to-point ICP alone
+# gave 0.114 and 0.206 m (the corridors leave GICP little to fix along their axis; on the campus it is
+# 0.11-0.20 m -> 0.004-0.006 m).
 cm_cli_test(NAME "run: in the aliased indoor world the robots accept no false loop" RC 1 LABELS heavy
             REGEX "robot 0 [^\n]* loops \\(0 false against ground truth, error median 0\\.0[0-9]+ m[^\n]*\n *robot 1 [^\n]* loops \\(0 false against ground truth, error median 0\\.0[0-9]+ m"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-indoor/robot_0" "${CM_CLI_OUT}/sim-indoor/robot_1" --lidar vlp-16
                     --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
                     --out "${CM_CLI_OUT}/run-indoor")
-# Stage A with the sequence-smoothed threshold (--sequence-half-window 8, README "Server cascade", step 1): the
-# corridors' single-keyframe jumps above tau_inter no longer cut the revisit's diagonal, and the same pair
-# merges within 1 m of the ground truth.
+# Stage A with the sequence-smoothed threshold (--sequence-half-window 8, core/README.md "Sequence-smoothed
+# stage A"): the corridors' single-keyframe jumps above tau_inter no longer cut the revisit's diagonal, and the
+# same pair merges within 1 m of the ground truth.
 cm_cli_test(NAME "run: in the aliased indoor world the sequence-smoothed stage A merges the pair" RC 0 LABELS heavy
             REGEX "robot 1: T_world_map [^\n]*; e_rmse 0\\.[0-9]+ m"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-indoor/robot_0" "${CM_CLI_OUT}/sim-indoor/robot_1" --lidar vlp-16

@@ -151,7 +151,7 @@ if [ "$scenario" = replay ]; then
   command -v lcm-logplayer >/dev/null ||
     { echo "CM-SKIP: lcm-logplayer (Debian liblcm-bin) is not installed"; exit 0; }
   # commerge record, not lcm-logger: lcm-logger keeps LCM's queue of 30 messages and lost scan chunks under CPU
-  # load (README, "Recording and replay").
+  # load (apps/README.md, "Recording and replay").
   "$bin" record --out "$work/mission.lcmlog" --force --quiet >"$work/logger.out" 2>"$work/logger.err" &
   logger_pid=$!
   pids+=("$logger_pid")

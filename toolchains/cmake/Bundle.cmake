@@ -23,6 +23,7 @@ endif()
 
 # Install directory on a board: libexec/commerge gets the interpreter <prefix>/lib/<loader> so that it also starts
 # directly there (bin/commerge, the launcher, runs from anywhere). The units of apps/deploy/ and the tests use it too.
+# The operator manual apps/README.md ships as share/doc/commerge/README.md (the units' Documentation=).
 set(CM_BUNDLE_PREFIX "/opt/commerge")
 find_program(CM_PATCHELF patchelf DOC "patchelf (Debian): interpreter and RPATH of the bundled executable; optional")
 if(NOT CM_PATCHELF)
@@ -69,9 +70,10 @@ add_custom_command(
   COMMAND bash "${cm_bundle_script}" --exe "$<TARGET_FILE:commerge>" --name "${CM_BUNDLE_NAME}"
           --out "${CM_BUNDLE_TARBALL}" --emulator "${cm_emulator}" --library-path "${CM_BUNDLE_LIBRARY_PATH}"
           --strip "${cm_strip}" --patchelf "${cm_patchelf}" --prefix "${CM_BUNDLE_PREFIX}"
-          --deploy-dir "${PROJECT_SOURCE_DIR}/apps/deploy" --version "${PROJECT_VERSION}"
+          --deploy-dir "${PROJECT_SOURCE_DIR}/apps/deploy" --doc "${PROJECT_SOURCE_DIR}/apps/README.md"
+          --version "${PROJECT_VERSION}"
           --work "${PROJECT_BINARY_DIR}/bundle-staging"
-  DEPENDS commerge "${cm_bundle_script}" ${cm_deploy_files}
+  DEPENDS commerge "${cm_bundle_script}" ${cm_deploy_files} "${PROJECT_SOURCE_DIR}/apps/README.md"
   COMMENT "Bundling commerge, its libraries and the loader into ${CM_BUNDLE_NAME}.tar.gz"
   VERBATIM)
 add_custom_target(bundle DEPENDS "${CM_BUNDLE_TARBALL}")

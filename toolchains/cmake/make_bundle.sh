@@ -10,6 +10,7 @@
 #   lib/                       the loader and every library the target's own loader lists (--list)
 #   share/commerge/systemd/    the units and environment files of apps/deploy/
 #   share/commerge/MANIFEST    version, build, and every bundled file with its source path and Debian package
+#   share/doc/commerge/README.md  the operator manual (--doc, apps/README.md); the units' Documentation=
 #   share/doc/<package>/       the Debian copyright file of every bundled library's package
 #
 # The closure is resolved by the target's loader itself (`<emulator> <loader> --library-path PATH --list exe`; for
@@ -18,7 +19,7 @@ set -euo pipefail
 
 die() { echo "make_bundle.sh: error: $*" >&2; exit 1; }
 
-exe='' name='' out='' emulator='' libpath='' strip='' patchelf='' prefix=/opt/commerge deploy_dir='' version='' work=''
+exe='' name='' out='' emulator='' libpath='' strip='' patchelf='' prefix=/opt/commerge deploy_dir='' doc='' version='' work=''
 while [[ $# -gt 0 ]]; do
   case $1 in
     --exe) exe=$2; shift 2 ;;
@@ -30,16 +31,18 @@ while [[ $# -gt 0 ]]; do
     --patchelf) patchelf=$2; shift 2 ;;   # '' = leave interpreter and RUNPATH as linked
     --prefix) prefix=$2; shift 2 ;;
     --deploy-dir) deploy_dir=$2; shift 2 ;;
+    --doc) doc=$2; shift 2 ;;             # operator manual -> share/doc/commerge/README.md
     --version) version=$2; shift 2 ;;
     --work) work=$2; shift 2 ;;           # staging directory (replaced)
     *) die "unknown argument '$1'" ;;
   esac
 done
-for v in exe name out deploy_dir version work; do
+for v in exe name out deploy_dir doc version work; do
   [[ -n ${!v} ]] || die "--${v//_/-} is required"
 done
 [[ -x $exe ]] || die "$exe: not an executable (build the commerge target first)"
 [[ -d $deploy_dir ]] || die "$deploy_dir: no such directory (the systemd units)"
+[[ -f $doc ]] || die "$doc: no such file (the operator manual)"
 
 emu=()
 if [[ -n $emulator ]]; then
@@ -174,6 +177,8 @@ units=("$deploy_dir"/*)
 for f in "${units[@]}"; do
   [[ -f $f ]] && install -m 0644 "$f" "$stage/share/commerge/systemd/"
 done
+install -D -m 0644 "$doc" "$stage/share/doc/commerge/README.md"
+printf 'share/doc/commerge/README.md <- %s\n' "$(readlink -f "$doc")" >>"$manifest"
 
 mkdir -p "$(dirname "$out")"
 tmp=$out.tmp
