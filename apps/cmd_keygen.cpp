@@ -2,7 +2,7 @@
 // `commerge keygen`: a new team key file for the daemons' --auth-key (message MACs, platform/lcm/message_auth).
 // The file is created with mode 0600 and never overwritten. Key rotation: give the new key another --id, append
 // its line to every board's key file (accepted, not yet signing), then move it to the first line (signing), then
-// delete the old line (README, "Authenticated messages").
+// delete the old line (apps/README.md, "Key file and rotation").
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
