@@ -216,8 +216,8 @@ int RunSim(const SimOptions& o) {
   // Trajectories first (cheap), then the scans.
   std::vector<Eigen::Isometry3d> starts;
   for (const RobotMission& r : plan->robots) {
-    starts.push_back(r.T_world_robotstart);
-    if (Status st = writer->WriteTrajectory(r.id, r.odometry, r.gt, r.times_s, r.T_world_robotstart); !st.ok()) {
+    starts.push_back(r.T_gt_robotstart);
+    if (Status st = writer->WriteTrajectory(r.id, r.odometry, r.gt, r.times_s, r.T_gt_robotstart); !st.ok()) {
       std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
       return kExitFailure;
     }
@@ -251,7 +251,7 @@ int RunSim(const SimOptions& o) {
         const int r = static_cast<int>(job / per_robot);
         const std::size_t k = job % per_robot;
         const RobotMission& robot = plan->robots[static_cast<std::size_t>(r)];
-        Status st = SimulateLidarScan(*world, lidar, robot.WorldPose(k), ScanNoiseSeed(params, r, k), k, &ws, &scan);
+        Status st = SimulateLidarScan(*world, lidar, robot.T_gt_sensor(k), ScanNoiseSeed(params, r, k), k, &ws, &scan);
         if (st.ok()) st = writer->WriteScan(r, k, Span<const PointXYZI>(scan));
         if (!st.ok()) {
           std::lock_guard<std::mutex> lock(error_mutex);

@@ -803,7 +803,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
       for (int r = 0; r < num_robots; ++r) {
         const RobotFrame& f = out.frames.robots[static_cast<std::size_t>(r)];
         PairEval e;
-        if (r > 0 && f.connected_to_robot0) e = Evaluate(traj[0], traj[static_cast<std::size_t>(r)], f.T_world_robot);
+        if (r > 0 && f.connected_to_robot0) e = Evaluate(traj[0], traj[static_cast<std::size_t>(r)], f.T_world_map);
         out.robot_eval.push_back(e);
       }
     } else {
@@ -904,7 +904,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
       } else if (!f.connected_to_robot0) {
         s += "not connected to robot 0 (no consistent merge)";
       } else {
-        s += "T_world_robot " + PoseText(f.T_world_robot);
+        s += "T_world_robot " + PoseText(f.T_world_map);
         const PairEval& e = final_mode.robot_eval[static_cast<std::size_t>(r)];
         if (e.has_gt) s += "; e_rmse " + Fmt("%.3f m", e.rmse_m);
       }
@@ -925,7 +925,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
                     std::string(ExchangeModeName(final_mode.mode)) + "\n# robot connected T_world_robot (row-major 3x4)\n";
     for (int r = 0; r < num_robots; ++r) {
       const bool ok = final_mode.frames_ok && final_mode.frames.robots[static_cast<std::size_t>(r)].connected_to_robot0;
-      const Eigen::Isometry3d T = ok ? final_mode.frames.robots[static_cast<std::size_t>(r)].T_world_robot
+      const Eigen::Isometry3d T = ok ? final_mode.frames.robots[static_cast<std::size_t>(r)].T_world_map
                                      : Eigen::Isometry3d::Identity();
       t += std::to_string(r) + " " + (ok ? "1" : "0");
       for (int i = 0; i < 3; ++i) {
@@ -952,7 +952,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
   for (int r = 0; r < num_robots; ++r) {
     const RobotRun& rr = robots[static_cast<std::size_t>(r)];
     const bool connected = final_mode.frames_ok && final_mode.frames.robots[static_cast<std::size_t>(r)].connected_to_robot0;
-    const Eigen::Isometry3d T = connected ? final_mode.frames.robots[static_cast<std::size_t>(r)].T_world_robot
+    const Eigen::Isometry3d T = connected ? final_mode.frames.robots[static_cast<std::size_t>(r)].T_world_map
                                           : Eigen::Isometry3d::Identity();
     std::vector<platform::StampedPose> est, gt;
     const Trajectories& tr = traj[static_cast<std::size_t>(r)];
@@ -1013,7 +1013,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
       s.name = "robot " + std::to_string(r);
       s.robot_index = r;
       const bool connected = final_mode.frames_ok && final_mode.frames.robots[static_cast<std::size_t>(r)].connected_to_robot0;
-      const Eigen::Isometry3d T = connected ? final_mode.frames.robots[static_cast<std::size_t>(r)].T_world_robot
+      const Eigen::Isometry3d T = connected ? final_mode.frames.robots[static_cast<std::size_t>(r)].T_world_map
                                             : Eigen::Isometry3d::Identity();
       if (!connected) s.name += " (own frame: not merged)";
       for (const Eigen::Isometry3d& P : traj[static_cast<std::size_t>(r)].estimated) {

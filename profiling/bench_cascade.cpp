@@ -109,7 +109,7 @@ int main(int argc, char** argv) {
     }
     const auto true_loops = [&](const std::vector<SequentialLoopCell>& loops) {
       std::size_t t = 0;
-      for (const auto& l : loops) t += (alpha->world_m[l.alpha_index] - beta->world_m[l.beta_index]).norm() < 5.0;
+      for (const auto& l : loops) t += (alpha->gt_m[l.alpha_index] - beta->gt_m[l.beta_index]).norm() < 5.0;
       return t;
     };
     const auto& sa = r->stage_a;

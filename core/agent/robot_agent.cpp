@@ -215,7 +215,7 @@ Status RobotAgent::AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBa
   {
     KeyframeRecord record;
     record.keyframe_index = static_cast<std::uint32_t>(k);
-    record.T_world_sensor = mapper_.pose(k);
+    record.T_map_sensor = mapper_.pose(k);
     const Span<const float> d = mapper_.descriptor(k);
     std::copy(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim), record.descriptor.begin());
     record.descriptor_valid = true;

@@ -413,7 +413,7 @@ Status ServerLink::FinishRound(std::int64_t now_us, std::vector<ServerOutgoing>*
     const RobotFrame& f = frames->robots[static_cast<std::size_t>(r)];
     m.robot_ids.push_back(r);
     m.in_world.push_back(f.connected_to_robot0 ? 1 : 0);
-    m.T_world_map.push_back(f.connected_to_robot0 ? f.T_world_robot : Eigen::Isometry3d::Identity());
+    m.T_world_map.push_back(f.connected_to_robot0 ? f.T_world_map : Eigen::Isometry3d::Identity());
     m.keyframes.push_back(static_cast<std::size_t>(r) < round_keyframes_.size() ? round_keyframes_[static_cast<std::size_t>(r)] : 0);
   }
   std::size_t measurement = 0;  // SolveFrames numbers the successful pairs in order

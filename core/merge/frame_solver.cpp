@@ -719,7 +719,7 @@ Result<FrameSolution> SolveRobotFrames(int num_robots, Span<const FrameMeasureme
     r.anchor_robot = components.Find(v);
     r.component = component_of_anchor[static_cast<std::size_t>(r.anchor_robot)];
     r.connected_to_robot0 = r.anchor_robot == 0;
-    r.T_world_robot = ToIsometry(X[static_cast<std::size_t>(v)]);
+    r.T_world_map = ToIsometry(X[static_cast<std::size_t>(v)]);
   }
   return out;
 }

@@ -17,7 +17,7 @@
 
 namespace commerge {
 
-/// Sensor pose of one generated scan in the scene (world) frame: position [m] and heading [rad].
+/// Sensor pose of one generated scan in the scene's ground-truth frame gt: position [m] and heading [rad].
 struct ScanPose {
   float x_m = 0.0f;
   float y_m = 0.0f;
@@ -25,7 +25,7 @@ struct ScanPose {
   float yaw_rad = 0.0f;
 };
 
-/// T_world_sensor of a ScanPose.
+/// T_gt_sensor of a ScanPose.
 Eigen::Isometry3d ScanPoseToIsometry(const ScanPose& pose);
 
 struct SyntheticSubmap {
@@ -34,10 +34,10 @@ struct SyntheticSubmap {
 };
 
 /// Casts one scan per pose (seeds seed, seed + 1, ...), moves every point into the submap frame
-/// (p_submap = T_world_submap^-1 T_world_sensor p_sensor) and voxelises the union at voxel_size_m.
+/// (p_submap = T_gt_submap^-1 T_gt_sensor p_sensor) and voxelises the union at voxel_size_m.
 /// Errors: voxel grid errors (e.g. voxel_size_m <= 0).
 Status MakeSyntheticSubmap(const BoxScene& scene, const SpinningLidar& lidar, Span<const ScanPose> poses,
-                           const Eigen::Isometry3d& T_world_submap, double voxel_size_m, std::uint32_t seed,
+                           const Eigen::Isometry3d& T_gt_submap, double voxel_size_m, std::uint32_t seed,
                            SyntheticSubmap* out);
 
 /// Two robots driving a straight street (MakeStreetScene, road along x): the target robot scans at

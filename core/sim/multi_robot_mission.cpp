@@ -630,8 +630,8 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
                           robot_rng.Uniform(0, 2 * kPi)};
     RobotMission robot;
     robot.id = r;
-    std::vector<Eigen::Isometry3d> world_poses;
-    world_poses.reserve(static_cast<std::size_t>(params.keyframes_per_robot));
+    std::vector<Eigen::Isometry3d> gt_poses;
+    gt_poses.reserve(static_cast<std::size_t>(params.keyframes_per_robot));
     std::size_t hint = 0, hint_a = 0, hint_b = 0;
     for (int k = 0; k < params.keyframes_per_robot; ++k) {
       const double s = k * params.keyframe_spacing_m + 0.5;
@@ -646,14 +646,14 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
       Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
       T.linear() = RotationFromYawPitchRoll(yaw, pitch, roll);
       T.translation() = Eigen::Vector3d(p.x(), p.y(), layout.sensor_height_m);
-      world_poses.push_back(T);
+      gt_poses.push_back(T);
       robot.times_s.push_back(k * params.keyframe_spacing_m / speed);
       robot.on_shared_tour.push_back(dense[hint].shared ? 1 : 0);
     }
-    robot.T_world_robotstart = world_poses.front();
-    const Eigen::Isometry3d T_start_world = robot.T_world_robotstart.inverse();
-    for (const Eigen::Isometry3d& T : world_poses) {
-      Eigen::Isometry3d g = T_start_world * T;
+    robot.T_gt_robotstart = gt_poses.front();
+    const Eigen::Isometry3d T_start_gt = robot.T_gt_robotstart.inverse();
+    for (const Eigen::Isometry3d& T : gt_poses) {
+      Eigen::Isometry3d g = T_start_gt * T;
       if (robot.gt.empty()) g = Eigen::Isometry3d::Identity();
       robot.gt.push_back(g);
     }
@@ -711,7 +711,7 @@ OverlapReport MeasureOverlap(const MissionPlan& plan, double radius_m) {
   };
   for (std::size_t r = 0; r < R; ++r) {
     for (std::size_t k = 0; k < plan.robots[r].gt.size(); ++k) {
-      const Eigen::Vector3d p = plan.robots[r].WorldPose(k).translation();
+      const Eigen::Vector3d p = plan.robots[r].T_gt_sensor(k).translation();
       cells.push_back({key_of(p.x(), p.y()), static_cast<std::uint32_t>(r), static_cast<float>(p.x()),
                        static_cast<float>(p.y())});
     }
@@ -723,7 +723,7 @@ OverlapReport MeasureOverlap(const MissionPlan& plan, double radius_m) {
     std::size_t any = 0;
     const auto& robot = plan.robots[i];
     for (std::size_t k = 0; k < robot.gt.size(); ++k) {
-      const Eigen::Vector3d p = robot.WorldPose(k).translation();
+      const Eigen::Vector3d p = robot.T_gt_sensor(k).translation();
       std::vector<std::uint8_t> near(R, 0);
       for (int dx = -1; dx <= 1; ++dx) {
         for (int dy = -1; dy <= 1; ++dy) {

@@ -107,7 +107,7 @@ std::vector<Sample> MakeSamples(std::int64_t robot_session, std::int64_t server_
     for (std::size_t k = 0; k < kRecords; ++k) {
       KeyframeRecord r;
       r.keyframe_index = static_cast<std::uint32_t>(4 * round + static_cast<int>(k));
-      r.T_world_sensor = MakePose(0.05 * static_cast<double>(r.keyframe_index), 1.0 * r.keyframe_index, 0.3, 0.0);
+      r.T_map_sensor = MakePose(0.05 * static_cast<double>(r.keyframe_index), 1.0 * r.keyframe_index, 0.3, 0.0);
       double norm2 = 0.0;
       std::array<double, kKeyframeDescriptorDim> d{};
       for (std::size_t i = 0; i < d.size(); ++i) {

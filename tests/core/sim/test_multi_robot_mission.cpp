@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Multi-robot missions (core/sim/multi_robot_mission.hpp): keyframe spacing and frame conventions, the
-// overlap of the routes per mode (measured from the ground truth in the world frame), opposite-direction
+// overlap of the routes per mode (measured from the ground truth in the ground-truth frame gt), opposite-direction
 // revisits, the odometry drift model recovered from the poses, determinism and validation.
 #include <doctest/doctest.h>
 
@@ -56,8 +56,8 @@ TEST_CASE("sim mission: keyframes 1 m apart, gt and odometry start at identity, 
         // The motion expressed in the previous sensor frame points along its x axis.
         const Eigen::Vector3d motion = r.gt[k - 1].inverse() * r.gt[k].translation();
         forward += motion.x() > 0.9 * motion.norm();
-        // World height = the sensor's mounting height on flat ground.
-        CHECK(r.WorldPose(k).translation().z() == doctest::Approx(plan.sensor_height_m));
+        // Height in gt = the sensor's mounting height on flat ground.
+        CHECK(r.T_gt_sensor(k).translation().z() == doctest::Approx(plan.sensor_height_m));
       }
       CHECK(static_cast<double>(forward) >= 0.97 * static_cast<double>(r.gt.size() - 1));
       CHECK(static_cast<double>(straight) >= 0.97 * static_cast<double>(r.gt.size() - 1));
@@ -65,11 +65,11 @@ TEST_CASE("sim mission: keyframes 1 m apart, gt and odometry start at identity, 
     // Each robot starts somewhere else (its own, unknown start frame).
     for (std::size_t i = 0; i < plan.robots.size(); ++i)
       for (std::size_t j = i + 1; j < plan.robots.size(); ++j)
-        CHECK(!plan.robots[i].T_world_robotstart.isApprox(plan.robots[j].T_world_robotstart, 1e-3));
+        CHECK(!plan.robots[i].T_gt_robotstart.isApprox(plan.robots[j].T_gt_robotstart, 1e-3));
   }
 }
 
-TEST_CASE("sim mission: routes overlap as configured, measured from the ground truth in the world frame") {
+TEST_CASE("sim mission: routes overlap as configured, measured from the ground truth in the frame gt") {
   for (WorldKind world : {WorldKind::kUrban, WorldKind::kCampus, WorldKind::kIndoor, WorldKind::kCave}) {
     for (int robots : {2, 5}) {
       const std::string world_name = WorldKindName(world);
@@ -110,9 +110,9 @@ TEST_CASE("sim mission: shared places are revisited by another robot in the oppo
   std::size_t same = 0, opposite = 0;
   const RobotMission &a = plan.robots[0], &b = plan.robots[1];
   for (std::size_t i = 0; i < a.gt.size(); i += 5) {
-    const Eigen::Isometry3d Ta = a.WorldPose(i);
+    const Eigen::Isometry3d Ta = a.T_gt_sensor(i);
     for (std::size_t j = 0; j < b.gt.size(); ++j) {
-      const Eigen::Isometry3d Tb = b.WorldPose(j);
+      const Eigen::Isometry3d Tb = b.T_gt_sensor(j);
       if ((Ta.translation() - Tb.translation()).head<2>().norm() > 5.0) continue;
       const double dyaw = std::fabs(std::remainder(YawRad(Ta.linear()) - YawRad(Tb.linear()), 2 * kPi));
       same += dyaw < 30 * kDeg;
@@ -198,8 +198,8 @@ TEST_CASE("sim mission: deterministic in the seed") {
       REQUIRE(a.robots[r].gt[k].matrix() == b.robots[r].gt[k].matrix());
       REQUIRE(a.robots[r].odometry[k].matrix() == b.robots[r].odometry[k].matrix());
     }
-    CHECK(a.robots[r].T_world_robotstart.matrix() == b.robots[r].T_world_robotstart.matrix());
-    CHECK(a.robots[r].T_world_robotstart.matrix() != c.robots[r].T_world_robotstart.matrix());
+    CHECK(a.robots[r].T_gt_robotstart.matrix() == b.robots[r].T_gt_robotstart.matrix());
+    CHECK(a.robots[r].T_gt_robotstart.matrix() != c.robots[r].T_gt_robotstart.matrix());
   }
   CHECK(ScanNoiseSeed(a.params, 0, 3) != ScanNoiseSeed(a.params, 1, 3));
   CHECK(ScanNoiseSeed(a.params, 0, 3) != ScanNoiseSeed(a.params, 0, 4));

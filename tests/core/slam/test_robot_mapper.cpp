@@ -108,7 +108,7 @@ DriveOutcome DriveBlock(const RobotMapperParams& params, double yaw_drift_deg_pe
   REQUIRE(n == truth.size());
   std::vector<Eigen::Vector3d> optimised;
   for (std::size_t k = 0; k < n; ++k) optimised.push_back(mapper.pose(k).translation());
-  // The mapper's world is its first keyframe: compare shapes after rigid alignment.
+  // The mapper's map frame is its first keyframe's: compare shapes after rigid alignment.
   out.ate_odometry = Ate(odometry, truth);
   out.ate_optimised = Ate(optimised, truth);
   out.implausible = mapper.stats().loops_implausible;

@@ -34,10 +34,10 @@ namespace {
 KeyframeRecord MakeRecord(std::uint32_t k) {
   KeyframeRecord r;
   r.keyframe_index = k;
-  r.T_world_sensor = Eigen::Isometry3d::Identity();
-  r.T_world_sensor.linear() =
+  r.T_map_sensor = Eigen::Isometry3d::Identity();
+  r.T_map_sensor.linear() =
       Eigen::AngleAxisd(0.3 + 0.7 * k, Eigen::Vector3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
-  r.T_world_sensor.translation() = Eigen::Vector3d(1.5 * k, -2.25, 0.5 + k);
+  r.T_map_sensor.translation() = Eigen::Vector3d(1.5 * k, -2.25, 0.5 + k);
   double norm2 = 0.0;
   std::array<double, kKeyframeDescriptorDim> v{};
   for (std::size_t i = 0; i < v.size(); ++i) {
@@ -256,8 +256,8 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
     REQUIRE(r.ok());
     CHECK(r->keyframe_index == original.keyframe_index);
     CHECK(r->descriptor_valid);
-    CHECK((r->T_world_sensor.translation() - original.T_world_sensor.translation()).norm() < 1e-5);
-    CHECK(RotationError(r->T_world_sensor.linear(), original.T_world_sensor.linear()) < 2e-4);
+    CHECK((r->T_map_sensor.translation() - original.T_map_sensor.translation()).norm() < 1e-5);
+    CHECK(RotationError(r->T_map_sensor.linear(), original.T_map_sensor.linear()) < 2e-4);
     double dist2 = 0.0;
     for (std::size_t k = 0; k < kKeyframeDescriptorDim; ++k) {
       const double e = static_cast<double>(r->descriptor[k]) - static_cast<double>(original.descriptor[k]);
