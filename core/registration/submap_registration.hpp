@@ -141,7 +141,7 @@ struct RegistrationResult {
   int gicp_iterations = 0;
   bool gicp_converged = false;
   double information_ratio = 0.0;         ///< smallest / largest eigenvalue of H's translation block
-  Matrix6d information = Matrix6d::Zero();  ///< GICP H ([rotation; translation])
+  Matrix6d information = Matrix6d::Zero();  ///< GICP H, order [translation; rotation] (se3's twists)
   double fine_correction_rad = 0.0;       ///< rotation between the coarse and the final estimate
   double fine_correction_m = 0.0;         ///< translation between them (source origin displacement)
 };
