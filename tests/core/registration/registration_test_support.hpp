@@ -13,7 +13,7 @@
 #include "core/cloud/voxel_grid.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/registration/submap_registration.hpp"
-#include "core/registration/synthetic_submaps.hpp"
+#include "core/sim/synthetic_submaps.hpp"
 #include "platform/io/kitti_bin.hpp"
 #include "tests/support/test_data.hpp"
 

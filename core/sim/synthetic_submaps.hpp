@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: generated submaps with known ground truth for registration tests and benchmarks: several
 // ray-cast scans (core/sim/synthetic_scan) of one scene merged in a submap frame and voxelised, as the server
-// builds them from requested keyframe scans (paper "Submap-Based Map Merging").
+// builds them from requested keyframe scans (paper "Submap-Based Map Merging"). Part of the simulator, not of
+// core/registration, so that registration does not depend on core/sim.
 #pragma once
 
 #include <Eigen/Core>

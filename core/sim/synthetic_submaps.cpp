@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "core/registration/synthetic_submaps.hpp"
+#include "core/sim/synthetic_submaps.hpp"
 
 #include <algorithm>
 #include <cmath>
