@@ -39,6 +39,7 @@
 #include <vector>
 
 #include "core/cloud/voxel_grid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/registration/submap_registration.hpp"
 #include "core/sim/synthetic_submaps.hpp"
 #include "platform/io/file_util.hpp"
@@ -50,7 +51,6 @@ namespace {
 
 using namespace commerge;
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kMaxCorrectTranslationM = 0.2;
 constexpr double kMaxCorrectRotationDeg = 1.0;
 

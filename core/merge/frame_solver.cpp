@@ -12,14 +12,12 @@
 
 #include <Eigen/Cholesky>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 
 namespace commerge {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
-constexpr double kRadToDeg = 180.0 / kPi;
 constexpr int kMaxRobots = kFrameSolverMaxRobots;
 
 std::string Num(double value) {

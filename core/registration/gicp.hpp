@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/common/status.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/registration/submap_features.hpp"
 
@@ -33,7 +34,7 @@ struct GicpParams {
   double initial_lambda = 1e-3;
   double lambda_factor = 10.0;
   /// Converged when an accepted step rotates by <= rotation_eps_rad and moves by <= translation_eps_m.
-  double rotation_eps_rad = 0.1 * 3.14159265358979323846 / 180.0;
+  double rotation_eps_rad = 0.1 * kPi / 180.0;
   double translation_eps_m = 1e-3;
   /// Two phases (ours, not small_gicp's): first with max_correspondence_distance_m (wide basin; steps below 10x
   /// the thresholds count as converged), then with this tighter gate so that pairs without a true counterpart

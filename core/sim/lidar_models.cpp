@@ -5,13 +5,12 @@
 #include <cctype>
 #include <cmath>
 
+#include "core/geometry/angles.hpp"
 #include "core/sim/sim_random.hpp"
 
 namespace commerge {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 std::vector<float> UniformTable(int beams, double lo_deg, double hi_deg) {
   std::vector<float> t(static_cast<std::size_t>(beams));

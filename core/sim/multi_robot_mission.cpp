@@ -7,6 +7,7 @@
 #include <deque>
 #include <string>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/sim/sim_random.hpp"
 
@@ -14,8 +15,6 @@ namespace commerge {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 constexpr double kDenseStepM = 0.5;  // spacing of the dense route polyline
 
 /// Per-world layout and vehicle constants.
@@ -625,7 +624,7 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
       return Eigen::Vector2d(dense[i].xy + u * (dense[i + 1].xy - dense[i].xy));
     };
     const double speed = layout.speed_m_per_s * (1.0 + 0.1 * robot_rng.Uniform(-1.0, 1.0));
-    const double wobble = params.roll_pitch_wobble_deg * kDeg;
+    const double wobble = params.roll_pitch_wobble_deg * kDegToRad;
     const double ph[4] = {robot_rng.Uniform(0, 2 * kPi), robot_rng.Uniform(0, 2 * kPi), robot_rng.Uniform(0, 2 * kPi),
                           robot_rng.Uniform(0, 2 * kPi)};
     RobotMission robot;
@@ -662,7 +661,7 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
     const DriftParams& d = params.drift;
     SimRandom drift_rng(MixSeed(params.seed, 0x33ull + static_cast<std::uint64_t>(r), 7));
     robot.scale_bias = d.scale * d.scale_bias_std * drift_rng.Gaussian();
-    robot.yaw_bias_rad_per_m = d.scale * d.yaw_bias_std_deg_per_m * kDeg * drift_rng.Gaussian();
+    robot.yaw_bias_rad_per_m = d.scale * d.yaw_bias_std_deg_per_m * kDegToRad * drift_rng.Gaussian();
     robot.odometry.push_back(Eigen::Isometry3d::Identity());
     for (std::size_t k = 1; k < robot.gt.size(); ++k) {
       const Eigen::Isometry3d dT = robot.gt[k - 1].inverse() * robot.gt[k];
@@ -671,10 +670,10 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
       Eigen::Vector3d e_t(d.scale * d.translation_noise_frac * step * drift_rng.Gaussian(),
                           d.scale * d.translation_noise_frac * step * drift_rng.Gaussian(),
                           d.scale * d.z_noise_frac * step * drift_rng.Gaussian());
-      const double rp = d.scale * d.roll_pitch_noise_deg_per_sqrt_m * kDeg * rs;
+      const double rp = d.scale * d.roll_pitch_noise_deg_per_sqrt_m * kDegToRad * rs;
       const Eigen::Vector3d e_r(rp * drift_rng.Gaussian(), rp * drift_rng.Gaussian(),
                                 robot.yaw_bias_rad_per_m * step +
-                                    d.scale * d.yaw_noise_deg_per_sqrt_m * kDeg * rs * drift_rng.Gaussian());
+                                    d.scale * d.yaw_noise_deg_per_sqrt_m * kDegToRad * rs * drift_rng.Gaussian());
       Eigen::Isometry3d reported = Eigen::Isometry3d::Identity();
       reported.linear() = dT.linear() * ExpSO3(e_r);
       reported.translation() = (1.0 + robot.scale_bias) * dT.translation() + e_t;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/geometry/angles.hpp"
 #include "core/cloud/voxel_grid.hpp"
 
 namespace commerge {
@@ -55,7 +56,7 @@ Status MakeStreetSubmapPairInScene(const BoxScene& scene, const StreetPairSpec& 
   if (n < 1) return InvalidArgument("street submap pair: scans_per_submap must be >= 1");
   std::vector<ScanPose> target_poses, source_poses;
   const float source_dir = spec.source_reversed ? -1.0f : 1.0f;
-  const float source_yaw = spec.source_reversed ? 3.14159265f : 0.0f;
+  const float source_yaw = spec.source_reversed ? kPiF : 0.0f;
   for (int i = 0; i < n; ++i) {
     const float step = static_cast<float>(i) * spec.scan_spacing_m;
     target_poses.push_back(ScanPose{spec.target_start_x_m + step, spec.target_lane_y_m, 1.73f, 0.0f});

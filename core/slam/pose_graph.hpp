@@ -20,6 +20,7 @@
 
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 
 namespace commerge {
@@ -51,7 +52,7 @@ struct PoseGraphParams {
   /// A node is reported in PoseGraphResult::changed_nodes when Optimize() moved it by more than this [m] ...
   double changed_translation_m = 0.01;
   /// ... or rotated it by more than this [rad] (0.1 deg).
-  double changed_rotation_rad = 0.1 * 3.14159265358979323846 / 180.0;
+  double changed_rotation_rad = 0.1 * kPi / 180.0;
 };
 
 struct PoseGraphEdge {

@@ -15,12 +15,12 @@
 #include "core/descriptor/descriptor_codec.hpp"
 #include "tests/core/descriptor/descriptor_test_util.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/geometry/angles.hpp"
 
 namespace commerge {
 namespace {
 
 
-constexpr double kPi = 3.14159265358979323846;
 using Descriptor = std::array<float, kKeyframeDescriptorDim>;
 using Record = std::array<std::uint8_t, kKeyframeRecordBytes>;
 

@@ -10,13 +10,12 @@
 #include <vector>
 
 #include "core/eval/alignment_metrics.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 Eigen::Isometry3d MakePose(double x, double y, double z, double yaw, double pitch = 0.0, double roll = 0.0) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();

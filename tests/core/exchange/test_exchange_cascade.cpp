@@ -15,6 +15,7 @@
 
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/exchange/exchange_cascade.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/sim/keyframe_drive.hpp"
 
 namespace commerge {
@@ -58,7 +59,7 @@ TEST_CASE("Cascade: two robots on one street in opposite directions - only true 
   // narrow generated street: the descriptor, not the cascade, limits that case.)
   const BoxScene scene = MakeStreetScene(42, 200.0f);
   const SimulatedKeyframes alpha = Drive(scene, -55.0f, 0.0f, 0.0f, 80, 1000);
-  const SimulatedKeyframes beta = Drive(scene, 55.5f, 0.0f, 3.14159265f, 80, 2000);
+  const SimulatedKeyframes beta = Drive(scene, 55.5f, 0.0f, kPiF, 80, 2000);
 
   ExchangeCascadeParams params;
   params.stage_a.tau_area = 400;  // a 20 x 20 keyframe span: the overlap here is ~50 m (the paper: 100 x 100)

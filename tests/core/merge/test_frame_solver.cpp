@@ -14,13 +14,12 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/merge/frame_solver.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // A robot map frame within +-extent_m of the ground-truth origin (z within a fifth of that).
 Eigen::Isometry3d RandomFrame(std::mt19937& rng, double extent_m = 60.0) {

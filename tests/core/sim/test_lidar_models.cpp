@@ -9,13 +9,12 @@
 #include <set>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/sim/lidar_models.hpp"
 #include "core/sim/world.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 double D(float v) { return static_cast<double>(v); }
 

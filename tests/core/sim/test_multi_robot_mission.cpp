@@ -9,14 +9,12 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/sim/multi_robot_mission.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 
 MissionPlan Plan(WorldKind world, OverlapMode overlap, int robots, int keyframes, std::uint64_t seed = 3,
                  double drift = 1.0) {
@@ -115,8 +113,8 @@ TEST_CASE("sim mission: shared places are revisited by another robot in the oppo
       const Eigen::Isometry3d Tb = b.T_gt_sensor(j);
       if ((Ta.translation() - Tb.translation()).head<2>().norm() > 5.0) continue;
       const double dyaw = std::fabs(std::remainder(YawRad(Ta.linear()) - YawRad(Tb.linear()), 2 * kPi));
-      same += dyaw < 30 * kDeg;
-      opposite += dyaw > 150 * kDeg;
+      same += dyaw < 30 * kDegToRad;
+      opposite += dyaw > 150 * kDegToRad;
     }
   }
   CHECK(opposite > 50);
@@ -143,7 +141,7 @@ TEST_CASE("sim mission: odometry deviates from the ground truth exactly by the c
       den += dT.translation().squaredNorm();
       // Consecutive relative motions stay close: centimetres and hundredths of a degree per metre.
       CHECK((dO.translation() - dT.translation()).norm() < 0.05);
-      CHECK(RotationAngleRad(dT.linear().transpose() * dO.linear()) < 0.1 * kDeg);
+      CHECK(RotationAngleRad(dT.linear().transpose() * dO.linear()) < 0.1 * kDegToRad);
     }
     const double n = static_cast<double>(steps.size());
     // Scale bias recovered by least squares, within 4 sigma of its estimate.
@@ -162,12 +160,12 @@ TEST_CASE("sim mission: odometry deviates from the ground truth exactly by the c
     }
     CHECK(std::sqrt(sy2 / n) == doctest::Approx(d.translation_noise_frac).epsilon(0.08));
     CHECK(std::fabs(sy / n) < 4 * d.translation_noise_frac / std::sqrt(n));
-    CHECK(std::sqrt(yaw2 / n) == doctest::Approx(d.yaw_noise_deg_per_sqrt_m * kDeg).epsilon(0.08));
-    CHECK(std::fabs(yaw / n) < 4 * d.yaw_noise_deg_per_sqrt_m * kDeg / std::sqrt(n));
-    CHECK(std::sqrt(roll2 / n) == doctest::Approx(d.roll_pitch_noise_deg_per_sqrt_m * kDeg).epsilon(0.08));
+    CHECK(std::sqrt(yaw2 / n) == doctest::Approx(d.yaw_noise_deg_per_sqrt_m * kDegToRad).epsilon(0.08));
+    CHECK(std::fabs(yaw / n) < 4 * d.yaw_noise_deg_per_sqrt_m * kDegToRad / std::sqrt(n));
+    CHECK(std::sqrt(roll2 / n) == doctest::Approx(d.roll_pitch_noise_deg_per_sqrt_m * kDegToRad).epsilon(0.08));
     // The drawn biases are plausible draws of the configured spreads.
     CHECK(std::fabs(r.scale_bias) < 4 * d.scale_bias_std);
-    CHECK(std::fabs(r.yaw_bias_rad_per_m) < 4 * d.yaw_bias_std_deg_per_m * kDeg);
+    CHECK(std::fabs(r.yaw_bias_rad_per_m) < 4 * d.yaw_bias_std_deg_per_m * kDegToRad);
     // Drift accumulates: the end point is off by more than the per-step noise.
     CHECK((r.odometry.back().translation() - r.gt.back().translation()).norm() > 0.5);
   }

@@ -12,14 +12,13 @@
 
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/sim/lidar_models.hpp"
 #include "core/sim/multi_robot_mission.hpp"
 #include "core/sim/procedural_world.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 MissionPlan Plan(WorldKind world, OverlapMode overlap, int keyframes, std::uint64_t seed = 4) {
   MissionParams p;

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
 #include "core/memory/budget.hpp"
@@ -22,9 +23,6 @@
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
 
 struct ScenarioParams {
   int approach_nodes = 20;  ///< straight spur from the depot into the circuit (a tree part: never moves)

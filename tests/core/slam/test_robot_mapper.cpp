@@ -12,6 +12,7 @@
 
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/umeyama.hpp"
 #include "core/sim/synthetic_scan.hpp"
 #include "core/slam/robot_mapper.hpp"
@@ -77,7 +78,7 @@ DriveOutcome DriveBlock(const RobotMapperParams& params, double yaw_drift_deg_pe
     Eigen::Isometry3d step = T_prev_truth.inverse() * T_truth;
     step.translation() *= 1.0 + scale_error;
     step.linear() =
-        Eigen::AngleAxisd(0.5 * yaw_drift_deg_per_m * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+        Eigen::AngleAxisd(0.5 * yaw_drift_deg_per_m * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
         step.linear();
     T_odom = T_odom * step;
     T_prev_truth = T_truth;

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/cloud/point.hpp"
+#include "core/geometry/angles.hpp"
 #include "platform/io/kitti_bin.hpp"
 #include "platform/io/kitti_dataset_reader.hpp"
 #include "tests/support/test_data.hpp"
@@ -23,7 +24,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kScans = 6;
 
 double Deg(double d) { return d * kPi / 180.0; }

@@ -23,6 +23,7 @@
 
 #include "core/agent/messages.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
+#include "core/geometry/angles.hpp"
 #include "platform/lcm/message_codec.hpp"
 #include "tests/platform/lcm/lcm_test_util.hpp"
 
@@ -841,7 +842,7 @@ TEST_CASE("message codec: a pose update with a non-unit quaternion or bad values
   // The same message with a unit quaternion decodes to that rotation (120 deg about (1,1,1)).
   auto ok = decode_with(1, unit, t123, 4);
   REQUIRE(ok.ok());
-  const Eigen::Matrix3d expected = Eigen::AngleAxisd(2.0 * 3.14159265358979323846 / 3.0,
+  const Eigen::Matrix3d expected = Eigen::AngleAxisd(2.0 * kPi / 3.0,
                                                      Eigen::Vector3d(1, 1, 1).normalized()).toRotationMatrix();
   CHECK(RotationError(ok->T_map_sensor[1].linear(), expected) < 1e-6);
   CHECK((ok->T_map_sensor[1].translation() - Eigen::Vector3d(1, 2, 3)).norm() == 0.0);
