@@ -18,6 +18,7 @@
 #include "apps/cmd_sim.hpp"
 #include "apps/commands.hpp"
 #include "core/common/bytes.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/sim/lidar_models.hpp"
 #include "core/sim/multi_robot_mission.hpp"
 #include "core/sim/procedural_world.hpp"
@@ -89,8 +90,8 @@ std::string InfoText(const SimOptions& o, const MissionPlan& plan, const LidarMo
   t += "# Frames: robot_<r>/poses_gt.txt line k = true T_robotstart_sensor(k), the sensor pose of keyframe k in the\n"
        "# robot's start frame (= its sensor frame at keyframe 0, line 0 = identity); robot_<r>/poses.txt = the same\n"
        "# as the robot's own odometry reports it (drifting, line 0 = identity); start_transforms.txt line r =\n"
-       "# T_world_robotstart (the true start pose in the common world frame, z up, ground z = 0). Scans are in\n"
-       "# the sensor frame (x forward, y left, z up): p_world = T_world_robotstart * poses_gt[k] * p_scan.\n";
+       "# T_gt_robotstart (the true start pose in the common ground-truth frame, z up, ground z = 0). Scans are in\n"
+       "# the sensor frame (x forward, y left, z up): p_gt = T_gt_robotstart * poses_gt[k] * p_scan.\n";
   line("format", "commerge-sim 1");
   line("world", WorldKindName(p.world));
   line("overlap", OverlapModeName(p.overlap));
@@ -138,7 +139,7 @@ std::string InfoText(const SimOptions& o, const MissionPlan& plan, const LidarMo
     for (std::size_t j = 0; j < overlap.fraction[r].size(); ++j) row += (j ? " " : "") + num(std::round(overlap.fraction[r][j] * 1000) / 1000);
     line("overlap_fraction_robot_" + std::to_string(r), row);
     line("odometry_scale_bias_robot_" + std::to_string(r), num(robot.scale_bias));
-    line("odometry_yaw_bias_deg_per_m_robot_" + std::to_string(r), num(robot.yaw_bias_rad_per_m * 180.0 / 3.14159265358979323846));
+    line("odometry_yaw_bias_deg_per_m_robot_" + std::to_string(r), num(robot.yaw_bias_rad_per_m * kRadToDeg));
   }
   return t;
 }
@@ -168,7 +169,7 @@ Status CastScans(const SimOptions& o, const MissionParams& params, const Mission
       const int r = static_cast<int>(job / per_robot);
       const std::size_t k = job % per_robot;
       const RobotMission& robot = plan.robots[static_cast<std::size_t>(r)];
-      Status st = SimulateLidarScan(world, lidar, robot.WorldPose(k), ScanNoiseSeed(params, r, k), k, &ws, &scan);
+      Status st = SimulateLidarScan(world, lidar, robot.T_gt_sensor(k), ScanNoiseSeed(params, r, k), k, &ws, &scan);
       if (st.ok()) st = writer->WriteScan(r, k, Span<const PointXYZI>(scan));
       if (!st.ok()) {
         std::lock_guard<std::mutex> lock(error_mutex);
@@ -265,8 +266,8 @@ int RunSim(const SimOptions& o) {
   // Trajectories first (cheap), then the scans.
   std::vector<Eigen::Isometry3d> starts;
   for (const RobotMission& r : plan->robots) {
-    starts.push_back(r.T_world_robotstart);
-    if (Status st = writer->WriteTrajectory(r.id, r.odometry, r.gt, r.times_s, r.T_world_robotstart); !st.ok()) {
+    starts.push_back(r.T_gt_robotstart);
+    if (Status st = writer->WriteTrajectory(r.id, r.odometry, r.gt, r.times_s, r.T_gt_robotstart); !st.ok()) {
       std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
       return kExitFailure;
     }

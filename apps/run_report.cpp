@@ -12,6 +12,7 @@
 #include "apps/run_job.hpp"
 #include "core/agent/merge_round.hpp"
 #include "core/common/bytes.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/merge/merged_map.hpp"
 #include "platform/io/merge_outputs.hpp"
@@ -22,8 +23,6 @@
 namespace commerge::app {
 
 namespace {
-
-constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
 std::string Bytes(std::uint64_t b) { return FormatBytes(static_cast<std::int64_t>(b)); }
 

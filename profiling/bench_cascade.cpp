@@ -19,6 +19,7 @@
 #include "core/cloud/scan_codec.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/exchange/exchange_cascade.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/sim/keyframe_drive.hpp"
 #include "platform/memory/peak_rss.hpp"
 #include "profiling/glpk_reference.hpp"
@@ -67,7 +68,7 @@ int main(int argc, char** argv) {
   a.seed = 100000;
   b.start_x_m = a.start_x_m + static_cast<float>(2 * keyframes - overlap - 1) + 0.5f;
   b.lane_y_m = 0.0f;
-  b.yaw_rad = 3.14159265f;
+  b.yaw_rad = kPiF;
   b.keyframes = keyframes;
   b.seed = 200000;
   const auto t_sim = std::chrono::steady_clock::now();
@@ -109,7 +110,7 @@ int main(int argc, char** argv) {
     }
     const auto true_loops = [&](const std::vector<SequentialLoopCell>& loops) {
       std::size_t t = 0;
-      for (const auto& l : loops) t += (alpha->world_m[l.alpha_index] - beta->world_m[l.beta_index]).norm() < 5.0;
+      for (const auto& l : loops) t += (alpha->gt_m[l.alpha_index] - beta->gt_m[l.beta_index]).norm() < 5.0;
       return t;
     };
     const auto& sa = r->stage_a;

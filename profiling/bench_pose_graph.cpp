@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/common/bytes.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
 #include "core/slam/pose_graph.hpp"
@@ -28,13 +29,12 @@ namespace {
 
 using commerge::EdgeKind;
 using commerge::ExpSE3;
+using commerge::kDegToRad;
+using commerge::kPi;
 using commerge::Matrix6d;
 using commerge::PoseGraph;
 using commerge::PoseGraphEdge;
 using commerge::Vector6d;
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
 
 struct Options {
   std::vector<int> nodes;

@@ -11,7 +11,7 @@
 //   --set        override a parameter (for sweeps): max_neighbors, covariance_neighbors, min_saliency,
 //                max_match_keypoints, ratio_sq, max_correspondences, min_coarse_inliers, min_overlap_ratio,
 //                min_directional_overlap, pruning (core|clique), factor (gicp|plane)
-// Generated pairs (core/registration/synthetic_submaps): two robots on a ray-cast street (HDL-64E-like, 64 x
+// Generated pairs (core/sim/synthetic_submaps): two robots on a ray-cast street (HDL-64E-like, 64 x
 // 1024 rays, 120 m), each submap = several scans merged in its middle scan's frame, voxelised at 1 m. Overlapping
 // pairs: the source robot starts within +-8 m of the target robot, in the other lane, half of them driving the
 // other way, and its submap frame is turned by a random yaw in [0, 360) deg and shifted by up to 20 m.
@@ -39,8 +39,9 @@
 #include <vector>
 
 #include "core/cloud/voxel_grid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/registration/submap_registration.hpp"
-#include "core/registration/synthetic_submaps.hpp"
+#include "core/sim/synthetic_submaps.hpp"
 #include "platform/io/file_util.hpp"
 #include "platform/io/kitti_bin.hpp"
 #include "platform/io/poses.hpp"
@@ -50,7 +51,6 @@ namespace {
 
 using namespace commerge;
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kMaxCorrectTranslationM = 0.2;
 constexpr double kMaxCorrectRotationDeg = 1.0;
 

@@ -70,7 +70,7 @@ int WriteDataset(int keyframes, int threads, std::string out_dir) {
   const LidarModel lidar = MakeLidarModel(LidarKind::kVlp16);
   const auto t1 = Clock::now();
   for (const RobotMission& r : plan->robots) {
-    if (!writer->WriteTrajectory(r.id, r.odometry, r.gt, r.times_s, r.T_world_robotstart).ok()) return 1;
+    if (!writer->WriteTrajectory(r.id, r.odometry, r.gt, r.times_s, r.T_gt_robotstart).ok()) return 1;
   }
   const std::size_t total = 2 * static_cast<std::size_t>(keyframes);
   std::atomic<std::size_t> next{0}, points{0};
@@ -82,7 +82,7 @@ int WriteDataset(int keyframes, int threads, std::string out_dir) {
       const int r = static_cast<int>(job / static_cast<std::size_t>(keyframes));
       const std::size_t k = job % static_cast<std::size_t>(keyframes);
       const RobotMission& robot = plan->robots[static_cast<std::size_t>(r)];
-      if (!SimulateLidarScan(*world, lidar, robot.WorldPose(k), ScanNoiseSeed(params, r, k), k, &ws, &scan).ok() ||
+      if (!SimulateLidarScan(*world, lidar, robot.T_gt_sensor(k), ScanNoiseSeed(params, r, k), k, &ws, &scan).ok() ||
           !writer->WriteScan(r, k, scan).ok()) {
         failed = true;
       }
@@ -173,7 +173,7 @@ int main(int argc, char** argv) {
       const auto t2 = Clock::now();
       for (int s = 0; s < scans; ++s) {
         const std::size_t k = static_cast<std::size_t>(s) * (robot.gt.size() - 1) / static_cast<std::size_t>(scans);
-        if (!SimulateLidarScan(*world, lidar, robot.WorldPose(k), 1, k, &ws, &scan).ok()) return 1;
+        if (!SimulateLidarScan(*world, lidar, robot.T_gt_sensor(k), 1, k, &ws, &scan).ok()) return 1;
         points += scan.size();
       }
       const double secs = Since(t2);

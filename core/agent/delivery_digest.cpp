@@ -50,7 +50,7 @@ Result<DeliveryDigest> RobotDeliveryDigest(const RobotMapper& mapper) {
     if (!mapper.descriptor_valid(k)) continue;
     KeyframeRecord record;
     record.keyframe_index = static_cast<std::uint32_t>(k);
-    record.T_world_sensor = mapper.pose(k);
+    record.T_map_sensor = mapper.pose(k);
     const Span<const float> descriptor = mapper.descriptor(k);
     if (descriptor.size() < kKeyframeDescriptorDim) return InvalidArgument("keyframe " + std::to_string(k) + ": descriptor shorter than the record's");
     std::copy(descriptor.begin(), descriptor.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim),

@@ -57,7 +57,7 @@ bool MergeRoundResult::in_world(int robot) const {
 }
 
 Eigen::Isometry3d MergeRoundResult::T_world_map(int robot) const {
-  return in_world(robot) ? frames.robots[static_cast<std::size_t>(robot)].T_world_robot : Eigen::Isometry3d::Identity();
+  return in_world(robot) ? frames.robots[static_cast<std::size_t>(robot)].T_world_map : Eigen::Isometry3d::Identity();
 }
 
 MergeRound::MergeRound(MergeServer* server, const MergeRoundParams& params) : server_(server), params_(params) {}

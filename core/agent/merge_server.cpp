@@ -207,7 +207,7 @@ Status MergeServer::OnKeyframeBatch(const KeyframeBatch& batch) {
               db.descriptors.begin() + static_cast<std::ptrdiff_t>(k * kKeyframeDescriptorDim));
     db.valid[k] = 1;
     db.pose_known[k] = 1;
-    db.T_map_sensor[k] = record->T_world_sensor;
+    db.T_map_sensor[k] = record->T_map_sensor;
     db.stored_points[k] = batch.stored_points[i];
     // The robot's id is the one of its first batch that delivered a record.
     if (db.descriptor_id == 0) db.descriptor_id = batch.descriptor_id;

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "core/cloud/scan_codec.hpp"
+#include "core/geometry/angles.hpp"
 
 namespace commerge {
 
@@ -70,7 +71,7 @@ bool RobotAgent::MovedSinceSent(std::size_t k, double min_translation_m, double 
   const Eigen::Quaterniond q_sent(static_cast<double>(s[3]), static_cast<double>(s[4]), static_cast<double>(s[5]),
                                   static_cast<double>(s[6]));
   const double angle_rad = Eigen::Quaterniond(T.linear()).angularDistance(q_sent.normalized());
-  return angle_rad * 180.0 / 3.14159265358979323846 > min_rotation_deg;
+  return angle_rad * kRadToDeg > min_rotation_deg;
 }
 
 void RobotAgent::MarkPoseDirty(std::size_t k) {
@@ -215,7 +216,7 @@ Status RobotAgent::AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBa
   {
     KeyframeRecord record;
     record.keyframe_index = static_cast<std::uint32_t>(k);
-    record.T_world_sensor = mapper_.pose(k);
+    record.T_map_sensor = mapper_.pose(k);
     const Span<const float> d = mapper_.descriptor(k);
     std::copy(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim), record.descriptor.begin());
     record.descriptor_valid = true;

@@ -100,15 +100,15 @@ Status EncodeKeyframeRecord(const KeyframeRecord& record, Span<std::uint8_t> out
   }
 
   // Pose.
-  const Eigen::Matrix4d& M = record.T_world_sensor.matrix();
+  const Eigen::Matrix4d& M = record.T_map_sensor.matrix();
   if (!M.allFinite()) return InvalidArgument(who() + "pose has a NaN/inf entry");
-  const Eigen::Matrix3d R = record.T_world_sensor.linear();
+  const Eigen::Matrix3d R = record.T_map_sensor.linear();
   const double ortho_error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (!(ortho_error <= 1e-3) || !(R.determinant() > 0.0)) {
     return InvalidArgument(who() + "pose rotation is not a rotation matrix (max |R^T R - I| = " + Num(ortho_error) +
                            ", det = " + Num(R.determinant()) + ")");
   }
-  const Eigen::Vector3d t = record.T_world_sensor.translation();
+  const Eigen::Vector3d t = record.T_map_sensor.translation();
   float tf[3];
   for (int i = 0; i < 3; ++i) {
     tf[i] = static_cast<float>(t[i]);
@@ -203,9 +203,9 @@ Result<KeyframeRecord> DecodeKeyframeRecord(Span<const std::uint8_t> bytes) {
   }
   Eigen::Quaterniond q(c[0], c[1], c[2], c[3]);
   q.normalize();
-  rec.T_world_sensor = Eigen::Isometry3d::Identity();
-  rec.T_world_sensor.linear() = q.toRotationMatrix();
-  rec.T_world_sensor.translation() = t;
+  rec.T_map_sensor = Eigen::Isometry3d::Identity();
+  rec.T_map_sensor.linear() = q.toRotationMatrix();
+  rec.T_map_sensor.translation() = t;
 
   const std::uint8_t* const desc = p + kDescriptorOffset;
   std::uint32_t codes[kKeyframeDescriptorDim];

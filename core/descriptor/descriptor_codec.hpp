@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: wire encodings of descriptors.
 //
-// 1. The keyframe record a robot sends to the server: keyframe index, pose T_world_sensor and the
+// 1. The keyframe record a robot sends to the server: keyframe index, pose T_map_sensor and the
 //    unit-normalised R-SOLiD (40 values) in kKeyframeRecordBytes = 92 bytes (the paper's ledger counts
 //    448 B for the descriptor alone). Layout, little-endian, bit fields packed LSB-first (bit k of a field
 //    is bit k % 8 of its byte k / 8):
@@ -54,8 +54,8 @@ constexpr std::int32_t kKeyframeQuaternionMaxCode = (1 << 14) - 1;  // 16383
 /// The record, decoded or to encode.
 struct KeyframeRecord {
   std::uint32_t keyframe_index = 0;
-  /// Pose of the keyframe's sensor in the robot's world frame (rotation part must be a rotation).
-  Eigen::Isometry3d T_world_sensor = Eigen::Isometry3d::Identity();
+  /// Pose of the keyframe's sensor in the robot's own map frame (rotation part must be a rotation).
+  Eigen::Isometry3d T_map_sensor = Eigen::Isometry3d::Identity();
   /// Unit-normalised R-SOLiD (SolidDescriptor::Compute output). Decoded: re-normalised to unit length.
   std::array<float, kKeyframeDescriptorDim> descriptor{};
   /// Explicit validity (SolidDescriptor's DescriptorInfo::valid). Invalid descriptors are never encoded;

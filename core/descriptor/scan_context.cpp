@@ -8,13 +8,10 @@
 #include <string>
 
 #include "core/descriptor/sensor_presets.hpp"
+#include "core/geometry/angles.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kRadToDeg = 180.0 / kPi;
-constexpr double kDegToRad = kPi / 180.0;
 
 std::string Num(double value) {
   std::ostringstream os;

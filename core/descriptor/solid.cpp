@@ -8,12 +8,10 @@
 #include <limits>
 #include <string>
 
+#include "core/geometry/angles.hpp"
+
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kRadToDeg = 180.0 / kPi;
-constexpr double kDegToRad = kPi / 180.0;
 
 template <class T>
 double NormSquared(Span<const T> v) noexcept {

@@ -9,13 +9,12 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
 std::string Num(double value) {
   std::ostringstream os;

@@ -43,7 +43,7 @@ struct InterRobotAlignment {
   /// own trajectory fits its ground truth (a large value means e_rmse also measures alpha's drift).
   double alpha_rmse_m = 0.0;
   std::size_t count = 0;  ///< number of beta poses j in the RMSE
-  /// The Umeyama alignment of alpha's estimated frame to the ground-truth world frame (rigid, no scale).
+  /// The Umeyama alignment of alpha's map frame to the ground-truth frame gt (rigid, no scale).
   Eigen::Isometry3d T_gt_alpha = Eigen::Isometry3d::Identity();
   /// True when alpha's positions were collinear and T_gt_alpha was fitted on the pose axes as well.
   bool used_orientations = false;
@@ -55,8 +55,8 @@ Status ValidateInterRobotAlignmentParams(const InterRobotAlignmentParams& params
 /// The paper's inter-robot alignment RMSE:
 ///   e_rmse = RMSE_j || translation(T_gt_alpha * T_alpha_beta * T^beta_j) - translation(T^{beta,GT}_j) ||
 /// * alpha_estimated[i]: robot alpha's estimated poses in alpha's own map frame; alpha_ground_truth[i] the
-///   ground-truth pose at the same instant, in the common world frame.
-/// * beta_estimated[j], beta_ground_truth[j]: the same for robot beta (same world frame as alpha's ground truth).
+///   ground-truth pose at the same instant, in the common ground-truth frame gt.
+/// * beta_estimated[j], beta_ground_truth[j]: the same for robot beta (same gt frame as alpha's ground truth).
 /// * T_alpha_beta: the estimated transform from beta's map frame into alpha's (p_alpha = T_alpha_beta p_beta).
 /// T_gt_alpha is the rigid Umeyama alignment (no scale) of alpha's estimated positions onto its ground-truth
 /// positions. When those positions are collinear (a straight drive; see collinear_ratio) the rotation about

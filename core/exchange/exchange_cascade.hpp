@@ -16,7 +16,7 @@
 #include "core/common/status.hpp"
 #include "core/exchange/affinity.hpp"
 #include "core/exchange/balanced_vertex_cover.hpp"
-#include "core/exchange/compatibility_graph.hpp"
+#include "core/exchange/edge_weighted_clique.hpp"
 #include "core/exchange/exchange_policy.hpp"
 #include "core/exchange/sequential_matching.hpp"
 

@@ -12,14 +12,12 @@
 
 #include <Eigen/Cholesky>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 
 namespace commerge {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
-constexpr double kRadToDeg = 180.0 / kPi;
 constexpr int kMaxRobots = kFrameSolverMaxRobots;
 
 std::string Num(double value) {
@@ -719,7 +717,7 @@ Result<FrameSolution> SolveRobotFrames(int num_robots, Span<const FrameMeasureme
     r.anchor_robot = components.Find(v);
     r.component = component_of_anchor[static_cast<std::size_t>(r.anchor_robot)];
     r.connected_to_robot0 = r.anchor_robot == 0;
-    r.T_world_robot = ToIsometry(X[static_cast<std::size_t>(v)]);
+    r.T_world_map = ToIsometry(X[static_cast<std::size_t>(v)]);
   }
   return out;
 }

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: the multi-robot frame solver. From pairwise inter-robot transforms (one per successful map merge
 // between two robots, possibly several per pair, some of them wrong), it picks the consistent ones by cycle
-// consistency and places every robot's map frame in a common world frame.
+// consistency and places every robot's map frame in a common frame: the world frame (robot 0's map frame).
 //
 // Rule (exact unless the search budget runs out, see FrameSolution::search_exhaustive):
 //  1. Every measurement m is read as T_lo_hi, the transform from the higher-index robot's frame into the
@@ -21,8 +21,9 @@
 //     Gauss-Newton on SE(3) with right box-plus updates, each component's anchor fixed, residual
 //     LogSE3(T_measured^-1 X_lo^-1 X_hi) whitened by (max_translation_m, max_rotation_deg) and scaled by the
 //     measurement's weight.
-// World frame: the frame of each connected component's anchor, its lowest-index robot (robot 0 for the
-// component containing robot 0).
+// Placement T_world_map: relative to the map frame of each connected component's anchor, its lowest-index robot.
+// For the component containing robot 0 that is the world frame (robot 0's map frame); a component without
+// robot 0 is placed in its own anchor's map frame (connected_to_robot0 false).
 //
 // Search: measurements are ordered by support (parallel measurements and closed triangles that agree with
 // them), then weight. Incumbents: the Kruskal forest in that order, then one greedy forest per seed measurement
@@ -96,11 +97,12 @@ struct MeasurementOutcome {
 };
 
 struct RobotFrame {
-  /// Robot frame in the world frame of its component (p_world = T_world_robot p_robot); identity for anchors.
-  Eigen::Isometry3d T_world_robot = Eigen::Isometry3d::Identity();
+  /// The robot's map frame in its component's frame (p_world = T_world_map p_map; the world frame when
+  /// connected_to_robot0, else the anchor's map frame); identity for anchors.
+  Eigen::Isometry3d T_world_map = Eigen::Isometry3d::Identity();
   int component = 0;     ///< component id, 0 .. num_components - 1, numbered by ascending anchor index
-  int anchor_robot = 0;  ///< lowest robot index of the component (its frame is this component's world frame)
-  bool connected_to_robot0 = false;  ///< in robot 0's component (T_world_robot is then in robot 0's frame)
+  int anchor_robot = 0;  ///< lowest robot index of the component (its map frame is the component's frame)
+  bool connected_to_robot0 = false;  ///< in robot 0's component (T_world_map is then in the world frame)
 };
 
 struct FrameSolution {

@@ -6,10 +6,10 @@
 #include <limits>
 #include <string>
 
+#include "core/geometry/angles.hpp"
+
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 struct Peak {
   double score = 0.0;

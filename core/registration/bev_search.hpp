@@ -27,6 +27,7 @@
 #include "core/cloud/point.hpp"
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/registration/fft2d.hpp"
 
 namespace commerge {
@@ -57,7 +58,7 @@ struct BevSearchParams {
   double min_peak_ratio = 2.0;
   /// Two peaks are distinct when their yaws differ by more than this [rad] or their shifts by more than
   /// min_separation_m [m].
-  double min_separation_rad = 10.0 * 3.14159265358979323846 / 180.0;
+  double min_separation_rad = 10.0 * kPi / 180.0;
   double min_separation_m = 4.0;
 };
 

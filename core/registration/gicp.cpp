@@ -16,15 +16,30 @@ inline Eigen::Vector3d Pos(const PointXYZI& p) {
   return {static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z)};
 }
 
-// T * [ExpSO3(omega), v]: the right perturbation the Jacobian below is written for.
+// T * [ExpSO3(omega), v] with delta = [v; omega] (translation first, the order of core/geometry/se3's twists):
+// the right perturbation the Jacobian below is written for.
 Eigen::Isometry3d Perturb(const Eigen::Isometry3d& T, const Vector6d& delta) {
   Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
-  d.linear() = ExpSO3(delta.head<3>());
-  d.translation() = delta.tail<3>();
+  d.linear() = ExpSO3(delta.tail<3>());
+  d.translation() = delta.head<3>();
   Eigen::Isometry3d out = T * d;
   // Keep the rotation orthonormal over many compositions.
   Eigen::Quaterniond q(out.linear());
   out.linear() = q.normalized().toRotationMatrix();
+  return out;
+}
+
+// [v; omega] <-> [omega; v]: the Levenberg-Marquardt step is solved rotation first. LDLT pivots on the largest
+// diagonal entry and its rounding depends on where rows and columns sit, so a fixed order keeps results
+// reproducible; rotation first is the order the registration gates and tests were calibrated with.
+Matrix6d RotationFirst(const Matrix6d& A) {
+  Matrix6d out;
+  out << A.bottomRightCorner<3, 3>(), A.bottomLeftCorner<3, 3>(), A.topRightCorner<3, 3>(), A.topLeftCorner<3, 3>();
+  return out;
+}
+Vector6d SwapHalves(const Vector6d& v) {
+  Vector6d out;
+  out << v.tail<3>(), v.head<3>();
   return out;
 }
 
@@ -101,9 +116,9 @@ GicpResult Gicp::Align(const SubmapFeatures& source, const SubmapFeatures& targe
         M = (cov_t[j] + R * cov_s[i] * R.transpose()).inverse();
       }
       const Eigen::Vector3d r = Pos(tgt[j]) - q;
-      Eigen::Matrix<double, 3, 6> J;
-      J.leftCols<3>() = R * Skew(p);
-      J.rightCols<3>() = -R;
+      Eigen::Matrix<double, 3, 6> J;  // d(T [ExpSO3(omega), v] p)/d[v; omega] = [R, -R [p]x], negated for r
+      J.leftCols<3>() = -R;
+      J.rightCols<3>() = R * Skew(p);
       const Eigen::Matrix<double, 6, 3> JtM = J.transpose() * M;
       H->noalias() += JtM * J;
       b->noalias() += JtM * r;
@@ -133,9 +148,12 @@ GicpResult Gicp::Align(const SubmapFeatures& source, const SubmapFeatures& targe
       ++*iterations;
       const double e = linearize(T, &H, &b);
       if (factors_.size() < 6) break;  // nothing to optimise: not converged
+      const Matrix6d H_rot_first = RotationFirst(H);
+      const Vector6d b_rot_first = SwapHalves(b);
       bool accepted = false;
       for (int inner = 0; inner < params.max_inner_iterations; ++inner) {
-        const Vector6d delta = (H + lambda * Matrix6d::Identity()).ldlt().solve(-b);
+        const Vector6d delta =
+            SwapHalves((H_rot_first + lambda * Matrix6d::Identity()).ldlt().solve(-b_rot_first));  // [v; omega]
         if (!delta.allFinite()) {
           lambda *= params.lambda_factor;
           continue;
@@ -145,8 +163,8 @@ GicpResult Gicp::Align(const SubmapFeatures& source, const SubmapFeatures& targe
           T = T_new;
           lambda /= params.lambda_factor;
           accepted = true;
-          converged = delta.head<3>().norm() <= eps_scale * params.rotation_eps_rad &&
-                      delta.tail<3>().norm() <= eps_scale * params.translation_eps_m;
+          converged = delta.tail<3>().norm() <= eps_scale * params.rotation_eps_rad &&
+                      delta.head<3>().norm() <= eps_scale * params.translation_eps_m;
           break;
         }
         lambda *= params.lambda_factor;

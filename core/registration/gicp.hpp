@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/common/status.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/registration/submap_features.hpp"
 
@@ -33,7 +34,7 @@ struct GicpParams {
   double initial_lambda = 1e-3;
   double lambda_factor = 10.0;
   /// Converged when an accepted step rotates by <= rotation_eps_rad and moves by <= translation_eps_m.
-  double rotation_eps_rad = 0.1 * 3.14159265358979323846 / 180.0;
+  double rotation_eps_rad = 0.1 * kPi / 180.0;
   double translation_eps_m = 1e-3;
   /// Two phases (ours, not small_gicp's): first with max_correspondence_distance_m (wide basin; steps below 10x
   /// the thresholds count as converged), then with this tighter gate so that pairs without a true counterpart
@@ -62,9 +63,11 @@ struct GicpResult {
   std::size_t num_inliers = 0;        ///< final pairs passing the inlier test (GicpParams::inlier_*)
   double inlier_rmse_m = 0.0;         ///< RMS distance of those inliers [m]
   double error = 0.0;                 ///< final 1/2 sum r^T M r over the correspondences
-  /// Information (Gauss-Newton Hessian) at the result for the right perturbation T Exp([omega; v]) and its
-  /// gradient, both in that order ([rotation; translation]).
+  /// Information (Gauss-Newton Hessian J^T M J) at the result, for the right perturbation T * ExpSE3(xi), rows
+  /// and columns in core/geometry/se3's twist order xi = [translation v [m]; rotation omega [rad]] (at xi = 0 the
+  /// same as the step T * [ExpSO3(omega), v] the optimiser applies).
   Matrix6d H = Matrix6d::Zero();
+  /// Gradient J^T M r at the result (r = target point - transformed source point), same order [v; omega].
   Vector6d b = Vector6d::Zero();
   /// Share, per principal direction of the source normals, of the normal "mass" carried by the inliers;
   /// the minimum over the directions holding >= 2 % of the mass. Near 0: the inliers leave a direction that the

@@ -12,6 +12,8 @@
 #include <limits>
 #include <string>
 
+#include "core/geometry/angles.hpp"
+
 #if defined(__SSE__)
 #include <xmmintrin.h>
 #elif defined(__aarch64__) && defined(__ARM_NEON)
@@ -20,8 +22,6 @@
 
 namespace commerge {
 namespace {
-
-constexpr float kPiF = 3.14159265358979f;
 
 inline Eigen::Vector3f Pos(const PointXYZI& p) { return {p.x, p.y, p.z}; }
 

@@ -326,7 +326,7 @@ void SubmapRegistration::RunFine(const SubmapRegistrationParams& params, const E
   r.directional_overlap = fine.directional_overlap;
   r.fitness_rmse_m = fine.inlier_rmse_m;
   r.information = fine.H;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> info(fine.H.bottomRightCorner<3, 3>(), Eigen::EigenvaluesOnly);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> info(fine.H.topLeftCorner<3, 3>(), Eigen::EigenvaluesOnly);
   const double info_max = info.eigenvalues()(2);
   r.information_ratio = info_max > 0.0 ? std::max(0.0, info.eigenvalues()(0)) / info_max : 0.0;
   const Eigen::Isometry3d correction = fine.T_target_source * T_coarse.inverse();

@@ -17,6 +17,7 @@
 #include "core/cloud/point.hpp"
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/registration/bev_search.hpp"
 #include "core/registration/correspondence_pruning.hpp"
@@ -51,7 +52,7 @@ struct RegistrationGates {
   double min_information_ratio = 0.005;
   /// The fine stage may move the coarse estimate at most this much; more means the coarse answer was not
   /// in the fine basin or the fine stage slid along a degenerate direction.
-  double max_fine_correction_rad = 10.0 * 3.14159265358979323846 / 180.0;
+  double max_fine_correction_rad = 10.0 * kPi / 180.0;
   double max_fine_correction_m = 3.0;
 };
 
@@ -141,7 +142,7 @@ struct RegistrationResult {
   int gicp_iterations = 0;
   bool gicp_converged = false;
   double information_ratio = 0.0;         ///< smallest / largest eigenvalue of H's translation block
-  Matrix6d information = Matrix6d::Zero();  ///< GICP H ([rotation; translation])
+  Matrix6d information = Matrix6d::Zero();  ///< GICP H, order [translation; rotation] (se3's twists)
   double fine_correction_rad = 0.0;       ///< rotation between the coarse and the final estimate
   double fine_correction_m = 0.0;         ///< translation between them (source origin displacement)
 };

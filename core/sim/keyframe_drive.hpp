@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: simulated keyframe streams for the server side: a robot drives a straight lane of a generated scene,
 // one keyframe every `spacing_m`, SOLiD computed on the ray-cast raw scan. Gives what a robot sends the server
-// (descriptors, keyframe positions in its own map frame, stored point counts) plus the ground truth (world
-// positions), for cascade tests and benchmarks.
+// (descriptors, keyframe positions in its own map frame, stored point counts) plus the ground truth (positions
+// in the scene's ground-truth frame gt), for cascade tests and benchmarks.
 #pragma once
 
 #include <cstdint>
@@ -30,7 +30,7 @@ struct SimulatedKeyframes {
   int dim = 0;                                ///< descriptor length (SolidParams::num_rings)
   std::vector<float> descriptors;             ///< keyframes x dim, unit-normalised R-SOLiD (zeros when invalid)
   std::vector<std::uint8_t> valid;            ///< 1 = valid descriptor
-  std::vector<Eigen::Vector3d> world_m;       ///< ground-truth keyframe positions
+  std::vector<Eigen::Vector3d> gt_m;          ///< ground-truth keyframe positions (frame gt: the scene's)
   std::vector<Eigen::Vector3d> own_frame_m;   ///< positions in the robot's map frame (= its first keyframe pose)
   std::vector<std::uint32_t> raw_points;      ///< points of each raw scan
 };

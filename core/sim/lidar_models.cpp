@@ -5,13 +5,12 @@
 #include <cctype>
 #include <cmath>
 
+#include "core/geometry/angles.hpp"
 #include "core/sim/sim_random.hpp"
 
 namespace commerge {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 std::vector<float> UniformTable(int beams, double lo_deg, double hi_deg) {
   std::vector<float> t(static_cast<std::size_t>(beams));
@@ -210,7 +209,7 @@ void LidarRayDirections(const LidarModel& m, std::uint64_t frame_index, std::vec
   }
 }
 
-Status SimulateLidarScan(const World& world, const LidarModel& model, const Eigen::Isometry3d& T_world_sensor,
+Status SimulateLidarScan(const World& world, const LidarModel& model, const Eigen::Isometry3d& T_gt_sensor,
                          std::uint64_t noise_seed, std::uint64_t frame_index, LidarScanWorkspace* ws,
                          std::vector<PointXYZI>* out) {
   if (Status st = ValidateLidarModel(model); !st.ok()) return st;
@@ -229,8 +228,8 @@ Status SimulateLidarScan(const World& world, const LidarModel& model, const Eige
     ws->dirs_valid = true;
   }
   out->clear();
-  const Eigen::Matrix3f R = T_world_sensor.linear().cast<float>();
-  const Eigen::Vector3f t = T_world_sensor.translation().cast<float>();
+  const Eigen::Matrix3f R = T_gt_sensor.linear().cast<float>();
+  const Eigen::Vector3f t = T_gt_sensor.translation().cast<float>();
   const float origin[3] = {t.x(), t.y(), t.z()};
   SimRandom rng(noise_seed);
   const float sigma = model.range_noise_std_m;

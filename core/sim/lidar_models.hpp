@@ -83,12 +83,13 @@ struct LidarScanWorkspace {
   RayWorkspace rays;
 };
 
-/// Casts one frame of `model` from the sensor pose T_world_sensor into `world` (built) and writes the returns
-/// in the sensor frame to *out (cleared first): range = true range + N(0, range_noise_std_m), kept when within
-/// [min_range_m, max_range_m]; intensity = reflectivity x |cos incidence| in [0, 1]. `noise_seed` seeds the
-/// range noise, `frame_index` selects the rosette's portion (ignored by spinning models). Deterministic.
+/// Casts one frame of `model` from the sensor pose T_gt_sensor (gt = the scene's frame) into `world` (built) and
+/// writes the returns in the sensor frame to *out (cleared first): range = true range + N(0, range_noise_std_m),
+/// kept when within [min_range_m, max_range_m]; intensity = reflectivity x |cos incidence| in [0, 1].
+/// `noise_seed` seeds the range noise, `frame_index` selects the rosette's portion (ignored by spinning models).
+/// Deterministic.
 /// Errors: invalid model, world not built.
-Status SimulateLidarScan(const World& world, const LidarModel& model, const Eigen::Isometry3d& T_world_sensor,
+Status SimulateLidarScan(const World& world, const LidarModel& model, const Eigen::Isometry3d& T_gt_sensor,
                          std::uint64_t noise_seed, std::uint64_t frame_index, LidarScanWorkspace* ws,
                          std::vector<PointXYZI>* out);
 

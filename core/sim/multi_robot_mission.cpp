@@ -7,6 +7,7 @@
 #include <deque>
 #include <string>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/sim/sim_random.hpp"
 
@@ -14,8 +15,6 @@ namespace commerge {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 constexpr double kDenseStepM = 0.5;  // spacing of the dense route polyline
 
 /// Per-world layout and vehicle constants.
@@ -625,13 +624,13 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
       return Eigen::Vector2d(dense[i].xy + u * (dense[i + 1].xy - dense[i].xy));
     };
     const double speed = layout.speed_m_per_s * (1.0 + 0.1 * robot_rng.Uniform(-1.0, 1.0));
-    const double wobble = params.roll_pitch_wobble_deg * kDeg;
+    const double wobble = params.roll_pitch_wobble_deg * kDegToRad;
     const double ph[4] = {robot_rng.Uniform(0, 2 * kPi), robot_rng.Uniform(0, 2 * kPi), robot_rng.Uniform(0, 2 * kPi),
                           robot_rng.Uniform(0, 2 * kPi)};
     RobotMission robot;
     robot.id = r;
-    std::vector<Eigen::Isometry3d> world_poses;
-    world_poses.reserve(static_cast<std::size_t>(params.keyframes_per_robot));
+    std::vector<Eigen::Isometry3d> gt_poses;
+    gt_poses.reserve(static_cast<std::size_t>(params.keyframes_per_robot));
     std::size_t hint = 0, hint_a = 0, hint_b = 0;
     for (int k = 0; k < params.keyframes_per_robot; ++k) {
       const double s = k * params.keyframe_spacing_m + 0.5;
@@ -646,14 +645,14 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
       Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
       T.linear() = RotationFromYawPitchRoll(yaw, pitch, roll);
       T.translation() = Eigen::Vector3d(p.x(), p.y(), layout.sensor_height_m);
-      world_poses.push_back(T);
+      gt_poses.push_back(T);
       robot.times_s.push_back(k * params.keyframe_spacing_m / speed);
       robot.on_shared_tour.push_back(dense[hint].shared ? 1 : 0);
     }
-    robot.T_world_robotstart = world_poses.front();
-    const Eigen::Isometry3d T_start_world = robot.T_world_robotstart.inverse();
-    for (const Eigen::Isometry3d& T : world_poses) {
-      Eigen::Isometry3d g = T_start_world * T;
+    robot.T_gt_robotstart = gt_poses.front();
+    const Eigen::Isometry3d T_start_gt = robot.T_gt_robotstart.inverse();
+    for (const Eigen::Isometry3d& T : gt_poses) {
+      Eigen::Isometry3d g = T_start_gt * T;
       if (robot.gt.empty()) g = Eigen::Isometry3d::Identity();
       robot.gt.push_back(g);
     }
@@ -662,7 +661,7 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
     const DriftParams& d = params.drift;
     SimRandom drift_rng(MixSeed(params.seed, 0x33ull + static_cast<std::uint64_t>(r), 7));
     robot.scale_bias = d.scale * d.scale_bias_std * drift_rng.Gaussian();
-    robot.yaw_bias_rad_per_m = d.scale * d.yaw_bias_std_deg_per_m * kDeg * drift_rng.Gaussian();
+    robot.yaw_bias_rad_per_m = d.scale * d.yaw_bias_std_deg_per_m * kDegToRad * drift_rng.Gaussian();
     robot.odometry.push_back(Eigen::Isometry3d::Identity());
     for (std::size_t k = 1; k < robot.gt.size(); ++k) {
       const Eigen::Isometry3d dT = robot.gt[k - 1].inverse() * robot.gt[k];
@@ -671,10 +670,10 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
       Eigen::Vector3d e_t(d.scale * d.translation_noise_frac * step * drift_rng.Gaussian(),
                           d.scale * d.translation_noise_frac * step * drift_rng.Gaussian(),
                           d.scale * d.z_noise_frac * step * drift_rng.Gaussian());
-      const double rp = d.scale * d.roll_pitch_noise_deg_per_sqrt_m * kDeg * rs;
+      const double rp = d.scale * d.roll_pitch_noise_deg_per_sqrt_m * kDegToRad * rs;
       const Eigen::Vector3d e_r(rp * drift_rng.Gaussian(), rp * drift_rng.Gaussian(),
                                 robot.yaw_bias_rad_per_m * step +
-                                    d.scale * d.yaw_noise_deg_per_sqrt_m * kDeg * rs * drift_rng.Gaussian());
+                                    d.scale * d.yaw_noise_deg_per_sqrt_m * kDegToRad * rs * drift_rng.Gaussian());
       Eigen::Isometry3d reported = Eigen::Isometry3d::Identity();
       reported.linear() = dT.linear() * ExpSO3(e_r);
       reported.translation() = (1.0 + robot.scale_bias) * dT.translation() + e_t;
@@ -711,7 +710,7 @@ OverlapReport MeasureOverlap(const MissionPlan& plan, double radius_m) {
   };
   for (std::size_t r = 0; r < R; ++r) {
     for (std::size_t k = 0; k < plan.robots[r].gt.size(); ++k) {
-      const Eigen::Vector3d p = plan.robots[r].WorldPose(k).translation();
+      const Eigen::Vector3d p = plan.robots[r].T_gt_sensor(k).translation();
       cells.push_back({key_of(p.x(), p.y()), static_cast<std::uint32_t>(r), static_cast<float>(p.x()),
                        static_cast<float>(p.y())});
     }
@@ -723,7 +722,7 @@ OverlapReport MeasureOverlap(const MissionPlan& plan, double radius_m) {
     std::size_t any = 0;
     const auto& robot = plan.robots[i];
     for (std::size_t k = 0; k < robot.gt.size(); ++k) {
-      const Eigen::Vector3d p = robot.WorldPose(k).translation();
+      const Eigen::Vector3d p = robot.T_gt_sensor(k).translation();
       std::vector<std::uint8_t> near(R, 0);
       for (int dx = -1; dx <= 1; ++dx) {
         for (int dy = -1; dy <= 1; ++dy) {

@@ -4,11 +4,11 @@
 // `keyframe_spacing_m` of travel, ground-truth poses and drifting odometry.
 //
 // Frames (see also the dataset writer):
-//  * world: the simulator's common frame (z up, ground z = 0).
-//  * robot start frame ("robotstart"): the sensor frame of the robot's first keyframe. T_world_robotstart is
+//  * gt: the simulator's common ground-truth frame (z up, ground z = 0).
+//  * robot start frame ("robotstart"): the sensor frame of the robot's first keyframe. T_gt_robotstart is
 //    the robot's true start pose, unknown to the robot.
 //  * gt[k] = T_robotstart_sensor(k): the true sensor pose of keyframe k in the robot's start frame
-//    (gt[0] = identity); the world pose is T_world_robotstart * gt[k].
+//    (gt[0] = identity); the pose in gt is T_gt_robotstart * gt[k] = T_gt_sensor(k).
 //  * odometry[k] = T_odomstart_sensor(k): what the robot's own odometry reports, in its own start frame
 //    (odometry[0] = identity), drifting away from gt[k].
 //  * sensor frame: x forward (the direction of travel), y left, z up, mounted sensor_height_m above the
@@ -99,7 +99,7 @@ struct RoadNetwork {
 
 struct RobotMission {
   int id = 0;
-  Eigen::Isometry3d T_world_robotstart = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_gt_robotstart = Eigen::Isometry3d::Identity();
   std::vector<Eigen::Isometry3d> gt;        ///< T_robotstart_sensor per keyframe (gt[0] = identity)
   std::vector<Eigen::Isometry3d> odometry;  ///< T_odomstart_sensor per keyframe (odometry[0] = identity)
   std::vector<double> times_s;              ///< keyframe times from the robot's start [s]
@@ -108,8 +108,8 @@ struct RobotMission {
   double scale_bias = 0.0;                  ///< drawn odometry scale error
   double yaw_bias_rad_per_m = 0.0;          ///< drawn yaw drift rate
 
-  /// True world pose of keyframe k.
-  Eigen::Isometry3d WorldPose(std::size_t k) const { return T_world_robotstart * gt[k]; }
+  /// True pose of keyframe k's sensor in the ground-truth frame gt.
+  Eigen::Isometry3d T_gt_sensor(std::size_t k) const { return T_gt_robotstart * gt[k]; }
 };
 
 struct MissionPlan {

@@ -6,13 +6,12 @@
 #include <unordered_map>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/sim/sim_random.hpp"
 
 namespace commerge {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 /// An oriented rectangle on the ground (footprint of an object).
 struct Footprint {

@@ -4,11 +4,11 @@
 #include <cmath>
 #include <random>
 
+#include "core/geometry/angles.hpp"
+
 namespace commerge {
 
 namespace {
-
-constexpr float kPi = 3.14159265358979f;
 
 /// Ray/box slab test; returns the entry distance in (0, best) or best unchanged.
 float IntersectBox(const Box& b, const float o[3], const float d[3], float best) {
@@ -116,10 +116,10 @@ void CastScan(const BoxScene& scene, const SpinningLidar& lidar, float x_m, floa
   const float cy = std::cos(yaw_rad), sy = std::sin(yaw_rad);
   for (int beam = 0; beam < lidar.beams; ++beam) {
     const float frac = lidar.beams > 1 ? static_cast<float>(beam) / static_cast<float>(lidar.beams - 1) : 0.5f;
-    const float elev = (lidar.min_elevation_deg + frac * (lidar.max_elevation_deg - lidar.min_elevation_deg)) * kPi / 180;
+    const float elev = (lidar.min_elevation_deg + frac * (lidar.max_elevation_deg - lidar.min_elevation_deg)) * kPiF / 180;
     const float ce = std::cos(elev), se = std::sin(elev);
     for (int step = 0; step < lidar.azimuth_steps; ++step) {
-      const float az = 2.0f * kPi * static_cast<float>(step) / static_cast<float>(lidar.azimuth_steps);
+      const float az = 2.0f * kPiF * static_cast<float>(step) / static_cast<float>(lidar.azimuth_steps);
       const float ds[3] = {ce * std::cos(az), ce * std::sin(az), se};  // sensor frame
       const float dw[3] = {cy * ds[0] - sy * ds[1], sy * ds[0] + cy * ds[1], ds[2]};
       float t = lidar.max_range_m;

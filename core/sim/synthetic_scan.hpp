@@ -13,14 +13,14 @@
 
 namespace commerge {
 
-/// Axis-aligned box [min, max] in the world frame [m].
+/// Axis-aligned box [min, max] in the scene's frame gt [m].
 struct Box {
   float min_x, min_y, min_z;
   float max_x, max_y, max_z;
 };
 
 struct BoxScene {
-  float ground_z_m = 0.0f;  ///< ground plane height in the world frame
+  float ground_z_m = 0.0f;  ///< ground plane height in the scene's frame gt
   std::vector<Box> boxes;
 };
 
@@ -44,7 +44,7 @@ struct SpinningLidar {
   float range_noise_std_m = 0.01f;
 };
 
-/// Casts every ray of `lidar` from the sensor at (x, y, z) with heading `yaw_rad` (world frame), returns the
+/// Casts every ray of `lidar` from the sensor at (x, y, z) with heading `yaw_rad` (scene frame gt), returns the
 /// hits in the sensor frame (x forward, y left, z up). Rays that hit nothing within range give no point.
 /// Intensity = 1 / (1 + range), a stand-in. Range noise is seeded by `seed`.
 void CastScan(const BoxScene& scene, const SpinningLidar& lidar, float x_m, float y_m, float z_m, float yaw_rad,

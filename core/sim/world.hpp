@@ -4,7 +4,7 @@
 // = union of noisy capsules, for caves), indexed by a uniform 2-D grid over the XY plane so that a ray only
 // visits the cells it crosses (cost ~ cells crossed x primitives per cell, not O(primitives)).
 //
-// World frame: x, y horizontal, z up [m]; the ground is the plane z = ground_z_m.
+// Frame: the simulation's ground-truth frame gt, x, y horizontal, z up [m]; the ground is the plane z = ground_z_m.
 #pragma once
 
 #include <cstddef>
@@ -118,7 +118,7 @@ class World {
   Status Build(float cell_size_m = 8.0f);
   bool built() const { return built_; }
 
-  /// Casts the ray origin + t dir (dir unit length, world frame) for t in (min_range_m, max_range_m].
+  /// Casts the ray origin + t dir (dir unit length, frame gt) for t in (min_range_m, max_range_m].
   /// Returns true with the nearest hit. Precondition: built().
   bool CastRay(const float origin[3], const float dir[3], float min_range_m, float max_range_m, RayWorkspace* ws,
                RayHit* hit) const;

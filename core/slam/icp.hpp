@@ -35,9 +35,10 @@ struct IcpResult {
   double mean_squared_residual_m2 = 0.0;
   /// Inliers / source points.
   double inlier_ratio = 0.0;
-  /// Gauss-Newton information of the estimate for a right perturbation T Exp(delta), delta = [translation;
-  /// rotation]: sum over inliers of J^T J / sigma^2 with J = [I, -[p_source]x] and sigma^2 = the mean
-  /// squared residual per coordinate. It treats the inliers as independent, so it is optimistic.
+  /// Gauss-Newton information of the estimate for a right perturbation T ExpSE3(delta), delta = [translation;
+  /// rotation] (core/geometry/se3's twist order): sum over inliers of J^T J / sigma^2 with J = [I, -[p_source]x]
+  /// and sigma^2 = the mean squared residual per coordinate. It treats the inliers as independent, so it is
+  /// optimistic.
   Eigen::Matrix<double, 6, 6> hessian = Eigen::Matrix<double, 6, 6>::Zero();
 };
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <string>
 
+#include "core/geometry/angles.hpp"
+
 namespace commerge {
 
 Status ValidateKeyframerParams(const KeyframerParams& p) {
@@ -28,7 +30,7 @@ bool Keyframer::Offer(const Eigen::Isometry3d& T_odom_sensor) {
   if (!is_keyframe) {
     const Eigen::Isometry3d delta = T_odom_last_.inverse() * T_odom_sensor;
     const double moved_m = delta.translation().norm();
-    const double turned_deg = Eigen::AngleAxisd(delta.linear()).angle() * 180.0 / M_PI;
+    const double turned_deg = Eigen::AngleAxisd(delta.linear()).angle() * 180.0 / kPi;
     is_keyframe = moved_m >= params_.keyframe_spacing_m || turned_deg >= params_.keyframe_rotation_deg;
   }
   if (is_keyframe) {

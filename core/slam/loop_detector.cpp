@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 
 namespace commerge {
@@ -156,7 +157,7 @@ Result<LoopCheck> LoopVerifier::Verify(std::uint32_t query, std::uint32_t match,
     screened_.clear();
     for (int h = 0; h < p.yaw_hypotheses; ++h) {
       Eigen::Isometry3d guess = Eigen::Isometry3d::Identity();
-      guess.linear() = Eigen::AngleAxisd(2.0 * M_PI * h / p.yaw_hypotheses, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      guess.linear() = Eigen::AngleAxisd(2.0 * kPi * h / p.yaw_hypotheses, Eigen::Vector3d::UnitZ()).toRotationMatrix();
       auto r = icp_.Align(query_scan, guess, screening);
       if (!r.ok()) return r.status();
       if (!screen) {
@@ -208,7 +209,7 @@ void LoopVerifier::Refine(Span<const PointXYZI> query_scan, Span<const PointXYZI
   const GicpResult g = gicp_.Align(query_features_, match_features_, loop->T_match_query, p.refine_gicp);
   if (!g.converged || !IsValidRigidTransform(g.T_target_source)) return;
   const Eigen::Isometry3d change = loop->T_match_query.inverse() * g.T_target_source;
-  const double change_deg = RotationAngleRad(change.linear()) * 180.0 / M_PI;
+  const double change_deg = RotationAngleRad(change.linear()) * 180.0 / kPi;
   if (change.translation().norm() > p.max_refinement_m || change_deg > p.max_refinement_deg) return;
   loop->T_match_query = g.T_target_source;
   loop->refined = true;

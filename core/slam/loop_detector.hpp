@@ -136,7 +136,8 @@ struct LoopClosure {
   IcpResult icp;
   /// The GICP refinement replaced ICP's transform in T_match_query (icp.T_target_source keeps ICP's).
   bool refined = false;
-  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();  ///< [translation; rotation]
+  /// Pose-graph information of the loop edge, order [translation; rotation] (core/geometry/se3's twists).
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
 };
 
 /// Why a candidate was or was not accepted (for logs and counters).

@@ -146,9 +146,9 @@ struct PoseGraph::Workspace {
   }
 };
 
-Vector6d PoseGraphEdgeResidual(const Eigen::Isometry3d& T_world_from, const Eigen::Isometry3d& T_world_to,
+Vector6d PoseGraphEdgeResidual(const Eigen::Isometry3d& T_map_from, const Eigen::Isometry3d& T_map_to,
                                const Eigen::Isometry3d& T_from_to, Matrix6d* J_from, Matrix6d* J_to) {
-  const Eigen::Isometry3d T_to_from = T_world_to.inverse() * T_world_from;
+  const Eigen::Isometry3d T_to_from = T_map_to.inverse() * T_map_from;
   const Vector6d e = LogSE3(T_from_to.inverse() * T_to_from.inverse());
   if (J_from != nullptr || J_to != nullptr) {
     const Matrix6d jr_inv = RightJacobianInverseSE3(e);
@@ -170,15 +170,15 @@ std::size_t PoseGraph::workspace_bytes() const { return ws_ ? ws_->Bytes() : 0; 
 PoseGraph::PoseGraph(PoseGraph&&) noexcept = default;
 PoseGraph& PoseGraph::operator=(PoseGraph&&) noexcept = default;
 
-Status PoseGraph::AddNode(const Eigen::Isometry3d& T_world_node) {
+Status PoseGraph::AddNode(const Eigen::Isometry3d& T_map_node) {
   if (poses_.size() >= max_nodes_) {
     return ResourceExhausted("pose graph: node capacity " + std::to_string(max_nodes_) + " reached");
   }
-  if (!IsValidRigidTransform(T_world_node)) {
+  if (!IsValidRigidTransform(T_map_node)) {
     return InvalidArgument("pose graph: node " + std::to_string(poses_.size()) +
                            ": pose is not finite or its rotation is not orthonormal");
   }
-  poses_.push_back(T_world_node);
+  poses_.push_back(T_map_node);
   return Status::Ok();
 }
 

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: SE(3) pose graph of one robot's keyframes (paper, section "Intra-Robot SLAM for Local Mapping").
 //
-// Nodes are keyframe poses T_world_node, numbered 0..N-1 in insertion order. An edge (from, to) measures
-// T_from_to with an information matrix Omega (6x6, twist order [rho; phi] as in core/geometry/se3.hpp). Its
-// residual is
-//     e = LogSE3(T_from_to^-1 * T_world_from^-1 * T_world_to) = (T_from^-1 T_to) [-] T_from_to
+// Nodes are keyframe poses T_map_node (map = the robot's own map frame), numbered 0..N-1 in insertion order. An
+// edge (from, to) measures T_from_to with an information matrix Omega (6x6, twist order [rho; phi] as in
+// core/geometry/se3.hpp). Its residual is
+//     e = LogSE3(T_from_to^-1 * T_map_from^-1 * T_map_to) = (T_from^-1 T_to) [-] T_from_to
 // and the cost is sum_edges rho(e^T Omega e), with rho(s) = s unless a robust kernel is set for loop edges.
 // Optimize() runs Levenberg-Marquardt on right perturbations T <- T * ExpSE3(delta) with analytic Jacobians
 // and a sparse Cholesky (LDL^T) factorisation. Node 0 is held fixed (gauge).
@@ -20,6 +20,7 @@
 
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 
 namespace commerge {
@@ -51,7 +52,7 @@ struct PoseGraphParams {
   /// A node is reported in PoseGraphResult::changed_nodes when Optimize() moved it by more than this [m] ...
   double changed_translation_m = 0.01;
   /// ... or rotated it by more than this [rad] (0.1 deg).
-  double changed_rotation_rad = 0.1 * 3.14159265358979323846 / 180.0;
+  double changed_rotation_rad = 0.1 * kPi / 180.0;
 };
 
 struct PoseGraphEdge {
@@ -76,10 +77,10 @@ struct PoseGraphResult {
   std::size_t workspace_bytes = 0;
 };
 
-/// Residual of one edge, e = LogSE3(T_from_to^-1 * T_world_from^-1 * T_world_to), and optionally its
-/// Jacobians with respect to right perturbations of the two poses (T_world_x <- T_world_x * ExpSE3(d_x)):
-///   J_to = RightJacobianInverseSE3(e),  J_from = -J_to * AdjointSE3(T_world_to^-1 * T_world_from).
-Vector6d PoseGraphEdgeResidual(const Eigen::Isometry3d& T_world_from, const Eigen::Isometry3d& T_world_to,
+/// Residual of one edge, e = LogSE3(T_from_to^-1 * T_map_from^-1 * T_map_to), and optionally its
+/// Jacobians with respect to right perturbations of the two poses (T_map_x <- T_map_x * ExpSE3(d_x)):
+///   J_to = RightJacobianInverseSE3(e),  J_from = -J_to * AdjointSE3(T_map_to^-1 * T_map_from).
+Vector6d PoseGraphEdgeResidual(const Eigen::Isometry3d& T_map_from, const Eigen::Isometry3d& T_map_to,
                                const Eigen::Isometry3d& T_from_to, Matrix6d* J_from = nullptr,
                                Matrix6d* J_to = nullptr);
 
@@ -97,10 +98,10 @@ class PoseGraph {
   PoseGraph(const PoseGraph&) = delete;
   PoseGraph& operator=(const PoseGraph&) = delete;
 
-  /// Appends node num_nodes() with initial pose `T_world_node` (typically the previous pose composed with the
+  /// Appends node num_nodes() with initial pose `T_map_node` (typically the previous pose composed with the
   /// odometry). Errors: resource exhausted when max_nodes nodes exist; invalid argument when the pose is not
   /// finite or its rotation is not orthonormal with det +1 (tolerance 1e-6).
-  Status AddNode(const Eigen::Isometry3d& T_world_node);
+  Status AddNode(const Eigen::Isometry3d& T_map_node);
 
   /// Appends an edge between existing nodes. Errors: resource exhausted when max_edges edges exist; invalid
   /// argument (naming the edge) when an index is out of range, from == to, T_from_to is not finite or not

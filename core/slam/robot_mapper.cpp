@@ -4,6 +4,8 @@
 #include <cmath>
 #include <string>
 
+#include "core/geometry/angles.hpp"
+
 namespace commerge {
 
 Status ValidateRobotMapperParams(const RobotMapperParams& p) {
@@ -157,7 +159,7 @@ Status RobotMapper::FindLoop(std::uint32_t query, Span<const float> query_descri
     const double spacing_m = params_.keyframer.keyframe_spacing_m;
     const auto within_drift = [&](const Eigen::Isometry3d& T_match_query_prior, double path_m) {
       const Eigen::Isometry3d correction = T_match_query_prior.inverse() * check->loop.T_match_query;
-      const double correction_deg = Eigen::AngleAxisd(correction.rotation()).angle() * 180.0 / M_PI;
+      const double correction_deg = Eigen::AngleAxisd(correction.rotation()).angle() * 180.0 / kPi;
       return correction.translation().norm() <= lp.max_correction_m + lp.max_correction_per_travelled * path_m &&
              correction_deg <= lp.max_correction_deg + lp.max_correction_deg_per_travelled_m * path_m;
     };

@@ -94,7 +94,7 @@ class RobotMapper {
   Result<std::vector<std::uint32_t>> OptimizePending();
 
   std::size_t num_keyframes() const noexcept { return graph_.num_nodes(); }
-  /// Optimised pose of keyframe k, T_world_sensor (world = the first keyframe's frame).
+  /// Optimised pose of keyframe k, T_map_sensor (map = the robot's own map frame: its first keyframe's frame).
   const Eigen::Isometry3d& pose(std::size_t k) const { return graph_.pose(k); }
   Span<const float> descriptor(std::size_t k) const { return db_.Get(k); }
   bool descriptor_valid(std::size_t k) const { return db_.valid(k); }

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <initializer_list>
+#include <string>
 #include <system_error>
 
 #include "platform/io/poses.hpp"
@@ -95,13 +97,16 @@ Result<RobotDataset> OpenRobotDataset(const RobotDatasetSpec& spec, bool gt_from
     }
     gt = std::move(*g);
     d.ground_truth_source = gt_path;
-    const std::string start_path = (fs::path(spec.dir) / "T_world_robotstart.txt").string();
-    if (fs::exists(start_path, ec)) {
+    // T_gt_robotstart.txt, or under its older name T_world_robotstart.txt (same content).
+    for (const char* start_name : {"T_gt_robotstart.txt", "T_world_robotstart.txt"}) {
+      const std::string start_path = (fs::path(spec.dir) / start_name).string();
+      if (!fs::exists(start_path, ec)) continue;
       auto s = ReadKittiPoses(start_path);
       if (!s.ok()) return s.status();
       if (s->size() != 1) return InvalidArgument(start_path + ": expected exactly one pose, found " + std::to_string(s->size()));
       for (Eigen::Isometry3d& T : gt) T = (*s)[0] * T;
-      d.ground_truth_source += " (with T_world_robotstart.txt)";
+      d.ground_truth_source += std::string(" (with ") + start_name + ")";
+      break;
     }
   } else if (gt_from_poses) {
     gt = *poses;

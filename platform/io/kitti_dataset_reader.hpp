@@ -4,7 +4,9 @@
 //   DIR/poses.txt                estimated poses, one per scan (KITTI-12: T_frame_sensor); also accepted under
 //                                the name poses_lidar.txt
 //   DIR/poses_gt.txt             optional ground truth, one per scan (else: no ground truth, or --gt-from-poses)
-//   DIR/T_world_robotstart.txt   optional (the simulator's): ground truth world = this * poses_gt
+//   DIR/T_gt_robotstart.txt      optional (the simulator's): ground truth in the dataset's common frame
+//                                gt = this * poses_gt; also accepted under its older name T_world_robotstart.txt
+//                                (T_gt_robotstart.txt wins when both exist)
 //   DIR/times.txt                optional timestamps [s]
 // A time range DIR:FIRST-LAST keeps scans FIRST..LAST-1 (0-based) and makes that slice a robot of its own:
 // the paper's protocol for splitting a single-robot sequence into several robots.
@@ -35,7 +37,7 @@ struct RobotDataset {
   std::string name;                          ///< the argument as given
   std::vector<std::string> scan_files;       ///< of the range, in order
   std::vector<Eigen::Isometry3d> poses;      ///< estimated, one per scan of the range (as in the file)
-  std::vector<Eigen::Isometry3d> ground_truth;  ///< world frame, one per scan of the range; empty = none
+  std::vector<Eigen::Isometry3d> ground_truth;  ///< frame gt, one per scan of the range; empty = none
   std::vector<double> times_s;               ///< one per scan of the range; empty = none
   std::size_t first_scan = 0;                ///< index of scan_files[0] in the whole sequence
   std::string ground_truth_source;           ///< which file, for the report

@@ -84,7 +84,7 @@ Status KittiDatasetWriter::WriteScan(int robot, std::size_t k, Span<const PointX
 
 Status KittiDatasetWriter::WriteTrajectory(int robot, Span<const Eigen::Isometry3d> odometry,
                                            Span<const Eigen::Isometry3d> ground_truth, Span<const double> times_s,
-                                           const Eigen::Isometry3d& T_world_robotstart) const {
+                                           const Eigen::Isometry3d& T_gt_robotstart) const {
   if (robot < 0 || robot >= robots_) return InvalidArgument("dataset writer: no robot " + std::to_string(robot));
   if (odometry.size() != ground_truth.size() || times_s.size() != ground_truth.size()) {
     return InvalidArgument("dataset writer: robot " + std::to_string(robot) + ": " + std::to_string(odometry.size()) +
@@ -95,7 +95,7 @@ Status KittiDatasetWriter::WriteTrajectory(int robot, Span<const Eigen::Isometry
   if (Status st = WriteKittiPoses(dir + "/poses.txt", odometry); !st.ok()) return st;
   if (Status st = WriteKittiPoses(dir + "/poses_gt.txt", ground_truth); !st.ok()) return st;
   if (Status st = WriteTimes(dir + "/times.txt", times_s); !st.ok()) return st;
-  if (Status st = WriteKittiPoses(dir + "/T_world_robotstart.txt", Span<const Eigen::Isometry3d>(&T_world_robotstart, 1));
+  if (Status st = WriteKittiPoses(dir + "/T_gt_robotstart.txt", Span<const Eigen::Isometry3d>(&T_gt_robotstart, 1));
       !st.ok()) {
     return st;
   }
@@ -105,8 +105,8 @@ Status KittiDatasetWriter::WriteTrajectory(int robot, Span<const Eigen::Isometry
                                                           "P3: " + identity + "Tr: " + identity);
 }
 
-Status KittiDatasetWriter::WriteStartTransforms(Span<const Eigen::Isometry3d> T_world_robotstart) const {
-  return WriteKittiPoses(root_ + "/start_transforms.txt", T_world_robotstart);
+Status KittiDatasetWriter::WriteStartTransforms(Span<const Eigen::Isometry3d> T_gt_robotstart) const {
+  return WriteKittiPoses(root_ + "/start_transforms.txt", T_gt_robotstart);
 }
 
 Status KittiDatasetWriter::WriteInfo(const std::string& text) const {

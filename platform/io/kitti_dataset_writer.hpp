@@ -2,15 +2,17 @@
 // Writes a simulated multi-robot dataset in KITTI odometry layout, one sequence folder per robot:
 //
 //   <root>/sim_info.txt                 parameters, frame conventions, measured overlap ("key: value" lines)
-//   <root>/start_transforms.txt         KITTI-12 line r = T_world_robotstart of robot r (true start poses)
+//   <root>/start_transforms.txt         KITTI-12 line r = T_gt_robotstart of robot r (true start poses)
 //   <root>/robot_<r>/velodyne/%06d.bin  scan of keyframe k in the sensor frame (float32 x y z intensity)
 //   <root>/robot_<r>/poses.txt          KITTI-12 line k = odometry T_robotstart_sensor(k) (line 0 = identity)
 //   <root>/robot_<r>/poses_gt.txt       KITTI-12 line k = true T_robotstart_sensor(k) (line 0 = identity)
 //   <root>/robot_<r>/times.txt          keyframe time [s] from the robot's start
-//   <root>/robot_<r>/T_world_robotstart.txt   the robot's line of start_transforms.txt
+//   <root>/robot_<r>/T_gt_robotstart.txt   the robot's line of start_transforms.txt
 //   <root>/robot_<r>/calib.txt          KITTI calibration with Tr = identity: poses are LiDAR poses
 //
-// p_world = T_world_robotstart * poses_gt[k] * p_scan for every point p_scan of scan k.
+// p_gt = T_gt_robotstart * poses_gt[k] * p_scan for every point p_scan of scan k (gt = the simulation's common
+// ground-truth frame, z up, ground z = 0). Older datasets name the per-robot file T_world_robotstart.txt (same
+// content); the dataset reader accepts both names.
 #pragma once
 
 #include <cstddef>
@@ -49,13 +51,13 @@ class KittiDatasetWriter {
   /// robot_<r>/velodyne/<k>.bin. Thread-safe for distinct (robot, k).
   Status WriteScan(int robot, std::size_t k, Span<const PointXYZI> points) const;
 
-  /// poses.txt (odometry), poses_gt.txt, times.txt, T_world_robotstart.txt and calib.txt of one robot.
+  /// poses.txt (odometry), poses_gt.txt, times.txt, T_gt_robotstart.txt and calib.txt of one robot.
   /// Errors: sizes differ (invalid argument), non-finite values, i/o.
   Status WriteTrajectory(int robot, Span<const Eigen::Isometry3d> odometry, Span<const Eigen::Isometry3d> ground_truth,
-                         Span<const double> times_s, const Eigen::Isometry3d& T_world_robotstart) const;
+                         Span<const double> times_s, const Eigen::Isometry3d& T_gt_robotstart) const;
 
   /// start_transforms.txt: one KITTI-12 line per robot, in robot order.
-  Status WriteStartTransforms(Span<const Eigen::Isometry3d> T_world_robotstart) const;
+  Status WriteStartTransforms(Span<const Eigen::Isometry3d> T_gt_robotstart) const;
 
   /// sim_info.txt.
   Status WriteInfo(const std::string& text) const;

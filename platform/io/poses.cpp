@@ -112,8 +112,8 @@ Result<StampedPose> ParseTumPose(const std::string& path, std::size_t line_numbe
   }
   StampedPose pose;
   pose.time_s = v[0];
-  pose.T_world_sensor.linear() = q.normalized().toRotationMatrix();
-  pose.T_world_sensor.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
+  pose.T_frame_sensor.linear() = q.normalized().toRotationMatrix();
+  pose.T_frame_sensor.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
   return pose;
 }
 
@@ -172,7 +172,7 @@ Result<std::vector<StampedPose>> ReadTumPoses(const std::string& path) {
 Status WriteTumPoses(const std::string& path, Span<const StampedPose> poses) {
   std::string text = "# timestamp tx ty tz qx qy qz qw\n";
   for (std::size_t i = 0; i < poses.size(); ++i) {
-    const Eigen::Isometry3d& T = poses[i].T_world_sensor;
+    const Eigen::Isometry3d& T = poses[i].T_frame_sensor;
     if (!T.matrix().allFinite() || !std::isfinite(poses[i].time_s)) return NonFinitePose(path, i);
     const Eigen::Quaterniond q(T.linear());
     const Eigen::Vector3d t = T.translation();

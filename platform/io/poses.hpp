@@ -15,10 +15,12 @@ namespace commerge::platform {
 
 struct StampedPose {
   double time_s = 0.0;
-  Eigen::Isometry3d T_world_sensor = Eigen::Isometry3d::Identity();
+  /// Sensor pose in the file's frame (a robot's map, the world or the ground-truth frame, whichever the
+  /// trajectory is expressed in).
+  Eigen::Isometry3d T_frame_sensor = Eigen::Isometry3d::Identity();
 };
 
-/// Reads KITTI-12 poses: one line per pose with 12 numbers, the row-major 3x4 [R|t] of T_world_sensor.
+/// Reads KITTI-12 poses: one line per pose with 12 numbers, the row-major 3x4 [R|t] of T_frame_sensor.
 /// Trailing blank lines are allowed, nothing else is skipped. Errors (data loss) name the file and the
 /// 1-based line: wrong number of values, a token that is not a number, NaN/inf, a rotation that is not
 /// orthonormal (max |R^T R - I| > 1e-2 or det R <= 0). Rotations within that tolerance are replaced by the

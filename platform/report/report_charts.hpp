@@ -94,7 +94,7 @@ struct PlotPointM {
   float y_m = 0.0f;
 };
 
-/// Axis-aligned world rectangle [m].
+/// Axis-aligned rectangle in the plotted frame [m].
 struct BoundsM {
   float min_x_m = 0.0f;
   float min_y_m = 0.0f;
@@ -110,12 +110,12 @@ struct MetricLayout {
   int plot_y_px = 0;  ///< rows plot_y_px .. plot_y_px + plot_height_px - 1
   int plot_width_px = 0;
   int plot_height_px = 0;
-  double min_x_m = 0.0;  ///< world x at the centre of the plot's left column
-  double min_y_m = 0.0;  ///< world y at the centre of the plot's bottom row
+  double min_x_m = 0.0;  ///< x [m] at the centre of the plot's left column
+  double min_y_m = 0.0;  ///< y [m] at the centre of the plot's bottom row
   double px_per_m = 1.0;
   double grid_step_m = 1.0;  ///< spacing of the labelled grid lines
 
-  /// Pixel coordinates (centre at integers) of a world position; drawn pixels are these rounded.
+  /// Pixel coordinates (centre at integers) of a position [m]; drawn pixels are these rounded.
   double PixelX(double x_m) const noexcept { return plot_x_px + (x_m - min_x_m) * px_per_m; }
   double PixelY(double y_m) const noexcept { return plot_y_px + plot_height_px - 1 - (y_m - min_y_m) * px_per_m; }
 };
@@ -123,7 +123,7 @@ struct MetricLayout {
 struct TrajectorySeries {
   std::string name;     ///< legend text
   int robot_index = 0;  ///< colour RobotColour(robot_index)
-  std::vector<PlotPointM> path;  ///< positions in the common world frame [m], drawn as a polyline
+  std::vector<PlotPointM> path;  ///< positions [m] in the frame all series share, drawn as a polyline
   std::vector<int> highlighted;  ///< indices into `path` drawn as filled discs (scans selected for exchange)
 };
 

@@ -243,7 +243,7 @@ for id in 0 1; do
   esac
 done
 
-# Robot 1's placement against the truth: T_true = inv(T_world_start0) * T_world_start1.
+# Robot 1's placement against the truth: T_true = inv(T_gt_start0) * T_gt_start1.
 transform_error() {  # $1 = transforms.txt -> "translation_m yaw_deg"
   awk -v tf="$1" '
     NR == FNR { n++; for (i = 1; i <= 12; i++) s[n, i] = $i; next }

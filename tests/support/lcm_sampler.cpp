@@ -40,6 +40,7 @@
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
+#include "core/geometry/angles.hpp"
 #include "platform/lcm/input_codec.hpp"
 #include "platform/lcm/lcm_bus.hpp"
 #include "platform/lcm/message_auth.hpp"
@@ -53,7 +54,6 @@ using Bytes = std::vector<std::uint8_t>;
 constexpr const char* kTag = "cm_lcm_sampler";
 constexpr int kRobotId = 1;
 constexpr std::int32_t kRequestId = 7;
-constexpr double kPi = 3.14159265358979323846;
 
 Eigen::Isometry3d MakePose(double yaw_rad, double x, double y, double z) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -107,7 +107,7 @@ std::vector<Sample> MakeSamples(std::int64_t robot_session, std::int64_t server_
     for (std::size_t k = 0; k < kRecords; ++k) {
       KeyframeRecord r;
       r.keyframe_index = static_cast<std::uint32_t>(4 * round + static_cast<int>(k));
-      r.T_world_sensor = MakePose(0.05 * static_cast<double>(r.keyframe_index), 1.0 * r.keyframe_index, 0.3, 0.0);
+      r.T_map_sensor = MakePose(0.05 * static_cast<double>(r.keyframe_index), 1.0 * r.keyframe_index, 0.3, 0.0);
       double norm2 = 0.0;
       std::array<double, kKeyframeDescriptorDim> d{};
       for (std::size_t i = 0; i < d.size(); ++i) {
@@ -203,7 +203,7 @@ std::vector<Sample> MakeSamples(std::int64_t robot_session, std::int64_t server_
     m.utime_us = robot_session + 100000 * round;
     m.frame = "velodyne";
     for (int i = 0; i < 360; ++i) {
-      const float a = static_cast<float>(i) * 3.14159265f / 180.0f;
+      const float a = static_cast<float>(i) * kPiF / 180.0f;
       m.points.push_back({12.0f * std::cos(a), 12.0f * std::sin(a), -1.5f + 0.01f * static_cast<float>(round), 0.25f});
     }
     return platform::EncodeLidarScan(m, out);

@@ -41,7 +41,7 @@ inline KeyframeBatch MakeBatch(int robot, std::uint32_t first,
   for (std::size_t k = 0; k < descriptors.size(); ++k) {
     KeyframeRecord r;
     r.keyframe_index = first + static_cast<std::uint32_t>(k);
-    r.T_world_sensor.translation() = positions[k];
+    r.T_map_sensor.translation() = positions[k];
     r.descriptor = descriptors[k];
     r.descriptor_valid = true;
     const std::size_t at = b.records.size();

@@ -416,7 +416,7 @@ TEST_CASE("Merge server builds a pair's submaps from received scans and register
   REQUIRE(frames.ok());
   REQUIRE(frames->robots.size() == 2);
   CHECK(frames->robots[1].connected_to_robot0);
-  CHECK(test::TranslationErrorM(pair.T_target_source, frames->robots[1].T_world_robot) < 0.2);
+  CHECK(test::TranslationErrorM(pair.T_target_source, frames->robots[1].T_world_map) < 0.2);
 
   PairSelection nothing = sel;
   nothing.beta_keyframes.clear();

@@ -232,7 +232,7 @@ class Mission {
         if (a.mapper().descriptor_valid(k)) {
           KeyframeRecord record;
           record.keyframe_index = static_cast<std::uint32_t>(k);
-          record.T_world_sensor = a.mapper().pose(k);
+          record.T_map_sensor = a.mapper().pose(k);
           const Span<const float> d = a.mapper().descriptor(k);
           std::copy(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim), record.descriptor.begin());
           record.descriptor_valid = true;

@@ -106,8 +106,8 @@ TEST_CASE("Robot agent batches carry every keyframe with its pose, descriptor an
       const std::uint32_t k = rec->keyframe_index;
       seen.push_back(k);
       // Pose: float32 translation, 15-bit quaternion components.
-      CHECK((rec->T_world_sensor.translation() - mapper.pose(k).translation()).norm() < 1e-4);
-      CHECK(RotationAngleRad(rec->T_world_sensor.linear().transpose() * mapper.pose(k).linear()) < 2e-4);
+      CHECK((rec->T_map_sensor.translation() - mapper.pose(k).translation()).norm() < 1e-4);
+      CHECK(RotationAngleRad(rec->T_map_sensor.linear().transpose() * mapper.pose(k).linear()) < 2e-4);
       // Descriptor: the mapper's, quantised to 14 bits.
       const Span<const float> d = mapper.descriptor(k);
       double err = 0.0;

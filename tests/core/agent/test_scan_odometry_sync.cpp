@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/agent/scan_odometry_sync.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 
 using namespace commerge;
@@ -20,7 +21,6 @@ using namespace commerge;
 namespace {
 
 constexpr std::int64_t kT0 = 1763800000000000;  // [us] an epoch time stamp
-constexpr double kPi = 3.14159265358979323846;
 
 std::int64_t Us(double t_s) { return kT0 + static_cast<std::int64_t>(std::llround(t_s * 1e6)); }
 

@@ -12,6 +12,7 @@
 #include "core/agent/robot_agent.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/sim/synthetic_scan.hpp"
 #include "tests/core/slam/block_loop_drive.hpp"
@@ -63,7 +64,7 @@ TEST_CASE("Robot agent streams poses moved beyond its threshold and refreshes re
     const Eigen::Isometry3d T_truth = test::PoseOnLoop(s);
     Eigen::Isometry3d step = T_prev.inverse() * T_truth;
     step.translation() *= 1.01;
-    step.linear() = Eigen::AngleAxisd(0.5 * 0.1 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() * step.linear();
+    step.linear() = Eigen::AngleAxisd(0.5 * 0.1 * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() * step.linear();
     T_odom = T_odom * step;
     T_prev = T_truth;
     const double yaw = std::atan2(T_truth.linear()(1, 0), T_truth.linear()(0, 0));
@@ -86,7 +87,7 @@ TEST_CASE("Robot agent streams poses moved beyond its threshold and refreshes re
     const Eigen::Isometry3d& robot = mapper.pose(k);
     const Eigen::Isometry3d& known = server.robot(0).T_map_sensor[k];
     CHECK((robot.translation() - known.translation()).norm() <= params.pose_update_min_translation_m + 1e-4);
-    CHECK(RotationAngleRad(robot.linear().transpose() * known.linear()) * 180.0 / M_PI <=
+    CHECK(RotationAngleRad(robot.linear().transpose() * known.linear()) * 180.0 / kPi <=
           params.pose_update_min_rotation_deg + 1e-2);
     moved_far += (robot.translation() - known.translation()).norm() > params.request_pose_min_translation_m;
   }
@@ -105,7 +106,7 @@ TEST_CASE("Robot agent streams poses moved beyond its threshold and refreshes re
   for (std::uint32_t k : request.keyframes) {
     expected += (mapper.pose(k).translation() - server.robot(0).T_map_sensor[k].translation()).norm() > 0.01 ||
                 RotationAngleRad(mapper.pose(k).linear().transpose() * server.robot(0).T_map_sensor[k].linear()) *
-                        180.0 / M_PI > 0.05;
+                        180.0 / kPi > 0.05;
   }
   CHECK(fresh.keyframes.size() >= expected);
   CHECK(moved_far > 0);

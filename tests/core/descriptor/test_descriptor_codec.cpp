@@ -15,12 +15,12 @@
 #include "core/descriptor/descriptor_codec.hpp"
 #include "tests/core/descriptor/descriptor_test_util.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/geometry/angles.hpp"
 
 namespace commerge {
 namespace {
 
 
-constexpr double kPi = 3.14159265358979323846;
 using Descriptor = std::array<float, kKeyframeDescriptorDim>;
 using Record = std::array<std::uint8_t, kKeyframeRecordBytes>;
 
@@ -88,7 +88,7 @@ double RotationError(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
 KeyframeRecord MakeRecord(std::uint32_t index, const Eigen::Isometry3d& T, const Descriptor& d) {
   KeyframeRecord r;
   r.keyframe_index = index;
-  r.T_world_sensor = T;
+  r.T_map_sensor = T;
   r.descriptor = d;
   r.descriptor_valid = true;
   return r;
@@ -176,11 +176,11 @@ TEST_CASE("keyframe record round trip: random descriptors and poses, derived err
     CHECK(dec->descriptor_valid);
     out[i] = dec->descriptor;
     // Pose: float32 translation (<= half an ulp: 0.49 mm below 16 km), smallest-three rotation.
-    const double t_err = (dec->T_world_sensor.translation() - T.translation()).cwiseAbs().maxCoeff();
+    const double t_err = (dec->T_map_sensor.translation() - T.translation()).cwiseAbs().maxCoeff();
     max_t_err = std::max(max_t_err, t_err);
-    const double rot_err = RotationError(dec->T_world_sensor.linear(), T.linear());
+    const double rot_err = RotationError(dec->T_map_sensor.linear(), T.linear());
     max_rot_err = std::max(max_rot_err, rot_err);
-    const Eigen::Matrix3d R = dec->T_world_sensor.linear();
+    const Eigen::Matrix3d R = dec->T_map_sensor.linear();
     CHECK((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-12);
     // Descriptor: unit length again, within asin(m r) of the original direction.
     double n2 = 0, e2 = 0;
@@ -260,7 +260,7 @@ TEST_CASE("keyframe record: quaternion edge cases (ties, sign, 180-degree turns)
     REQUIRE(EncodeKeyframeRecord(MakeRecord(7, T, d), AsSpan(rec)).ok());
     const auto dec = DecodeKeyframeRecord(AsSpan(rec));
     REQUIRE_MESSAGE(dec.ok(), dec.status().ToString());
-    CHECK(RotationError(dec->T_world_sensor.linear(), T.linear()) < 2e-4);
+    CHECK(RotationError(dec->T_map_sensor.linear(), T.linear()) < 2e-4);
   }
 }
 
@@ -295,16 +295,16 @@ TEST_CASE("keyframe record: encoder refuses invalid input") {
   r.descriptor[4] = 8.0f;  // raw, not unit
   expect(r, "unit-normalised");
   r = good;
-  r.T_world_sensor.translation().x() = std::numeric_limits<double>::infinity();
+  r.T_map_sensor.translation().x() = std::numeric_limits<double>::infinity();
   expect(r, "NaN/inf");
   r = good;
-  r.T_world_sensor.translation().y() = 1e39;
+  r.T_map_sensor.translation().y() = 1e39;
   expect(r, "float32 range");
   r = good;
-  r.T_world_sensor.linear() *= 2.0;
+  r.T_map_sensor.linear() *= 2.0;
   expect(r, "not a rotation");
   r = good;
-  r.T_world_sensor.linear() = Eigen::Vector3d(1, 1, -1).asDiagonal();  // a reflection
+  r.T_map_sensor.linear() = Eigen::Vector3d(1, 1, -1).asDiagonal();  // a reflection
   expect(r, "not a rotation");
   std::vector<std::uint8_t> small(91), big(93);
   CHECK_FALSE(EncodeKeyframeRecord(good, small).ok());
@@ -391,7 +391,7 @@ TEST_CASE("keyframe record: decoder rejects wrong sizes, corrupt fields and garb
       n2 += static_cast<double>(v) * static_cast<double>(v);
     }
     CHECK(std::fabs(n2 - 1.0) < 1e-5);
-    CHECK(r->T_world_sensor.matrix().allFinite());
+    CHECK(r->T_map_sensor.matrix().allFinite());
   }
   MESSAGE("random 92-byte garbage accepted: " << accepted << " / " << kTrials);
   CHECK(accepted < kTrials / 100);
@@ -401,7 +401,7 @@ TEST_CASE("keyframe record: decoder rejects wrong sizes, corrupt fields and garb
     Record flipped = good;
     flipped[bit / 8] ^= static_cast<std::uint8_t>(1u << (bit % 8));
     const auto r = DecodeKeyframeRecord(AsSpan(flipped));
-    if (r.ok()) CHECK(r->T_world_sensor.matrix().allFinite());
+    if (r.ok()) CHECK(r->T_map_sensor.matrix().allFinite());
   }
 }
 

@@ -14,13 +14,12 @@
 #include "tests/core/descriptor/descriptor_test_util.hpp"
 #include "core/descriptor/scan_context.hpp"
 #include "core/descriptor/sensor_presets.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/sim/synthetic_scan.hpp"
 
 namespace commerge {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kRadToDeg = 180.0 / kPi;
 
 
 std::vector<PointXYZI> Street(float x_m) {

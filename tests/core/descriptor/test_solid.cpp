@@ -15,13 +15,11 @@
 #include "core/descriptor/sensor_presets.hpp"
 #include "tests/core/descriptor/descriptor_test_util.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/sim/synthetic_scan.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kRadToDeg = 180.0 / kPi;
 
 // Straightforward re-statement of SOLID.md §1 (skip policy) with its own loops and floor(), used as the
 // reference for ComputeSolid. Returns R and A (zeros when invalid) and the valid flag.

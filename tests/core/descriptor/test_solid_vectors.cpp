@@ -20,6 +20,7 @@
 #include "core/descriptor/descriptor_codec.hpp"
 #include "tests/core/descriptor/descriptor_test_util.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/geometry/angles.hpp"
 #include "platform/io/kitti_bin.hpp"
 #include "tests/support/test_data.hpp"
 
@@ -28,7 +29,6 @@ namespace {
 
 
 constexpr char kData[] = "solid_vectors";
-constexpr double kPi = 3.14159265358979323846;
 
 std::string ReadText(const std::string& path) {
   std::ifstream f(path, std::ios::binary);

@@ -10,13 +10,12 @@
 #include <vector>
 
 #include "core/eval/alignment_metrics.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 Eigen::Isometry3d MakePose(double x, double y, double z, double yaw, double pitch = 0.0, double roll = 0.0) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -39,11 +38,11 @@ std::vector<Eigen::Isometry3d> CurvedTrajectory(double x0, double y0, double hea
   return poses;
 }
 
-// The ground truth expressed in a map frame whose pose in the world is T_world_map.
+// The ground truth expressed in a map frame whose pose in the ground-truth frame gt is T_gt_map.
 std::vector<Eigen::Isometry3d> InMapFrame(const std::vector<Eigen::Isometry3d>& ground_truth,
-                                          const Eigen::Isometry3d& T_world_map) {
+                                          const Eigen::Isometry3d& T_gt_map) {
   std::vector<Eigen::Isometry3d> out;
-  for (const auto& T : ground_truth) out.push_back(T_world_map.inverse() * T);
+  for (const auto& T : ground_truth) out.push_back(T_gt_map.inverse() * T);
   return out;
 }
 
@@ -55,19 +54,19 @@ Eigen::Isometry3d Translation(const Eigen::Vector3d& d) {
 
 struct TwoRobots {
   std::vector<Eigen::Isometry3d> alpha_gt, beta_gt, alpha_est, beta_est;
-  Eigen::Isometry3d T_world_alpha, T_world_beta, T_alpha_beta;
+  Eigen::Isometry3d T_gt_alpha, T_gt_beta, T_alpha_beta;
 };
 
 TwoRobots MakeTwoRobots(std::vector<Eigen::Isometry3d> alpha_gt) {
   TwoRobots r;
   r.alpha_gt = std::move(alpha_gt);
   r.beta_gt = CurvedTrajectory(-30.0, 45.0, -0.7, 25);
-  // Each robot's map frame sits somewhere in the world (not at its first pose), with a tilt.
-  r.T_world_alpha = MakePose(12.0, -7.0, 1.5, 0.9, 0.05, -0.03);
-  r.T_world_beta = MakePose(-40.0, 20.0, -2.0, -2.2, -0.04, 0.06);
-  r.alpha_est = InMapFrame(r.alpha_gt, r.T_world_alpha);
-  r.beta_est = InMapFrame(r.beta_gt, r.T_world_beta);
-  r.T_alpha_beta = r.T_world_alpha.inverse() * r.T_world_beta;
+  // Each robot's map frame sits somewhere in gt (not at its first pose), with a tilt.
+  r.T_gt_alpha = MakePose(12.0, -7.0, 1.5, 0.9, 0.05, -0.03);
+  r.T_gt_beta = MakePose(-40.0, 20.0, -2.0, -2.2, -0.04, 0.06);
+  r.alpha_est = InMapFrame(r.alpha_gt, r.T_gt_alpha);
+  r.beta_est = InMapFrame(r.beta_gt, r.T_gt_beta);
+  r.T_alpha_beta = r.T_gt_alpha.inverse() * r.T_gt_beta;
   return r;
 }
 
@@ -109,15 +108,15 @@ TEST_CASE("Inter-robot RMSE is zero for the true transform and exactly the offse
   CHECK(exact->count == 25);
   CHECK_FALSE(exact->used_orientations);
   // Alpha's estimate is noise-free, so the Umeyama alignment is alpha's true map frame.
-  CHECK(TransformDistance(exact->T_gt_alpha, r.T_world_alpha) < 1e-9);
+  CHECK(TransformDistance(exact->T_gt_alpha, r.T_gt_alpha) < 1e-9);
 
-  // A pure translation d in alpha's frame moves every beta pose by R_world_alpha d: error |d| everywhere.
+  // A pure translation d in alpha's frame moves every beta pose by R_gt_alpha d: error |d| everywhere.
   const Eigen::Vector3d d(1.5, -2.0, 0.5);
   const Result<InterRobotAlignment> left = Rmse(r, Translation(d) * r.T_alpha_beta);
   REQUIRE(left.ok());
   CHECK(left->rmse_m == doctest::Approx(d.norm()).epsilon(1e-9));
   CHECK(left->max_error_m == doctest::Approx(d.norm()).epsilon(1e-9));
-  // The same offset in beta's frame: R_world_beta d, again |d|.
+  // The same offset in beta's frame: R_gt_beta d, again |d|.
   const Result<InterRobotAlignment> right = Rmse(r, r.T_alpha_beta * Translation(d));
   REQUIRE(right.ok());
   CHECK(right->rmse_m == doctest::Approx(d.norm()).epsilon(1e-9));
@@ -169,7 +168,7 @@ TEST_CASE("Inter-robot RMSE with a noisy alpha trajectory reports alpha's own Um
   }
   CHECK(got->rmse_m == doctest::Approx(std::sqrt(sum_sq / 25.0)).epsilon(1e-9));
   // The alignment is close to alpha's true map frame; the error it leaves on beta is small but not zero.
-  CHECK((got->T_gt_alpha.translation() - r.T_world_alpha.translation()).norm() < 0.5);
+  CHECK((got->T_gt_alpha.translation() - r.T_gt_alpha.translation()).norm() < 0.5);
   CHECK(got->rmse_m > 0.0);
   CHECK(got->rmse_m < 0.5);
 }
@@ -189,7 +188,7 @@ TEST_CASE("Inter-robot RMSE on a straight-line alpha trajectory falls back to th
   const Result<InterRobotAlignment> exact = Rmse(r, r.T_alpha_beta);
   REQUIRE_MESSAGE(exact.ok(), exact.status().ToString());
   CHECK(exact->used_orientations);
-  CHECK(TransformDistance(exact->T_gt_alpha, r.T_world_alpha) < 1e-9);
+  CHECK(TransformDistance(exact->T_gt_alpha, r.T_gt_alpha) < 1e-9);
   CHECK(exact->rmse_m < 1e-9);
   CHECK(exact->alpha_rmse_m < 1e-9);
   const Eigen::Vector3d d(-0.6, 0.0, 0.8);  // |d| = 1

@@ -15,6 +15,7 @@
 
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/exchange/exchange_cascade.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/sim/keyframe_drive.hpp"
 
 namespace commerge {
@@ -58,7 +59,7 @@ TEST_CASE("Cascade: two robots on one street in opposite directions - only true 
   // narrow generated street: the descriptor, not the cascade, limits that case.)
   const BoxScene scene = MakeStreetScene(42, 200.0f);
   const SimulatedKeyframes alpha = Drive(scene, -55.0f, 0.0f, 0.0f, 80, 1000);
-  const SimulatedKeyframes beta = Drive(scene, 55.5f, 0.0f, 3.14159265f, 80, 2000);
+  const SimulatedKeyframes beta = Drive(scene, 55.5f, 0.0f, kPiF, 80, 2000);
 
   ExchangeCascadeParams params;
   params.stage_a.tau_area = 400;  // a 20 x 20 keyframe span: the overlap here is ~50 m (the paper: 100 x 100)
@@ -77,7 +78,7 @@ TEST_CASE("Cascade: two robots on one street in opposite directions - only true 
           ", |L_V| = ", r->stage_c.candidate_loops.size(), ", |L_K| = ", r->stage_c.selected_loops.size(),
           ", policy ", r->policy.alpha.keyframes.size(), " + ", r->policy.beta.keyframes.size(), " scans");
   const auto gt_distance = [&](const SequentialLoopCell& l) {
-    return (alpha.world_m[l.alpha_index] - beta.world_m[l.beta_index]).norm();
+    return (alpha.gt_m[l.alpha_index] - beta.gt_m[l.beta_index]).norm();
   };
 
   // Stage A's loops are mostly true already (the best cluster is the overlap).
@@ -158,8 +159,8 @@ TEST_CASE("Cascade: two robots on one street in opposite directions - only true 
       for (std::uint32_t k : request->keyframes) {  // every padded scan sees the other robot's path
         CAPTURE(k);
         double nearest_m = 1e9;
-        const auto& mine = request == &padded->policy.alpha ? alpha.world_m : beta.world_m;
-        const auto& theirs = request == &padded->policy.alpha ? beta.world_m : alpha.world_m;
+        const auto& mine = request == &padded->policy.alpha ? alpha.gt_m : beta.gt_m;
+        const auto& theirs = request == &padded->policy.alpha ? beta.gt_m : alpha.gt_m;
         for (const auto& p : theirs) nearest_m = std::min(nearest_m, (mine[k] - p).norm());
         CHECK(nearest_m < 5.0);
       }

@@ -8,12 +8,11 @@
 #include <random>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Rotation angles that exercise both branches of every coefficient and the neighbourhood of pi.
 const std::vector<double> kAngles = {0.0,    1e-12, 1e-9,     1e-6,     1e-4,     9.99e-4,     1e-3,

@@ -14,15 +14,14 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/merge/frame_solver.hpp"
 
 namespace commerge {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-// A robot map frame within +-extent_m of the world origin (z within a fifth of that).
+// A robot map frame within +-extent_m of the ground-truth origin (z within a fifth of that).
 Eigen::Isometry3d RandomFrame(std::mt19937& rng, double extent_m = 60.0) {
   std::uniform_real_distribution<double> pos(-extent_m, extent_m), yaw(-kPi, kPi), tilt(-0.1, 0.1);
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -171,7 +170,7 @@ ForestScore BruteForce(int n, const std::vector<FrameMeasurement>& ms, double ma
   return best;
 }
 
-// T_world_robot of robot r relative to robot 0, from the ground truth.
+// T_world_map of robot r relative to robot 0, from the ground truth.
 Eigen::Isometry3d Relative(const std::vector<Eigen::Isometry3d>& gt, int anchor, int r) {
   return gt[static_cast<std::size_t>(anchor)].inverse() * gt[static_cast<std::size_t>(r)];
 }
@@ -245,9 +244,9 @@ TEST_CASE("Frame solver recovers ground-truth frames from noisy inliers and reje
       CHECK(f.component == 0);
       CHECK(f.anchor_robot == 0);
       CHECK(f.connected_to_robot0);
-      CheckFrame(f.T_world_robot, Relative(gt, 0, r), 0.1, 0.5);
+      CheckFrame(f.T_world_map, Relative(gt, 0, r), 0.1, 0.5);
     }
-    CHECK(sol->robots[0].T_world_robot.isApprox(Eigen::Isometry3d::Identity()));
+    CHECK(sol->robots[0].T_world_map.isApprox(Eigen::Isometry3d::Identity()));
   }
 }
 
@@ -266,8 +265,8 @@ TEST_CASE("Frame solver refinement averages parallel measurements to their weigh
   const Result<FrameSolution> sol = SolveRobotFrames(2, ms);
   REQUIRE(sol.ok());
   const double mean = (10.0 * 1.0 + 10.6 * 2.0 + 9.7 * 3.0) / 6.0;
-  CHECK(sol->robots[1].T_world_robot.translation().x() == doctest::Approx(mean).epsilon(1e-9));
-  CHECK(sol->robots[1].T_world_robot.translation().y() == doctest::Approx(-3.0).epsilon(1e-9));
+  CHECK(sol->robots[1].T_world_map.translation().x() == doctest::Approx(mean).epsilon(1e-9));
+  CHECK(sol->robots[1].T_world_map.translation().y() == doctest::Approx(-3.0).epsilon(1e-9));
   CHECK(sol->accepted == 3);
   CHECK(sol->refine_iterations_run >= 1);
 }
@@ -305,7 +304,7 @@ TEST_CASE("Frame solver refinement reaches a minimum of the whitened weighted le
     return c;
   };
   std::vector<Eigen::Isometry3d> X;
-  for (const RobotFrame& f : sol->robots) X.push_back(f.T_world_robot);
+  for (const RobotFrame& f : sol->robots) X.push_back(f.T_world_map);
   const double c0 = cost(X);
   const double h = 1e-5;
   for (int r = 1; r < n; ++r) {
@@ -326,7 +325,7 @@ TEST_CASE("Frame solver refinement reaches a minimum of the whitened weighted le
   const Result<FrameSolution> unrefined = SolveRobotFrames(n, ms, params);
   REQUIRE(unrefined.ok());
   std::vector<Eigen::Isometry3d> X0;
-  for (const RobotFrame& f : unrefined->robots) X0.push_back(f.T_world_robot);
+  for (const RobotFrame& f : unrefined->robots) X0.push_back(f.T_world_map);
   CHECK(cost(X0) > c0);
   CHECK(unrefined->refine_iterations_run == 0);
 }
@@ -338,8 +337,8 @@ TEST_CASE("Frame solver maximises the consistent count like a brute force over a
     const int n = 3 + trial % 4;  // 3..6 robots
     std::vector<Eigen::Isometry3d> gt;
     for (int r = 0; r < n; ++r) gt.push_back(RandomFrame(rng));
-    // A second, wrong "world" that a group of outliers agrees on (perceptual aliasing), so that the forests
-    // compete: consistent outlier cliques against inliers.
+    // A second, wrong set of placements that a group of outliers agrees on (perceptual aliasing), so that the
+    // forests compete: consistent outlier cliques against inliers.
     std::vector<Eigen::Isometry3d> alias = gt;
     for (int r = 1; r < n; ++r) alias[static_cast<std::size_t>(r)] = Outlier(rng, gt[static_cast<std::size_t>(r)]);
     std::vector<FrameMeasurement> ms;
@@ -409,7 +408,7 @@ TEST_CASE("Frame solver reports bridges as unverified and parallel measurements 
   CHECK(sol->measurements[static_cast<std::size_t>(1 - forest_edge)].in_forest == false);
   CHECK(sol->measurements[static_cast<std::size_t>(forest_edge)].support == 1);
   CHECK(sol->measurements[2].support == 0);
-  for (int r = 0; r < 4; ++r) CheckFrame(sol->robots[static_cast<std::size_t>(r)].T_world_robot, Relative(gt, 0, r), 0.3, 1.0);
+  for (int r = 0; r < 4; ++r) CheckFrame(sol->robots[static_cast<std::size_t>(r)].T_world_map, Relative(gt, 0, r), 0.3, 1.0);
   CHECK(std::string(MeasurementVerdictName(MeasurementVerdict::kUnverified)) == "unverified");
   CHECK(std::string(MeasurementVerdictName(MeasurementVerdict::kAccepted)) == "accepted");
   CHECK(std::string(MeasurementVerdictName(MeasurementVerdict::kRejected)) == "rejected");
@@ -435,10 +434,10 @@ TEST_CASE("Frame solver reports two components with their own anchors") {
     CHECK(f.component == expected_component[r]);
     CHECK(f.anchor_robot == expected_anchor[r]);
     CHECK(f.connected_to_robot0 == (expected_anchor[r] == 0));
-    CheckFrame(f.T_world_robot, Relative(gt, expected_anchor[r], r), 0.1, 0.5);
+    CheckFrame(f.T_world_map, Relative(gt, expected_anchor[r], r), 0.1, 0.5);
   }
-  CHECK(sol->robots[1].T_world_robot.isApprox(Eigen::Isometry3d::Identity()));
-  CHECK(sol->robots[3].T_world_robot.isApprox(Eigen::Isometry3d::Identity()));
+  CHECK(sol->robots[1].T_world_map.isApprox(Eigen::Isometry3d::Identity()));
+  CHECK(sol->robots[3].T_world_map.isApprox(Eigen::Isometry3d::Identity()));
   CHECK(sol->accepted == 3);
   CHECK(sol->unverified == 1);
   CHECK(sol->measurements[3].verdict == MeasurementVerdict::kUnverified);
@@ -474,7 +473,7 @@ TEST_CASE("Frame solver breaks a count tie by weight and reports the rejecting c
   CHECK(sol->measurements[0].cycle_rotation_deg < 1e-6);
   CHECK(sol->consistent_count == 1);
   CHECK(sol->consistent_weight == 5.0);
-  CHECK(sol->robots[1].T_world_robot.translation().isApprox(Eigen::Vector3d(7.0, 1.0, 0.0)));
+  CHECK(sol->robots[1].T_world_map.translation().isApprox(Eigen::Vector3d(7.0, 1.0, 0.0)));
 }
 
 TEST_CASE("Frame solver rejects invalid inputs naming the field and value") {
@@ -573,7 +572,7 @@ TEST_CASE("Frame solver at the size limits recovers the inliers within its node 
   for (std::size_t k = 0; k < ms.size(); ++k) {
     CHECK(sol->measurements[k].verdict == (is_outlier[k] ? MeasurementVerdict::kRejected : MeasurementVerdict::kAccepted));
   }
-  for (int r = 0; r < n; ++r) CheckFrame(sol->robots[static_cast<std::size_t>(r)].T_world_robot, Relative(gt, 0, r), 0.1, 0.5);
+  for (int r = 0; r < n; ++r) CheckFrame(sol->robots[static_cast<std::size_t>(r)].T_world_map, Relative(gt, 0, r), 0.1, 0.5);
 
   // Even a budget of one node yields a complete forest (the Kruskal incumbent), flagged as not exhaustive.
   FrameSolverParams tiny;

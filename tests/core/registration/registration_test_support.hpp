@@ -11,9 +11,10 @@
 #include <vector>
 
 #include "core/cloud/voxel_grid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/registration/submap_registration.hpp"
-#include "core/registration/synthetic_submaps.hpp"
+#include "core/sim/synthetic_submaps.hpp"
 #include "platform/io/kitti_bin.hpp"
 #include "tests/support/test_data.hpp"
 
@@ -21,13 +22,13 @@ namespace commerge::test {
 
 inline Eigen::Isometry3d YawOffset(double yaw_deg, double x_m, double y_m, double z_m) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.linear() = Eigen::AngleAxisd(yaw_deg * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T.translation() = Eigen::Vector3d(x_m, y_m, z_m);
   return T;
 }
 
 inline double RotationErrorDeg(const Eigen::Isometry3d& truth, const Eigen::Isometry3d& estimate) {
-  return RotationAngleRad(truth.linear().transpose() * estimate.linear()) * 180.0 / M_PI;
+  return RotationAngleRad(truth.linear().transpose() * estimate.linear()) * 180.0 / kPi;
 }
 
 inline double TranslationErrorM(const Eigen::Isometry3d& truth, const Eigen::Isometry3d& estimate) {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/memory/budget.hpp"
 #include "core/registration/bev_search.hpp"
 #include "core/registration/submap_registration.hpp"
@@ -18,8 +19,6 @@
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // The grid of the header's definition, built independently: +1 structure, -w observed without structure,
 // 0 unobserved; cell (floor(y / cell) mod n, floor(x / cell) mod n) of the point turned by yaw.

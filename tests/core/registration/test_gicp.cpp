@@ -9,6 +9,7 @@
 #include <sstream>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "tests/core/registration/registration_test_support.hpp"
 #include "tests/support/test_data.hpp"
 
@@ -25,7 +26,7 @@ std::vector<Eigen::Isometry3d> InitialPoses(const Eigen::Isometry3d& truth) {
   const double d[3][6] = {{0.3, -0.2, 0.1, 4.0, 1.0, -1.0}, {-0.5, 0.4, -0.1, -10.0, 0.5, 2.0}, {0.1, 0.5, 0.2, 7.0, -2.0, 0.0}};
   for (const auto& p : d) {
     Eigen::Isometry3d P = Eigen::Isometry3d::Identity();
-    P.linear() = RotationFromYawPitchRoll(p[3] * M_PI / 180.0, p[4] * M_PI / 180.0, p[5] * M_PI / 180.0);
+    P.linear() = RotationFromYawPitchRoll(p[3] * kPi / 180.0, p[4] * kPi / 180.0, p[5] * kPi / 180.0);
     P.translation() = Eigen::Vector3d(p[0], p[1], p[2]);
     out.push_back(truth * P);
   }

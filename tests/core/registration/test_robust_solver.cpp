@@ -11,6 +11,7 @@
 #include <random>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/registration/robust_solver.hpp"
 
@@ -18,7 +19,7 @@ namespace commerge {
 namespace {
 
 double AngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return RotationAngleRad(a.transpose() * b) * 180.0 / M_PI;
+  return RotationAngleRad(a.transpose() * b) * 180.0 / kPi;
 }
 
 // Brute force of the adaptive-voting definition: the candidate consensus sets are the windows

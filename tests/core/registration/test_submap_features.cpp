@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/registration/feature_matching.hpp"
 #include "core/registration/submap_features.hpp"
 
@@ -66,7 +67,7 @@ TEST_CASE("Pair feature: hand-derived angles, the swap rule and undefined cases"
   // v = d' x u = y, w = u x v = (-1, 0, 1)/sqrt2; f1 = atan2(w.n1, u.n1) = pi/4, f2 = v.n1 = 0, f3 = -n2.d.
   const float s = std::sqrt(0.5f);
   REQUIRE(ComputePairFeature({0, 0, 0}, {0, 0, 1}, {1, 0, 0}, {s, 0, s}, &f));
-  CHECK(f.f1 == doctest::Approx(M_PI / 4).epsilon(1e-4));
+  CHECK(f.f1 == doctest::Approx(kPi / 4).epsilon(1e-4));
   CHECK(f.f2 == doctest::Approx(0.0).epsilon(1e-6));
   CHECK(f.f3 == doctest::Approx(-s).epsilon(1e-6));
   // Swapping the two points gives the same feature (the source is chosen by angle, not by order).
@@ -80,7 +81,7 @@ TEST_CASE("Pair feature: hand-derived angles, the swap rule and undefined cases"
   CHECK_FALSE(ComputePairFeature({0, 0, 0}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}, &f));
   // n2 = (x - z)/sqrt2: by hand u = n2, v = -y, w = (-1, 0, -1)/sqrt2, f1 = atan2(-s, -s) = -3pi/4, f3 = -s.
   REQUIRE(ComputePairFeature({0, 0, 0}, {0, 0, 1}, {1, 0, 0}, {s, 0, -s}, &f));
-  CHECK(f.f1 == doctest::Approx(-3.0 * M_PI / 4).epsilon(1e-4));
+  CHECK(f.f1 == doctest::Approx(-3.0 * kPi / 4).epsilon(1e-4));
   CHECK(f.f2 == doctest::Approx(0.0).epsilon(1e-6));
   CHECK(f.f3 == doctest::Approx(-s).epsilon(1e-6));
 }
@@ -205,7 +206,7 @@ std::size_t CountDescriptorsUnlikeReference(const std::vector<PointXYZI>& pts, c
     return static_cast<std::size_t>(std::min(std::max(b, 0), kFpfhBins - 1));
   };
   const auto pos = [&pts](std::uint32_t i) { return Eigen::Vector3f(pts[i].x, pts[i].y, pts[i].z); };
-  const float pi = static_cast<float>(M_PI);
+  const float pi = static_cast<float>(kPi);
   const std::size_t nk = f.keypoints().size();
   std::vector<std::int64_t> keypoint_of(pts.size(), -1);
   for (std::size_t k = 0; k < nk; ++k) keypoint_of[f.keypoints()[k]] = static_cast<std::int64_t>(k);

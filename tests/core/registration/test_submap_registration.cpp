@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "platform/io/poses.hpp"
 #include "tests/core/registration/registration_test_support.hpp"
 #include "tests/support/test_data.hpp"
@@ -90,7 +91,7 @@ TEST_CASE("Registration forward and inverse agree: T_ab * T_ba = I") {
   REQUIRE((ab->success() && ba->success()));
   const Eigen::Isometry3d loop = ab->T_target_source * ba->T_target_source;
   CHECK(loop.translation().norm() < 0.1);
-  CHECK(RotationAngleRad(loop.linear()) * 180.0 / M_PI < 0.2);
+  CHECK(RotationAngleRad(loop.linear()) * 180.0 / kPi < 0.2);
   CHECK(TranslationErrorM(src.truth.inverse(), ba->T_target_source) < 0.2);
   CHECK(RotationErrorDeg(src.truth.inverse(), ba->T_target_source) < 1.0);
 }

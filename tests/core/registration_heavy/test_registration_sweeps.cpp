@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "platform/io/poses.hpp"
 #include "tests/core/registration/registration_test_support.hpp"
 #include "tests/support/test_data.hpp"
@@ -51,7 +52,7 @@ TEST_CASE("Heavy: every yaw in 10 deg steps with offsets 0, 10 and 20 m register
     for (int yaw = 0; yaw < 360; yaw += 10) {
       for (double offset : {0.0, 10.0, 20.0}) {
         // The offset direction turns with the yaw so that every quadrant is covered.
-        const double dir = (yaw * 2.3 + offset * 7.0) * M_PI / 180.0;
+        const double dir = (yaw * 2.3 + offset * 7.0) * kPi / 180.0;
         StreetPairSpec spec = test::LightStreetSpec(scene, YawOffset(yaw, offset * std::cos(dir), offset * std::sin(dir),
                                                                      offset > 0.0 ? 0.5 : 0.0),
                                                     2.0f + static_cast<float>(yaw % 30) / 10.0f, yaw % 20 == 0);
@@ -96,7 +97,7 @@ TEST_CASE("Heavy: random pairs - at least 95 percent of overlapping pairs succee
   for (int i = 0; i < 60; ++i) {
     const bool overlap = i % 2 == 0;
     const std::uint32_t scene = 300u + static_cast<std::uint32_t>(i / 2);
-    const double dir = 2.0 * M_PI * unit(rng);
+    const double dir = 2.0 * kPi * unit(rng);
     const double dist = 20.0 * unit(rng);
     StreetPairSpec spec = test::LightStreetSpec(scene, YawOffset(360.0 * unit(rng), dist * std::cos(dir), dist * std::sin(dir), unit(rng) - 0.5),
                                                 static_cast<float>(-6.0 + 12.0 * unit(rng)), unit(rng) < 0.5);
@@ -164,7 +165,7 @@ TEST_CASE("Heavy: small_gicp protocol at 0.3 m, k = 20 - 4 initial poses and 2 s
                                   {0.1, 0.5, 0.2, 7.0, -2.0, 0.0}};
       for (const auto& n : noise) {
         Eigen::Isometry3d P = Eigen::Isometry3d::Identity();
-        P.linear() = RotationFromYawPitchRoll(n[3] * M_PI / 180.0, n[4] * M_PI / 180.0, n[5] * M_PI / 180.0);
+        P.linear() = RotationFromYawPitchRoll(n[3] * kPi / 180.0, n[4] * kPi / 180.0, n[5] * kPi / 180.0);
         P.translation() = Eigen::Vector3d(n[0], n[1], n[2]);
         const GicpResult r = Gicp().Align(src, tgt, ref * S * P, params.fine);
         CHECK(r.converged);

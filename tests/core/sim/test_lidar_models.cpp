@@ -9,13 +9,12 @@
 #include <set>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/sim/lidar_models.hpp"
 #include "core/sim/world.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 double D(float v) { return static_cast<double>(v); }
 
@@ -154,7 +153,7 @@ TEST_CASE("lidar models: returns beyond max range or inside min range are droppe
 }
 
 TEST_CASE("lidar models: points are in the sensor frame and the same seed gives the same scan") {
-  // The wall at world x = 10; the sensor at (2, 0, 0) yawed by +90 deg looks along world +y, so the wall is on
+  // The wall at x = 10 in gt; the sensor at (2, 0, 0) yawed by +90 deg looks along gt +y, so the wall is on
   // its right (sensor -y) at 8 m.
   const World w = WallWorld(10.0f);
   LidarModel m = MakeLidarModel(LidarKind::kVlp16);

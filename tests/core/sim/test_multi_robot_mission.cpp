@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Multi-robot missions (core/sim/multi_robot_mission.hpp): keyframe spacing and frame conventions, the
-// overlap of the routes per mode (measured from the ground truth in the world frame), opposite-direction
+// overlap of the routes per mode (measured from the ground truth in the ground-truth frame gt), opposite-direction
 // revisits, the odometry drift model recovered from the poses, determinism and validation.
 #include <doctest/doctest.h>
 
@@ -9,14 +9,12 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/sim/multi_robot_mission.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 
 MissionPlan Plan(WorldKind world, OverlapMode overlap, int robots, int keyframes, std::uint64_t seed = 3,
                  double drift = 1.0) {
@@ -56,8 +54,8 @@ TEST_CASE("sim mission: keyframes 1 m apart, gt and odometry start at identity, 
         // The motion expressed in the previous sensor frame points along its x axis.
         const Eigen::Vector3d motion = r.gt[k - 1].inverse() * r.gt[k].translation();
         forward += motion.x() > 0.9 * motion.norm();
-        // World height = the sensor's mounting height on flat ground.
-        CHECK(r.WorldPose(k).translation().z() == doctest::Approx(plan.sensor_height_m));
+        // Height in gt = the sensor's mounting height on flat ground.
+        CHECK(r.T_gt_sensor(k).translation().z() == doctest::Approx(plan.sensor_height_m));
       }
       CHECK(static_cast<double>(forward) >= 0.97 * static_cast<double>(r.gt.size() - 1));
       CHECK(static_cast<double>(straight) >= 0.97 * static_cast<double>(r.gt.size() - 1));
@@ -65,11 +63,11 @@ TEST_CASE("sim mission: keyframes 1 m apart, gt and odometry start at identity, 
     // Each robot starts somewhere else (its own, unknown start frame).
     for (std::size_t i = 0; i < plan.robots.size(); ++i)
       for (std::size_t j = i + 1; j < plan.robots.size(); ++j)
-        CHECK(!plan.robots[i].T_world_robotstart.isApprox(plan.robots[j].T_world_robotstart, 1e-3));
+        CHECK(!plan.robots[i].T_gt_robotstart.isApprox(plan.robots[j].T_gt_robotstart, 1e-3));
   }
 }
 
-TEST_CASE("sim mission: routes overlap as configured, measured from the ground truth in the world frame") {
+TEST_CASE("sim mission: routes overlap as configured, measured from the ground truth in the frame gt") {
   for (WorldKind world : {WorldKind::kUrban, WorldKind::kCampus, WorldKind::kIndoor, WorldKind::kCave}) {
     for (int robots : {2, 5}) {
       const std::string world_name = WorldKindName(world);
@@ -110,13 +108,13 @@ TEST_CASE("sim mission: shared places are revisited by another robot in the oppo
   std::size_t same = 0, opposite = 0;
   const RobotMission &a = plan.robots[0], &b = plan.robots[1];
   for (std::size_t i = 0; i < a.gt.size(); i += 5) {
-    const Eigen::Isometry3d Ta = a.WorldPose(i);
+    const Eigen::Isometry3d Ta = a.T_gt_sensor(i);
     for (std::size_t j = 0; j < b.gt.size(); ++j) {
-      const Eigen::Isometry3d Tb = b.WorldPose(j);
+      const Eigen::Isometry3d Tb = b.T_gt_sensor(j);
       if ((Ta.translation() - Tb.translation()).head<2>().norm() > 5.0) continue;
       const double dyaw = std::fabs(std::remainder(YawRad(Ta.linear()) - YawRad(Tb.linear()), 2 * kPi));
-      same += dyaw < 30 * kDeg;
-      opposite += dyaw > 150 * kDeg;
+      same += dyaw < 30 * kDegToRad;
+      opposite += dyaw > 150 * kDegToRad;
     }
   }
   CHECK(opposite > 50);
@@ -143,7 +141,7 @@ TEST_CASE("sim mission: odometry deviates from the ground truth exactly by the c
       den += dT.translation().squaredNorm();
       // Consecutive relative motions stay close: centimetres and hundredths of a degree per metre.
       CHECK((dO.translation() - dT.translation()).norm() < 0.05);
-      CHECK(RotationAngleRad(dT.linear().transpose() * dO.linear()) < 0.1 * kDeg);
+      CHECK(RotationAngleRad(dT.linear().transpose() * dO.linear()) < 0.1 * kDegToRad);
     }
     const double n = static_cast<double>(steps.size());
     // Scale bias recovered by least squares, within 4 sigma of its estimate.
@@ -162,12 +160,12 @@ TEST_CASE("sim mission: odometry deviates from the ground truth exactly by the c
     }
     CHECK(std::sqrt(sy2 / n) == doctest::Approx(d.translation_noise_frac).epsilon(0.08));
     CHECK(std::fabs(sy / n) < 4 * d.translation_noise_frac / std::sqrt(n));
-    CHECK(std::sqrt(yaw2 / n) == doctest::Approx(d.yaw_noise_deg_per_sqrt_m * kDeg).epsilon(0.08));
-    CHECK(std::fabs(yaw / n) < 4 * d.yaw_noise_deg_per_sqrt_m * kDeg / std::sqrt(n));
-    CHECK(std::sqrt(roll2 / n) == doctest::Approx(d.roll_pitch_noise_deg_per_sqrt_m * kDeg).epsilon(0.08));
+    CHECK(std::sqrt(yaw2 / n) == doctest::Approx(d.yaw_noise_deg_per_sqrt_m * kDegToRad).epsilon(0.08));
+    CHECK(std::fabs(yaw / n) < 4 * d.yaw_noise_deg_per_sqrt_m * kDegToRad / std::sqrt(n));
+    CHECK(std::sqrt(roll2 / n) == doctest::Approx(d.roll_pitch_noise_deg_per_sqrt_m * kDegToRad).epsilon(0.08));
     // The drawn biases are plausible draws of the configured spreads.
     CHECK(std::fabs(r.scale_bias) < 4 * d.scale_bias_std);
-    CHECK(std::fabs(r.yaw_bias_rad_per_m) < 4 * d.yaw_bias_std_deg_per_m * kDeg);
+    CHECK(std::fabs(r.yaw_bias_rad_per_m) < 4 * d.yaw_bias_std_deg_per_m * kDegToRad);
     // Drift accumulates: the end point is off by more than the per-step noise.
     CHECK((r.odometry.back().translation() - r.gt.back().translation()).norm() > 0.5);
   }
@@ -198,8 +196,8 @@ TEST_CASE("sim mission: deterministic in the seed") {
       REQUIRE(a.robots[r].gt[k].matrix() == b.robots[r].gt[k].matrix());
       REQUIRE(a.robots[r].odometry[k].matrix() == b.robots[r].odometry[k].matrix());
     }
-    CHECK(a.robots[r].T_world_robotstart.matrix() == b.robots[r].T_world_robotstart.matrix());
-    CHECK(a.robots[r].T_world_robotstart.matrix() != c.robots[r].T_world_robotstart.matrix());
+    CHECK(a.robots[r].T_gt_robotstart.matrix() == b.robots[r].T_gt_robotstart.matrix());
+    CHECK(a.robots[r].T_gt_robotstart.matrix() != c.robots[r].T_gt_robotstart.matrix());
   }
   CHECK(ScanNoiseSeed(a.params, 0, 3) != ScanNoiseSeed(a.params, 1, 3));
   CHECK(ScanNoiseSeed(a.params, 0, 3) != ScanNoiseSeed(a.params, 0, 4));

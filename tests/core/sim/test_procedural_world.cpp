@@ -12,14 +12,13 @@
 
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/sim/lidar_models.hpp"
 #include "core/sim/multi_robot_mission.hpp"
 #include "core/sim/procedural_world.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 MissionPlan Plan(WorldKind world, OverlapMode overlap, int keyframes, std::uint64_t seed = 4) {
   MissionParams p;
@@ -60,7 +59,7 @@ TEST_CASE("sim worlds: the driving corridor is free at every keyframe (nothing w
     double nearest = 1e9;
     for (const RobotMission& r : plan.robots) {
       for (std::size_t k = 0; k < r.gt.size(); k += 3) {
-        const Eigen::Vector3d p = r.WorldPose(k).translation();
+        const Eigen::Vector3d p = r.T_gt_sensor(k).translation();
         const float o[3] = {static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())};
         if (kind == WorldKind::kCave) CHECK(world->TunnelSignedDistance(o) < -0.5f);  // inside the tunnel
         for (int a = 0; a < 24; ++a) {
@@ -90,7 +89,7 @@ TEST_CASE("sim worlds: 16-beam scans see the world (returns on most rays in clos
     std::vector<PointXYZI> scan;
     double fraction = 0;
     for (std::size_t k = 0; k < 200; k += 40) {
-      REQUIRE(SimulateLidarScan(world, lidar, plan.robots[0].WorldPose(k), 1, k, &ws, &scan).ok());
+      REQUIRE(SimulateLidarScan(world, lidar, plan.robots[0].T_gt_sensor(k), 1, k, &ws, &scan).ok());
       fraction += static_cast<double>(scan.size()) / lidar.rays_per_frame() / 5.0;
       for (const PointXYZI& p : scan) REQUIRE(p.intensity >= 0.0f);
     }
@@ -111,7 +110,7 @@ TEST_CASE("sim worlds: SOLiD on 16-beam scans recognises places another robot vi
   LidarScanWorkspace ws;
   std::vector<PointXYZI> scan;
   auto describe = [&](int r, std::size_t k) {
-    REQUIRE(SimulateLidarScan(world, lidar, plan.robots[static_cast<std::size_t>(r)].WorldPose(k),
+    REQUIRE(SimulateLidarScan(world, lidar, plan.robots[static_cast<std::size_t>(r)].T_gt_sensor(k),
                               ScanNoiseSeed(plan.params, r, k), k, &ws, &scan).ok());
     std::vector<float> d(solid->dimension());
     REQUIRE(solid->Compute(scan, d).ok());
@@ -121,12 +120,12 @@ TEST_CASE("sim worlds: SOLiD on 16-beam scans recognises places another robot vi
   std::vector<Eigen::Vector3d> db_pos;
   for (std::size_t k = 0; k < 300; k += 3) {
     db.push_back(describe(1, k));
-    db_pos.push_back(plan.robots[1].WorldPose(k).translation());
+    db_pos.push_back(plan.robots[1].T_gt_sensor(k).translation());
   }
   int queries = 0, recognised = 0;
   for (std::size_t k = 5; k < 300; k += 15) {
     const std::vector<float> q = describe(0, k);
-    const Eigen::Vector3d pos = plan.robots[0].WorldPose(k).translation();
+    const Eigen::Vector3d pos = plan.robots[0].T_gt_sensor(k).translation();
     std::size_t best = 0;
     double best_d = 1e9, nearest_m = 1e9;
     for (std::size_t j = 0; j < db.size(); ++j) {

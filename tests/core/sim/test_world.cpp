@@ -10,14 +10,13 @@
 #include <random>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/sim/lidar_models.hpp"
 #include "core/sim/synthetic_scan.hpp"
 #include "core/sim/world.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 struct Ray {
   float o[3];

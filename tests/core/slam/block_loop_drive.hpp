@@ -7,6 +7,8 @@
 
 #include <cmath>
 
+#include "core/geometry/angles.hpp"
+
 namespace commerge::test {
 
 inline constexpr double kWidth = 40.0, kHeight = 30.0, kSensorZ = 1.73;
@@ -19,11 +21,11 @@ inline Eigen::Isometry3d PoseOnLoop(double s) {
   if (s < kWidth) {
     x = s, y = 0, yaw = 0;
   } else if (s < kWidth + kHeight) {
-    x = kWidth, y = s - kWidth, yaw = M_PI / 2;
+    x = kWidth, y = s - kWidth, yaw = kPi / 2;
   } else if (s < 2 * kWidth + kHeight) {
-    x = kWidth - (s - kWidth - kHeight), y = kHeight, yaw = M_PI;
+    x = kWidth - (s - kWidth - kHeight), y = kHeight, yaw = kPi;
   } else {
-    x = 0, y = kHeight - (s - 2 * kWidth - kHeight), yaw = -M_PI / 2;
+    x = 0, y = kHeight - (s - 2 * kWidth - kHeight), yaw = -kPi / 2;
   }
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();

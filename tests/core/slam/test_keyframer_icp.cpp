@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/cloud/voxel_grid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/sim/synthetic_scan.hpp"
 #include "core/slam/icp.hpp"
 #include "core/slam/keyframer.hpp"
@@ -24,7 +25,7 @@ namespace {
 
 Eigen::Isometry3d Pose(double x, double y, double yaw_deg) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.linear() = Eigen::AngleAxisd(yaw_deg * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T.translation() = Eigen::Vector3d(x, y, 0.0);
   return T;
 }
@@ -47,7 +48,7 @@ std::vector<PointXYZI> VoxelisedStreetScan(float x_m, float yaw_rad, std::uint32
   return vox;
 }
 
-double AngleDeg(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).angle() * 180.0 / M_PI; }
+double AngleDeg(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).angle() * 180.0 / kPi; }
 
 }  // namespace
 

@@ -10,6 +10,7 @@
 #include "core/cloud/voxel_grid.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/memory/budget.hpp"
 #include "core/sim/synthetic_scan.hpp"
 #include "core/slam/loop_detector.hpp"
@@ -184,7 +185,7 @@ TEST_CASE("LoopVerifier: the GICP refinement removes point-to-point ICP's bias o
     const double e_icp = (T_true.inverse() * icp->loop.T_match_query).translation().norm();
     const double e_gicp = (T_true.inverse() * gicp->loop.T_match_query).translation().norm();
     const double rot_gicp_deg =
-        Eigen::AngleAxisd((T_true.inverse() * gicp->loop.T_match_query).linear()).angle() * 180.0 / M_PI;
+        Eigen::AngleAxisd((T_true.inverse() * gicp->loop.T_match_query).linear()).angle() * 180.0 / kPi;
     CAPTURE(r.x0);
     CAPTURE(e_icp);
     CAPTURE(e_gicp);

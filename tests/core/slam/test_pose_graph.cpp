@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
 #include "core/memory/budget.hpp"
@@ -22,9 +23,6 @@
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
 
 struct ScenarioParams {
   int approach_nodes = 20;  ///< straight spur from the depot into the circuit (a tree part: never moves)
@@ -41,8 +39,8 @@ struct ScenarioParams {
 };
 
 struct Scenario {
-  std::vector<Eigen::Isometry3d> T_world_truth;
-  std::vector<Eigen::Isometry3d> T_world_initial;  // chained noisy odometry from the true first pose
+  std::vector<Eigen::Isometry3d> T_map_truth;
+  std::vector<Eigen::Isometry3d> T_map_initial;  // chained noisy odometry from the true first pose
   std::vector<PoseGraphEdge> odometry;
   std::vector<PoseGraphEdge> loops;
   int approach_nodes = 0;
@@ -83,12 +81,12 @@ Scenario MakeScenario(const ScenarioParams& p) {
   };
   for (int j = 0; j < p.approach_nodes; ++j) {
     const double back = p.approach_nodes - j;
-    sc.T_world_truth.push_back(pose(xy[0] - back * Eigen::Vector2d(std::cos(heading[0]), std::sin(heading[0])),
+    sc.T_map_truth.push_back(pose(xy[0] - back * Eigen::Vector2d(std::cos(heading[0]), std::sin(heading[0])),
                                     heading[0], 0.0, 0.0));
   }
   for (int lap = 0; lap < p.laps; ++lap) {
     for (int k = 0; k < L; ++k) {
-      sc.T_world_truth.push_back(pose(xy[k], heading[k], 1.5 * std::sin(2.0 * kPi * k / L), 0.5 * lap));
+      sc.T_map_truth.push_back(pose(xy[k], heading[k], 1.5 * std::sin(2.0 * kPi * k / L), 0.5 * lap));
     }
   }
 
@@ -96,9 +94,9 @@ Scenario MakeScenario(const ScenarioParams& p) {
   const Matrix6d odom_info = Information(0.05, 0.1 * kDegToRad);
   const Matrix6d loop_info = Information(0.05, 0.1 * kDegToRad);
   const double yaw_bias_rad_per_m = p.yaw_bias_deg_per_10m * kDegToRad / 10.0;
-  sc.T_world_initial.push_back(sc.T_world_truth[0]);
-  for (std::size_t i = 0; i + 1 < sc.T_world_truth.size(); ++i) {
-    const Eigen::Isometry3d T_rel = sc.T_world_truth[i].inverse() * sc.T_world_truth[i + 1];
+  sc.T_map_initial.push_back(sc.T_map_truth[0]);
+  for (std::size_t i = 0; i + 1 < sc.T_map_truth.size(); ++i) {
+    const Eigen::Isometry3d T_rel = sc.T_map_truth[i].inverse() * sc.T_map_truth[i + 1];
     Vector6d error = Noise(rng, p.odom_noise_m, p.odom_noise_deg * kDegToRad);
     error(5) += yaw_bias_rad_per_m * T_rel.translation().norm();
     PoseGraphEdge e;
@@ -108,7 +106,7 @@ Scenario MakeScenario(const ScenarioParams& p) {
     e.information = odom_info;
     e.kind = EdgeKind::kOdometry;
     sc.odometry.push_back(e);
-    sc.T_world_initial.push_back(sc.T_world_initial.back() * e.T_from_to);
+    sc.T_map_initial.push_back(sc.T_map_initial.back() * e.T_from_to);
   }
   for (int lap = 1; lap < p.laps; ++lap) {
     for (int k = 0; k < L; k += p.loop_every) {
@@ -117,7 +115,7 @@ Scenario MakeScenario(const ScenarioParams& p) {
       PoseGraphEdge e;
       e.from = a;
       e.to = b;
-      e.T_from_to = sc.T_world_truth[a].inverse() * sc.T_world_truth[b] *
+      e.T_from_to = sc.T_map_truth[a].inverse() * sc.T_map_truth[b] *
                     ExpSE3(Noise(rng, p.loop_noise_m, p.loop_noise_deg * kDegToRad));
       e.information = loop_info;
       if (p.reverse_loops) {
@@ -138,8 +136,8 @@ Scenario MakeScenario(const ScenarioParams& p) {
 // Adds the scenario's nodes (initial estimate) and odometry edges, plus its loops when asked; room for
 // `spare_edges` more edges.
 PoseGraph MakeGraph(const Scenario& sc, bool with_loops, std::size_t spare_edges = 0) {
-  PoseGraph graph(sc.T_world_truth.size(), sc.odometry.size() + sc.loops.size() + spare_edges);
-  for (const auto& T : sc.T_world_initial) REQUIRE(graph.AddNode(T).ok());
+  PoseGraph graph(sc.T_map_truth.size(), sc.odometry.size() + sc.loops.size() + spare_edges);
+  for (const auto& T : sc.T_map_initial) REQUIRE(graph.AddNode(T).ok());
   for (const auto& e : sc.odometry) REQUIRE(graph.AddEdge(e).ok());
   if (with_loops) {
     for (const auto& e : sc.loops) REQUIRE(graph.AddEdge(e).ok());
@@ -179,21 +177,21 @@ TEST_CASE("pose-graph edge Jacobians match central finite differences") {
   std::mt19937 rng(21);
   const double h = 1e-6;
   for (int rep = 0; rep < 20; ++rep) {
-    const Eigen::Isometry3d T_world_from = ExpSE3(Noise(rng, 20.0, 1.0));
-    const Eigen::Isometry3d T_world_to = ExpSE3(Noise(rng, 20.0, 1.0));
+    const Eigen::Isometry3d T_map_from = ExpSE3(Noise(rng, 20.0, 1.0));
+    const Eigen::Isometry3d T_map_to = ExpSE3(Noise(rng, 20.0, 1.0));
     // Measurements near the current relative pose (small residual) and far from it (large residual).
     const double spread = rep % 2 ? 0.05 : 0.8;
-    const Eigen::Isometry3d T_from_to = T_world_from.inverse() * T_world_to * ExpSE3(Noise(rng, spread, spread));
+    const Eigen::Isometry3d T_from_to = T_map_from.inverse() * T_map_to * ExpSE3(Noise(rng, spread, spread));
     Matrix6d J_from, J_to;
-    const Vector6d e = PoseGraphEdgeResidual(T_world_from, T_world_to, T_from_to, &J_from, &J_to);
-    CHECK((e - BoxMinus(T_world_from.inverse() * T_world_to, T_from_to)).norm() < 1e-12);
+    const Vector6d e = PoseGraphEdgeResidual(T_map_from, T_map_to, T_from_to, &J_from, &J_to);
+    CHECK((e - BoxMinus(T_map_from.inverse() * T_map_to, T_from_to)).norm() < 1e-12);
     Matrix6d num_from, num_to;
     for (int i = 0; i < 6; ++i) {
       const Vector6d d = h * Vector6d::Unit(i);
-      num_from.col(i) = (PoseGraphEdgeResidual(BoxPlus(T_world_from, d), T_world_to, T_from_to) -
-                         PoseGraphEdgeResidual(BoxPlus(T_world_from, -d), T_world_to, T_from_to)) / (2.0 * h);
-      num_to.col(i) = (PoseGraphEdgeResidual(T_world_from, BoxPlus(T_world_to, d), T_from_to) -
-                       PoseGraphEdgeResidual(T_world_from, BoxPlus(T_world_to, -d), T_from_to)) / (2.0 * h);
+      num_from.col(i) = (PoseGraphEdgeResidual(BoxPlus(T_map_from, d), T_map_to, T_from_to) -
+                         PoseGraphEdgeResidual(BoxPlus(T_map_from, -d), T_map_to, T_from_to)) / (2.0 * h);
+      num_to.col(i) = (PoseGraphEdgeResidual(T_map_from, BoxPlus(T_map_to, d), T_from_to) -
+                       PoseGraphEdgeResidual(T_map_from, BoxPlus(T_map_to, -d), T_from_to)) / (2.0 * h);
     }
     CHECK((J_from - num_from).cwiseAbs().maxCoeff() < 1e-6);
     CHECK((J_to - num_to).cwiseAbs().maxCoeff() < 1e-6);
@@ -206,14 +204,14 @@ TEST_CASE("acceptance: loop closures cut the drift of a two-lap trajectory by at
   REQUIRE(graph.num_nodes() == 620);
   REQUIRE(graph.num_loop_edges() == 60);
 
-  const double ate_before = AnchoredAteM(graph.poses(), sc.T_world_truth);
-  const double aligned_before = AlignedAteM(graph.poses(), sc.T_world_truth);
+  const double ate_before = AnchoredAteM(graph.poses(), sc.T_map_truth);
+  const double aligned_before = AlignedAteM(graph.poses(), sc.T_map_truth);
   const auto start = std::chrono::steady_clock::now();
   const Result<PoseGraphResult> r = graph.Optimize();
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   REQUIRE(r.ok());
-  const double ate_after = AnchoredAteM(graph.poses(), sc.T_world_truth);
-  const double aligned_after = AlignedAteM(graph.poses(), sc.T_world_truth);
+  const double ate_after = AnchoredAteM(graph.poses(), sc.T_map_truth);
+  const double aligned_after = AlignedAteM(graph.poses(), sc.T_map_truth);
   MESSAGE("620 nodes, 60 loops: anchored ATE " << ate_before << " m -> " << ate_after << " m, aligned ATE "
                                                << aligned_before << " m -> " << aligned_after << " m, "
                                                << r->iterations << " iterations, cost " << r->initial_cost << " -> "
@@ -229,7 +227,7 @@ TEST_CASE("acceptance: loop closures cut the drift of a two-lap trajectory by at
   // its shape (aligned ATE) is right to centimetres.
   CHECK(ate_after < 1.5);
   CHECK(aligned_after < 0.1);
-  CHECK(graph.pose(0).isApprox(sc.T_world_initial[0], 0.0));  // the gauge node is untouched
+  CHECK(graph.pose(0).isApprox(sc.T_map_initial[0], 0.0));  // the gauge node is untouched
 
   // Nodes that drifted were moved and reported; the approach spur (a tree between node 0 and the circuit) is
   // already optimal, does not move, and is not reported.
@@ -237,8 +235,8 @@ TEST_CASE("acceptance: loop closures cut the drift of a two-lap trajectory by at
   int drifted = 0;
   for (std::size_t i = 0; i < graph.num_nodes(); ++i) {
     const auto id = static_cast<std::uint32_t>(i);
-    const double moved_m = PositionErrorM(graph.pose(i), sc.T_world_initial[i]);
-    if (PositionErrorM(sc.T_world_initial[i], sc.T_world_truth[i]) > 0.5) {
+    const double moved_m = PositionErrorM(graph.pose(i), sc.T_map_initial[i]);
+    if (PositionErrorM(sc.T_map_initial[i], sc.T_map_truth[i]) > 0.5) {
       ++drifted;
       CHECK(Contains(r->changed_nodes, id));
     }
@@ -248,7 +246,7 @@ TEST_CASE("acceptance: loop closures cut the drift of a two-lap trajectory by at
     }
     if (Contains(r->changed_nodes, id)) {
       CHECK((moved_m > 0.01 || RotationAngleRad(graph.pose(i).linear().transpose() *
-                                                sc.T_world_initial[i].linear()) > 0.1 * kDegToRad));
+                                                sc.T_map_initial[i].linear()) > 0.1 * kDegToRad));
     }
   }
   CHECK(drifted > 400);
@@ -289,7 +287,7 @@ TEST_CASE("loop edges may point backwards (later node -> earlier node) with the 
   double max_diff_m = 0.0;
   for (std::size_t i = 0; i < a.num_nodes(); ++i) max_diff_m = std::max(max_diff_m, PositionErrorM(a.pose(i), b.pose(i)));
   CHECK(max_diff_m < 1e-6);
-  CHECK(AnchoredAteM(b.poses(), backward.T_world_truth) * 5.0 <= AnchoredAteM(backward.T_world_initial, backward.T_world_truth));
+  CHECK(AnchoredAteM(b.poses(), backward.T_map_truth) * 5.0 <= AnchoredAteM(backward.T_map_initial, backward.T_map_truth));
 }
 
 TEST_CASE("a graph whose odometry already agrees with its loops is left unchanged") {
@@ -307,7 +305,7 @@ TEST_CASE("a graph whose odometry already agrees with its loops is left unchange
   CHECK(r->changed_nodes.empty());
   double max_moved_m = 0.0;
   for (std::size_t i = 0; i < graph.num_nodes(); ++i) {
-    max_moved_m = std::max(max_moved_m, PositionErrorM(graph.pose(i), sc.T_world_initial[i]));
+    max_moved_m = std::max(max_moved_m, PositionErrorM(graph.pose(i), sc.T_map_initial[i]));
   }
   CHECK(max_moved_m < 1e-9);
 }
@@ -322,20 +320,20 @@ TEST_CASE("without loop edges there is nothing to correct") {
   CHECK(r->changed_nodes.empty());
   CHECK(r->final_cost <= r->initial_cost);
   CHECK(r->initial_cost < 1e-12);  // chained odometry satisfies every odometry edge
-  for (std::size_t i = 0; i < graph.num_nodes(); ++i) CHECK(PositionErrorM(graph.pose(i), sc.T_world_initial[i]) < 1e-9);
+  for (std::size_t i = 0; i < graph.num_nodes(); ++i) CHECK(PositionErrorM(graph.pose(i), sc.T_map_initial[i]) < 1e-9);
 }
 
 TEST_CASE("incremental use: optimise after each accepted loop, as the robot does") {
   ScenarioParams p;
   p.loop_every = 50;
   const Scenario sc = MakeScenario(p);
-  PoseGraph graph(sc.T_world_truth.size(), sc.odometry.size() + sc.loops.size());
+  PoseGraph graph(sc.T_map_truth.size(), sc.odometry.size() + sc.loops.size());
   // Keyframes arrive one by one; a new keyframe is placed by composing the (optimised) previous pose with the
   // odometry, and each loop (lap 2 node b closes on lap 1 node a) is added when b arrives.
   std::size_t next_loop = 0;
   std::size_t total_changed = 0;
   int optimisations = 0;
-  REQUIRE(graph.AddNode(sc.T_world_initial[0]).ok());
+  REQUIRE(graph.AddNode(sc.T_map_initial[0]).ok());
   for (const PoseGraphEdge& odo : sc.odometry) {
     REQUIRE(graph.AddNode(graph.pose(odo.from) * odo.T_from_to).ok());
     REQUIRE(graph.AddEdge(odo).ok());
@@ -351,8 +349,8 @@ TEST_CASE("incremental use: optimise after each accepted loop, as the robot does
     }
   }
   REQUIRE(next_loop == sc.loops.size());
-  const double ate_before = AnchoredAteM(sc.T_world_initial, sc.T_world_truth);
-  const double ate_after = AnchoredAteM(graph.poses(), sc.T_world_truth);
+  const double ate_before = AnchoredAteM(sc.T_map_initial, sc.T_map_truth);
+  const double ate_after = AnchoredAteM(graph.poses(), sc.T_map_truth);
   MESSAGE("incremental, " << optimisations << " optimisations: anchored ATE " << ate_before << " m -> " << ate_after
                           << " m, " << total_changed << " pose updates in total");
   CHECK(ate_after * 5.0 <= ate_before);
@@ -383,7 +381,7 @@ TEST_CASE("a robust kernel on loop edges limits the damage of a wrong loop closu
   // Reference: the same graph without the wrong loop.
   PoseGraph clean = MakeGraph(sc, true);
   REQUIRE(clean.Optimize(plain).ok());
-  const double ate_clean = AnchoredAteM(clean.poses(), sc.T_world_truth);
+  const double ate_clean = AnchoredAteM(clean.poses(), sc.T_map_truth);
 
   double ate[3];
   const PoseGraphParams* params[3] = {&plain, &cauchy, &huber};
@@ -394,7 +392,7 @@ TEST_CASE("a robust kernel on loop edges limits the damage of a wrong loop closu
     REQUIRE(r.ok());
     CHECK(r->final_cost <= r->initial_cost);
     CHECK(r->final_cost == doctest::Approx(graph.Cost(*params[k])));
-    ate[k] = AnchoredAteM(graph.poses(), sc.T_world_truth);
+    ate[k] = AnchoredAteM(graph.poses(), sc.T_map_truth);
   }
   MESSAGE("anchored ATE without the wrong loop " << ate_clean << " m; with it: least squares " << ate[0]
                                                  << " m, Cauchy " << ate[1] << " m, Huber " << ate[2] << " m");
@@ -551,7 +549,7 @@ TEST_CASE("Optimize rejects parameters out of range and leaves the graph alone")
   p = PoseGraphParams{};
   p.changed_translation_m = -0.1;
   rejected(p, "changed_translation_m");
-  CHECK(graph.pose(300).isApprox(sc.T_world_initial[300], 0.0));
+  CHECK(graph.pose(300).isApprox(sc.T_map_initial[300], 0.0));
 
   // max_iterations = 0 evaluates the cost only.
   p = PoseGraphParams{};

@@ -12,6 +12,7 @@
 
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/geometry/umeyama.hpp"
 #include "core/sim/synthetic_scan.hpp"
 #include "core/slam/robot_mapper.hpp"
@@ -77,7 +78,7 @@ DriveOutcome DriveBlock(const RobotMapperParams& params, double yaw_drift_deg_pe
     Eigen::Isometry3d step = T_prev_truth.inverse() * T_truth;
     step.translation() *= 1.0 + scale_error;
     step.linear() =
-        Eigen::AngleAxisd(0.5 * yaw_drift_deg_per_m * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+        Eigen::AngleAxisd(0.5 * yaw_drift_deg_per_m * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
         step.linear();
     T_odom = T_odom * step;
     T_prev_truth = T_truth;
@@ -108,7 +109,7 @@ DriveOutcome DriveBlock(const RobotMapperParams& params, double yaw_drift_deg_pe
   REQUIRE(n == truth.size());
   std::vector<Eigen::Vector3d> optimised;
   for (std::size_t k = 0; k < n; ++k) optimised.push_back(mapper.pose(k).translation());
-  // The mapper's world is its first keyframe: compare shapes after rigid alignment.
+  // The mapper's map frame is its first keyframe's: compare shapes after rigid alignment.
   out.ate_odometry = Ate(odometry, truth);
   out.ate_optimised = Ate(optimised, truth);
   out.implausible = mapper.stats().loops_implausible;

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The KITTI-layout dataset reader (platform/io/kitti_dataset_reader.hpp): "DIR" / "DIR:FIRST-LAST" parsing,
 // scan order, consistent slicing of scans, poses, ground truth and times, ground truth composed with
-// T_world_robotstart.txt (checked against hand-computed poses), the poses_lidar.txt alias, --gt-from-poses,
+// T_gt_robotstart.txt (checked against hand-computed poses) or its older name T_world_robotstart.txt, the
+// poses_lidar.txt alias, --gt-from-poses,
 // and errors that name the file. Datasets are tiny (6 scans of 1-3 points), written by hand in a scratch dir.
 #include <doctest/doctest.h>
 
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "core/cloud/point.hpp"
+#include "core/geometry/angles.hpp"
 #include "platform/io/kitti_bin.hpp"
 #include "platform/io/kitti_dataset_reader.hpp"
 #include "tests/support/test_data.hpp"
@@ -22,7 +24,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kScans = 6;
 
 double Deg(double d) { return d * kPi / 180.0; }
@@ -44,8 +45,8 @@ Eigen::Isometry3d Truth(std::size_t k) { return YawPose(Deg(10.0 * static_cast<d
 // The start pose, written exactly as text: yaw +90 deg, at (10, 20, 0).
 const char* const kStartLine = "0 -1 0 10 1 0 0 20 0 0 1 0\n";
 
-// world = start * truth(k), by hand: R_z(90) (k, 0, 0) = (0, k, 0), so t = (10, 20 + k, 0); yaw 90 + 10 k deg.
-Eigen::Isometry3d ExpectedWorld(std::size_t k) {
+// gt = start * truth(k), by hand: R_z(90) (k, 0, 0) = (0, k, 0), so t = (10, 20 + k, 0); yaw 90 + 10 k deg.
+Eigen::Isometry3d ExpectedGt(std::size_t k) {
   const double kd = static_cast<double>(k);
   return YawPose(Deg(90.0 + 10.0 * kd), Eigen::Vector3d(10.0, 20.0 + kd, 0.0));
 }
@@ -116,12 +117,12 @@ std::string MakeScans(const std::string& name, std::size_t scans) {
   return root;
 }
 
-// The full simulator layout: scans, poses.txt, poses_gt.txt, T_world_robotstart.txt and times.txt.
+// The full simulator layout: scans, poses.txt, poses_gt.txt, T_gt_robotstart.txt and times.txt.
 std::string MakeFullDataset(const std::string& name) {
   const std::string root = MakeScans(name, kScans);
   WriteText(root + "/poses.txt", PosesText(kScans, &Estimated));
   WriteText(root + "/poses_gt.txt", PosesText(kScans, &Truth));
-  WriteText(root + "/T_world_robotstart.txt", kStartLine);
+  WriteText(root + "/T_gt_robotstart.txt", kStartLine);
   WriteText(root + "/times.txt", TimesText(kScans));
   return root;
 }
@@ -203,7 +204,7 @@ TEST_CASE("dataset reader: scans in file-name order with poses, composed ground 
     REQUIRE(scan->points.size() == k % 3 + 1);
     CHECK(static_cast<double>(scan->points[0].x) == static_cast<double>(k));
     CheckPose(d->poses[k], Estimated(k));
-    CheckPose(d->ground_truth[k], ExpectedWorld(k));
+    CheckPose(d->ground_truth[k], ExpectedGt(k));
     CHECK(d->times_s[k] == TimeOf(k));
   }
   // A spot check of the composition, written out: scan 3 is at (10, 23, 0) with yaw 120 deg.
@@ -212,7 +213,7 @@ TEST_CASE("dataset reader: scans in file-name order with poses, composed ground 
   CHECK(d->ground_truth[3].linear()(0, 0) == doctest::Approx(-0.5));
   CHECK(d->ground_truth[3].linear()(1, 0) == doctest::Approx(std::sqrt(3.0) / 2.0));
   CHECK(d->ground_truth_source.find("poses_gt.txt") != std::string::npos);
-  CHECK(d->ground_truth_source.find("T_world_robotstart.txt") != std::string::npos);
+  CHECK(d->ground_truth_source.find("T_gt_robotstart.txt") != std::string::npos);
 }
 
 TEST_CASE("dataset reader: a range keeps scans FIRST to LAST-1 and slices poses, ground truth and times alike") {
@@ -236,20 +237,39 @@ TEST_CASE("dataset reader: a range keeps scans FIRST to LAST-1 and slices poses,
       const std::size_t k = r.first + i;
       CHECK(fs::path(d->scan_files[i]) == fs::path(ScanPath(root, k)));
       CheckPose(d->poses[i], Estimated(k));  // as in the file, not re-based on the slice
-      CheckPose(d->ground_truth[i], ExpectedWorld(k));
+      CheckPose(d->ground_truth[i], ExpectedGt(k));
       CHECK(d->times_s[i] == TimeOf(k));
     }
   }
 }
 
-TEST_CASE("dataset reader: poses_gt.txt without T_world_robotstart.txt is the ground truth as it is") {
+TEST_CASE("dataset reader: poses_gt.txt without T_gt_robotstart.txt is the ground truth as it is") {
   const std::string root = MakeFullDataset("gt_plain");
-  REQUIRE(fs::remove(root + "/T_world_robotstart.txt"));
+  REQUIRE(fs::remove(root + "/T_gt_robotstart.txt"));
   auto d = OpenRobotDataset(Spec(root + ":1-4"), false);
   REQUIRE_MESSAGE(d.ok(), d.status().ToString());
   REQUIRE(d->ground_truth.size() == 3);
   for (std::size_t i = 0; i < 3; ++i) CheckPose(d->ground_truth[i], Truth(1 + i));
   CHECK(fs::path(d->ground_truth_source) == fs::path(root + "/poses_gt.txt"));
+}
+
+TEST_CASE("dataset reader: the older name T_world_robotstart.txt composes the ground truth the same way") {
+  const std::string root = MakeFullDataset("gt_old_name");
+  fs::rename(root + "/T_gt_robotstart.txt", root + "/T_world_robotstart.txt");
+  auto d = OpenRobotDataset(Spec(root + ":1-4"), false);
+  REQUIRE_MESSAGE(d.ok(), d.status().ToString());
+  REQUIRE(d->ground_truth.size() == 3);
+  for (std::size_t i = 0; i < 3; ++i) CheckPose(d->ground_truth[i], ExpectedGt(1 + i));
+  CHECK(d->ground_truth_source.find("T_world_robotstart.txt") != std::string::npos);
+
+  // With both names present, T_gt_robotstart.txt is used (here: the identity, so gt = poses_gt.txt).
+  WriteText(root + "/T_gt_robotstart.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n");
+  auto both = OpenRobotDataset(Spec(root + ":1-4"), false);
+  REQUIRE_MESSAGE(both.ok(), both.status().ToString());
+  REQUIRE(both->ground_truth.size() == 3);
+  for (std::size_t i = 0; i < 3; ++i) CheckPose(both->ground_truth[i], Truth(1 + i));
+  CHECK(both->ground_truth_source.find("T_gt_robotstart.txt") != std::string::npos);
+  CHECK(both->ground_truth_source.find("T_world_robotstart.txt") == std::string::npos);
 }
 
 TEST_CASE("dataset reader: poses_lidar.txt is accepted as the poses file, poses.txt is preferred") {
@@ -361,12 +381,12 @@ TEST_CASE("dataset reader: missing pieces and mismatched counts are refused nami
     REQUIRE_FALSE(d.ok());
     CheckError(d.status(), StatusCode::kInvalidArgument, {"poses_gt.txt", "4 poses", "6 scans"});
   }
-  SUBCASE("T_world_robotstart.txt with two poses") {
+  SUBCASE("T_gt_robotstart.txt with two poses") {
     const std::string root = MakeFullDataset("two_starts");
-    WriteText(root + "/T_world_robotstart.txt", std::string(kStartLine) + kStartLine);
+    WriteText(root + "/T_gt_robotstart.txt", std::string(kStartLine) + kStartLine);
     auto d = OpenRobotDataset(Spec(root), false);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kInvalidArgument, {"T_world_robotstart.txt", "exactly one", "found 2"});
+    CheckError(d.status(), StatusCode::kInvalidArgument, {"T_gt_robotstart.txt", "exactly one", "found 2"});
   }
   SUBCASE("a malformed poses file") {
     const std::string root = MakeScans("bad_poses", 2);

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The simulated-dataset writer (platform/io/kitti_dataset_writer.hpp): files re-read with the platform readers
-// equal what was generated, the frame chain p_world = T_world_robotstart * poses_gt[k] * p_scan puts ground
-// returns on the ground, overlapping robots' re-read poses coincide in the world, and a non-empty output
+// equal what was generated, the frame chain p_gt = T_gt_robotstart * poses_gt[k] * p_scan puts ground
+// returns on the ground, overlapping robots' re-read poses coincide in the ground-truth frame gt, and a non-empty output
 // directory is refused unless forced (which removes only the dataset's own files).
 #include <doctest/doctest.h>
 
@@ -50,10 +50,10 @@ Written WriteSmallDataset(const std::string& name, OverlapMode overlap, int keyf
   LidarScanWorkspace ws;
   std::vector<PointXYZI> scan;
   for (const RobotMission& r : plan->robots) {
-    REQUIRE(writer->WriteTrajectory(r.id, r.odometry, r.gt, r.times_s, r.T_world_robotstart).ok());
-    starts.push_back(r.T_world_robotstart);
+    REQUIRE(writer->WriteTrajectory(r.id, r.odometry, r.gt, r.times_s, r.T_gt_robotstart).ok());
+    starts.push_back(r.T_gt_robotstart);
     for (int k = 0; k < scans; ++k) {
-      REQUIRE(SimulateLidarScan(world, lidar, r.WorldPose(static_cast<std::size_t>(k)),
+      REQUIRE(SimulateLidarScan(world, lidar, r.T_gt_sensor(static_cast<std::size_t>(k)),
                                 ScanNoiseSeed(p, r.id, static_cast<std::size_t>(k)), static_cast<std::uint64_t>(k), &ws, &scan)
                   .ok());
       REQUIRE(writer->WriteScan(r.id, static_cast<std::size_t>(k), scan).ok());
@@ -75,7 +75,7 @@ TEST_CASE("kitti dataset writer: re-read poses, times, start transforms and scan
     auto odo = ReadKittiPoses(dir + "/poses.txt");
     auto gt = ReadKittiPoses(dir + "/poses_gt.txt");
     auto times = ReadTimes(dir + "/times.txt");
-    auto start = ReadKittiPoses(dir + "/T_world_robotstart.txt");
+    auto start = ReadKittiPoses(dir + "/T_gt_robotstart.txt");
     REQUIRE(odo.ok());
     REQUIRE(gt.ok());
     REQUIRE(times.ok());
@@ -89,7 +89,7 @@ TEST_CASE("kitti dataset writer: re-read poses, times, start transforms and scan
       CHECK((*times)[k] == r.times_s[k]);  // shortest exact text
     }
     CHECK(Near((*gt)[0], Eigen::Isometry3d::Identity(), 1e-15));
-    CHECK(Near(start->front(), r.T_world_robotstart, 1e-12));
+    CHECK(Near(start->front(), r.T_gt_robotstart, 1e-12));
     CHECK(fs::exists(dir + "/calib.txt"));
     CHECK(test::ReadTextFile(dir + "/calib.txt").find("Tr: 1 0 0 0 0 1 0 0 0 0 1 0") != std::string::npos);
     for (int k = 0; k < 3; ++k) {
@@ -101,24 +101,24 @@ TEST_CASE("kitti dataset writer: re-read poses, times, start transforms and scan
   auto starts = ReadKittiPoses(w.root + "/start_transforms.txt");
   REQUIRE(starts.ok());
   REQUIRE(starts->size() == 2);
-  CHECK(Near((*starts)[1], w.plan.robots[1].T_world_robotstart, 1e-12));
+  CHECK(Near((*starts)[1], w.plan.robots[1].T_gt_robotstart, 1e-12));
   CHECK(KittiScanFileName(42) == "000042.bin");
   CHECK(fs::exists(w.root + "/robot_1/velodyne/000002.bin"));
   CHECK(test::ReadTextFile(w.root + "/sim_info.txt") == "world: urban\n");
 }
 
-TEST_CASE("kitti dataset writer: T_world_robotstart * poses_gt(k) puts the scans' ground returns on z = 0") {
+TEST_CASE("kitti dataset writer: T_gt_robotstart * poses_gt(k) puts the scans' ground returns on z = 0") {
   const Written w = WriteSmallDataset("frames", OverlapMode::kComplete, 300, 6);
   for (int r = 0; r < 2; ++r) {
     const std::string dir = w.root + "/" + SimRobotDirName(r);
-    const Eigen::Isometry3d T_world_start = ReadKittiPoses(dir + "/T_world_robotstart.txt")->front();
+    const Eigen::Isometry3d T_gt_start = ReadKittiPoses(dir + "/T_gt_robotstart.txt")->front();
     const std::vector<Eigen::Isometry3d> gt = *ReadKittiPoses(dir + "/poses_gt.txt");
     for (std::size_t k = 0; k < 6; k += 5) {
       const auto scan = ReadKittiBin(dir + "/velodyne/" + KittiScanFileName(k));
       REQUIRE(scan.ok());
       std::size_t on_ground = 0, below = 0;
       for (const PointXYZI& p : scan->points) {
-        const Eigen::Vector3d q = T_world_start * gt[k] * Eigen::Vector3d(p.x, p.y, p.z);
+        const Eigen::Vector3d q = T_gt_start * gt[k] * Eigen::Vector3d(p.x, p.y, p.z);
         on_ground += std::fabs(q.z()) < 0.06;
         below += q.z() < -0.1;
       }
@@ -128,20 +128,20 @@ TEST_CASE("kitti dataset writer: T_world_robotstart * poses_gt(k) puts the scans
   }
   // Complete overlap, read back: mapped through their start transforms, the two robots' ground-truth
   // keyframes coincide (within the lane offsets) over the whole route.
-  std::vector<Eigen::Vector3d> world0, world1;
+  std::vector<Eigen::Vector3d> gt0, gt1;
   for (int r = 0; r < 2; ++r) {
     const std::string dir = w.root + "/" + SimRobotDirName(r);
-    const Eigen::Isometry3d start = ReadKittiPoses(dir + "/T_world_robotstart.txt")->front();
+    const Eigen::Isometry3d start = ReadKittiPoses(dir + "/T_gt_robotstart.txt")->front();
     const std::vector<Eigen::Isometry3d> gt = *ReadKittiPoses(dir + "/poses_gt.txt");
-    for (const Eigen::Isometry3d& g : gt) (r ? world1 : world0).push_back((start * g).translation());
+    for (const Eigen::Isometry3d& g : gt) (r ? gt1 : gt0).push_back((start * g).translation());
   }
   std::size_t matched = 0;
-  for (const Eigen::Vector3d& p : world0) {
+  for (const Eigen::Vector3d& p : gt0) {
     double nearest = 1e9;
-    for (const Eigen::Vector3d& q : world1) nearest = std::min(nearest, (p - q).norm());
+    for (const Eigen::Vector3d& q : gt1) nearest = std::min(nearest, (p - q).norm());
     matched += nearest < 5.0;
   }
-  CHECK(static_cast<double>(matched) >= 0.9 * static_cast<double>(world0.size()));
+  CHECK(static_cast<double>(matched) >= 0.9 * static_cast<double>(gt0.size()));
 }
 
 TEST_CASE("kitti dataset writer: a non-empty directory is refused, --force replaces only the dataset's files") {

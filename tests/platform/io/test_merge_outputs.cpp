@@ -124,7 +124,7 @@ TEST_CASE("Trajectories: world or own frame by placement, ground truth beside, a
   REQUIRE(world->size() == 5);
   for (std::size_t k = 0; k < 5; ++k) {
     CHECK((*world)[k].time_s == doctest::Approx(100.0 + static_cast<double>(k)));
-    CHECK((*world)[k].T_world_sensor.isApprox(t.T_world_map * t.T_map_sensor[k], 1e-6));
+    CHECK((*world)[k].T_frame_sensor.isApprox(t.T_world_map * t.T_map_sensor[k], 1e-6));
   }
   auto gt = ReadTumPoses(dir + "/robot_4_gt.tum");
   REQUIRE(gt.ok());

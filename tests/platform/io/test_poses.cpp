@@ -63,8 +63,8 @@ TEST_CASE("poses: TUM poses round-trip through WriteTumPoses and ReadTumPoses") 
   REQUIRE(back->size() == poses.size());
   for (std::size_t i = 0; i < poses.size(); ++i) {
     CHECK((*back)[i].time_s == poses[i].time_s);
-    CHECK((*back)[i].T_world_sensor.translation() == poses[i].T_world_sensor.translation());
-    CHECK(((*back)[i].T_world_sensor.matrix() - poses[i].T_world_sensor.matrix()).cwiseAbs().maxCoeff() < 1e-12);
+    CHECK((*back)[i].T_frame_sensor.translation() == poses[i].T_frame_sensor.translation());
+    CHECK(((*back)[i].T_frame_sensor.matrix() - poses[i].T_frame_sensor.matrix()).cwiseAbs().maxCoeff() < 1e-12);
   }
 }
 
@@ -92,10 +92,10 @@ TEST_CASE("poses: a hand-written TUM file with comments, blank lines and a 90-de
   REQUIRE(poses.ok());
   REQUIRE(poses->size() == 2);
   CHECK((*poses)[0].time_s == 1700000000.25);
-  CHECK(((*poses)[0].T_world_sensor.linear() - kYaw90).cwiseAbs().maxCoeff() < 1e-15);
-  CHECK((*poses)[0].T_world_sensor.translation() == Eigen::Vector3d(1, 2, 3));
+  CHECK(((*poses)[0].T_frame_sensor.linear() - kYaw90).cwiseAbs().maxCoeff() < 1e-15);
+  CHECK((*poses)[0].T_frame_sensor.translation() == Eigen::Vector3d(1, 2, 3));
   CHECK((*poses)[1].time_s == 0.5);
-  CHECK((*poses)[1].T_world_sensor.matrix() == Eigen::Matrix4d::Identity());
+  CHECK((*poses)[1].T_frame_sensor.matrix() == Eigen::Matrix4d::Identity());
 }
 
 TEST_CASE("poses: a KITTI line with 11 values is an error naming the file and the line") {
@@ -188,7 +188,7 @@ TEST_CASE("poses: TUM quaternions far from unit norm are rejected, near ones nor
   auto near = ReadTumPoses(WriteFile("q1005.txt", "0 1 2 3 0 0 0 1.005\n"));
   REQUIRE(near.ok());
   REQUIRE(near->size() == 1);
-  CHECK(((*near)[0].T_world_sensor.linear() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-15);
+  CHECK(((*near)[0].T_frame_sensor.linear() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-15);
 }
 
 TEST_CASE("poses: ReadTimes reads one number per line and rejects garbage") {

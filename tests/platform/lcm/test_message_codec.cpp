@@ -23,6 +23,7 @@
 
 #include "core/agent/messages.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
+#include "core/geometry/angles.hpp"
 #include "platform/lcm/message_codec.hpp"
 #include "tests/platform/lcm/lcm_test_util.hpp"
 
@@ -34,10 +35,10 @@ namespace {
 KeyframeRecord MakeRecord(std::uint32_t k) {
   KeyframeRecord r;
   r.keyframe_index = k;
-  r.T_world_sensor = Eigen::Isometry3d::Identity();
-  r.T_world_sensor.linear() =
+  r.T_map_sensor = Eigen::Isometry3d::Identity();
+  r.T_map_sensor.linear() =
       Eigen::AngleAxisd(0.3 + 0.7 * k, Eigen::Vector3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
-  r.T_world_sensor.translation() = Eigen::Vector3d(1.5 * k, -2.25, 0.5 + k);
+  r.T_map_sensor.translation() = Eigen::Vector3d(1.5 * k, -2.25, 0.5 + k);
   double norm2 = 0.0;
   std::array<double, kKeyframeDescriptorDim> v{};
   for (std::size_t i = 0; i < v.size(); ++i) {
@@ -256,8 +257,8 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
     REQUIRE(r.ok());
     CHECK(r->keyframe_index == original.keyframe_index);
     CHECK(r->descriptor_valid);
-    CHECK((r->T_world_sensor.translation() - original.T_world_sensor.translation()).norm() < 1e-5);
-    CHECK(RotationError(r->T_world_sensor.linear(), original.T_world_sensor.linear()) < 2e-4);
+    CHECK((r->T_map_sensor.translation() - original.T_map_sensor.translation()).norm() < 1e-5);
+    CHECK(RotationError(r->T_map_sensor.linear(), original.T_map_sensor.linear()) < 2e-4);
     double dist2 = 0.0;
     for (std::size_t k = 0; k < kKeyframeDescriptorDim; ++k) {
       const double e = static_cast<double>(r->descriptor[k]) - static_cast<double>(original.descriptor[k]);
@@ -841,7 +842,7 @@ TEST_CASE("message codec: a pose update with a non-unit quaternion or bad values
   // The same message with a unit quaternion decodes to that rotation (120 deg about (1,1,1)).
   auto ok = decode_with(1, unit, t123, 4);
   REQUIRE(ok.ok());
-  const Eigen::Matrix3d expected = Eigen::AngleAxisd(2.0 * 3.14159265358979323846 / 3.0,
+  const Eigen::Matrix3d expected = Eigen::AngleAxisd(2.0 * kPi / 3.0,
                                                      Eigen::Vector3d(1, 1, 1).normalized()).toRotationMatrix();
   CHECK(RotationError(ok->T_map_sensor[1].linear(), expected) < 1e-6);
   CHECK((ok->T_map_sensor[1].translation() - Eigen::Vector3d(1, 2, 3)).norm() == 0.0);

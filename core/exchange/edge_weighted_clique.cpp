@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "core/exchange/compatibility_graph.hpp"
+#include "core/exchange/edge_weighted_clique.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: generated submaps with known ground truth for registration tests and benchmarks: several
 // ray-cast scans (core/sim/synthetic_scan) of one scene merged in a submap frame and voxelised, as the server
-// builds them from requested keyframe scans (paper "Submap-Based Map Merging").
+// builds them from requested keyframe scans (paper "Submap-Based Map Merging"). Part of the simulator, not of
+// core/registration, so that registration does not depend on core/sim.
 #pragma once
 
 #include <Eigen/Core>
@@ -17,7 +18,7 @@
 
 namespace commerge {
 
-/// Sensor pose of one generated scan in the scene (world) frame: position [m] and heading [rad].
+/// Sensor pose of one generated scan in the scene's ground-truth frame gt: position [m] and heading [rad].
 struct ScanPose {
   float x_m = 0.0f;
   float y_m = 0.0f;
@@ -25,7 +26,7 @@ struct ScanPose {
   float yaw_rad = 0.0f;
 };
 
-/// T_world_sensor of a ScanPose.
+/// T_gt_sensor of a ScanPose.
 Eigen::Isometry3d ScanPoseToIsometry(const ScanPose& pose);
 
 struct SyntheticSubmap {
@@ -34,10 +35,10 @@ struct SyntheticSubmap {
 };
 
 /// Casts one scan per pose (seeds seed, seed + 1, ...), moves every point into the submap frame
-/// (p_submap = T_world_submap^-1 T_world_sensor p_sensor) and voxelises the union at voxel_size_m.
+/// (p_submap = T_gt_submap^-1 T_gt_sensor p_sensor) and voxelises the union at voxel_size_m.
 /// Errors: voxel grid errors (e.g. voxel_size_m <= 0).
 Status MakeSyntheticSubmap(const BoxScene& scene, const SpinningLidar& lidar, Span<const ScanPose> poses,
-                           const Eigen::Isometry3d& T_world_submap, double voxel_size_m, std::uint32_t seed,
+                           const Eigen::Isometry3d& T_gt_submap, double voxel_size_m, std::uint32_t seed,
                            SyntheticSubmap* out);
 
 /// Two robots driving a straight street (MakeStreetScene, road along x): the target robot scans at

@@ -12,7 +12,7 @@
 
 #include <Eigen/Geometry>
 
-#include "core/exchange/compatibility_graph.hpp"
+#include "core/exchange/edge_weighted_clique.hpp"
 
 namespace commerge {
 namespace {

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: stage C, maximum edge-weighted clique selection (paper "Maximum Edge-Weighted Clique Selection in
-// Exchange Graph"). The loops that survive stage B become the vertices of a compatibility graph; two loops
-// t1 = (c1, q1), t2 = (c2, q2) are compatible when their positional consistency
+// Exchange Graph"), with the compatibility graph it searches (the clique search itself is core/solvers/max_clique).
+// The loops that survive stage B become the vertices of that compatibility graph; two loops t1 = (c1, q1),
+// t2 = (c2, q2) are compatible when their positional consistency
 //     kappa = | ||t^alpha_c1 - t^alpha_c2|| - ||t^beta_q1 - t^beta_q2|| |   (metres, each robot in its own frame)
 // is below tau_con (mask M), and the edge weighs xi = exp(-w1 * kappa * w2), where w = the loop's descriptor
 // distance f_sim (the perceptual consistency). The maximum edge-weighted clique of that graph is L_K.

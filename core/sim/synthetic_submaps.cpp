@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "core/registration/synthetic_submaps.hpp"
+#include "core/sim/synthetic_submaps.hpp"
 
 #include <algorithm>
 #include <cmath>
 
+#include "core/geometry/angles.hpp"
 #include "core/cloud/voxel_grid.hpp"
 
 namespace commerge {
@@ -17,11 +18,11 @@ Eigen::Isometry3d ScanPoseToIsometry(const ScanPose& pose) {
 }
 
 Status MakeSyntheticSubmap(const BoxScene& scene, const SpinningLidar& lidar, Span<const ScanPose> poses,
-                           const Eigen::Isometry3d& T_world_submap, double voxel_size_m, std::uint32_t seed,
+                           const Eigen::Isometry3d& T_gt_submap, double voxel_size_m, std::uint32_t seed,
                            SyntheticSubmap* out) {
   out->points.clear();
   out->sensor_origins_m.clear();
-  const Eigen::Isometry3d T_submap_world = T_world_submap.inverse();
+  const Eigen::Isometry3d T_submap_gt = T_gt_submap.inverse();
   std::vector<PointXYZI> merged, scan;
   BoxScene local;
   local.ground_z_m = scene.ground_z_m;
@@ -36,7 +37,7 @@ Status MakeSyntheticSubmap(const BoxScene& scene, const SpinningLidar& lidar, Sp
       if (dx * dx + dy * dy <= lidar.max_range_m * lidar.max_range_m) local.boxes.push_back(b);
     }
     CastScan(local, lidar, pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad, seed + static_cast<std::uint32_t>(s), &scan);
-    const Eigen::Isometry3d T_submap_sensor = T_submap_world * ScanPoseToIsometry(pose);
+    const Eigen::Isometry3d T_submap_sensor = T_submap_gt * ScanPoseToIsometry(pose);
     out->sensor_origins_m.push_back(T_submap_sensor.translation());
     merged.reserve(merged.size() + scan.size());
     for (const PointXYZI& p : scan) {
@@ -55,22 +56,22 @@ Status MakeStreetSubmapPairInScene(const BoxScene& scene, const StreetPairSpec& 
   if (n < 1) return InvalidArgument("street submap pair: scans_per_submap must be >= 1");
   std::vector<ScanPose> target_poses, source_poses;
   const float source_dir = spec.source_reversed ? -1.0f : 1.0f;
-  const float source_yaw = spec.source_reversed ? 3.14159265f : 0.0f;
+  const float source_yaw = spec.source_reversed ? kPiF : 0.0f;
   for (int i = 0; i < n; ++i) {
     const float step = static_cast<float>(i) * spec.scan_spacing_m;
     target_poses.push_back(ScanPose{spec.target_start_x_m + step, spec.target_lane_y_m, 1.73f, 0.0f});
     source_poses.push_back(ScanPose{spec.source_start_x_m + source_dir * step, spec.source_lane_y_m, 1.73f, source_yaw});
   }
-  const Eigen::Isometry3d T_world_target = ScanPoseToIsometry(target_poses[static_cast<std::size_t>(n / 2)]);
-  const Eigen::Isometry3d T_world_source =
+  const Eigen::Isometry3d T_gt_target = ScanPoseToIsometry(target_poses[static_cast<std::size_t>(n / 2)]);
+  const Eigen::Isometry3d T_gt_source =
       ScanPoseToIsometry(source_poses[static_cast<std::size_t>(n / 2)]) * spec.T_anchor_offset;
-  Status s = MakeSyntheticSubmap(scene, spec.lidar, target_poses, T_world_target, spec.voxel_size_m, spec.scan_seed,
+  Status s = MakeSyntheticSubmap(scene, spec.lidar, target_poses, T_gt_target, spec.voxel_size_m, spec.scan_seed,
                                  &out->target);
   if (!s.ok()) return s;
-  s = MakeSyntheticSubmap(scene, spec.lidar, source_poses, T_world_source, spec.voxel_size_m,
+  s = MakeSyntheticSubmap(scene, spec.lidar, source_poses, T_gt_source, spec.voxel_size_m,
                           spec.scan_seed + 1000u, &out->source);
   if (!s.ok()) return s;
-  out->T_target_source = T_world_target.inverse() * T_world_source;
+  out->T_target_source = T_gt_target.inverse() * T_gt_source;
   return Status::Ok();
 }
 
