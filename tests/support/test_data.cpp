@@ -73,4 +73,6 @@ std::string ScratchDir() {
   return scratch.dir.string();
 }
 
+std::string ScratchFile(const std::string& name) { return ScratchDir() + "/" + name; }
+
 }  // namespace commerge::test

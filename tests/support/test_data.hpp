@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Test helpers: licensed shared data (skip when absent) and per-process scratch directories.
+// Test helpers: licensed shared data (skip when absent) and per-process scratch directories and files.
 #pragma once
 
 #include <string>
@@ -22,6 +22,9 @@ std::string ReadTextFile(const std::string& path);
 
 /// A fresh, empty directory for this test process (under $TMPDIR or /tmp), removed at exit.
 std::string ScratchDir();
+
+/// ScratchDir() + "/" + name: a path in this process's scratch directory (the file is not created).
+std::string ScratchFile(const std::string& name);
 
 }  // namespace commerge::test
 
