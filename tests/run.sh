@@ -8,9 +8,11 @@
 #   jetson   aarch64 Cortex-A57 cross build (Release), tests under qemu-aarch64 -cpu cortex-a57 (not `heavy`)
 #   ipc      x86-64 -march=skylake (IPC-6000) build; its tests run when this CPU has AVX2/FMA (not `heavy`);
 #            not in the default set (CI time): run `tests/run.sh ipc`
-# Idempotent: build trees (build-<config>/) are reused. A failing configuration does not stop the others. Ends
-# with a summary: per configuration the time of configure, build and ctest, how many tests passed, failed and
-# skipped, and each skipped test with its CM-SKIP reason. Exits non-zero when anything fails.
+# Idempotent: build trees (build-<config>/) are reused; with ccache installed every compile goes through it, with
+# its cache outside the tree ($CCACHE_DIR, else a cache_dir set in ccache.conf, else
+# ${XDG_CACHE_HOME:-~/.cache}/commerge-ccache). A failing configuration does not stop the others. Ends with a
+# summary: per configuration the time of configure, build and ctest, how many tests passed, failed and skipped,
+# and each skipped test with its CM-SKIP reason. Exits non-zero when anything fails.
 #
 # Usage: tests/run.sh [--no-install] [CONFIG...]      (default: host fuzz asan jetson)
 set -euo pipefail
@@ -36,6 +38,15 @@ export CTEST_OUTPUT_ON_FAILURE=1
 # Sanitizer builds: impossible allocations must come back as NULL (-> std::bad_alloc), as in production.
 export ASAN_OPTIONS="allocator_may_return_null=1:detect_leaks=1:abort_on_error=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+
+# ccache: its cache lives outside the clone, so a fresh clone (CI) reuses what earlier runs compiled.
+launcher=()
+if command -v ccache >/dev/null 2>&1; then
+  if [ -z "${CCACHE_DIR:-}" ] && ccache --show-config 2>/dev/null | grep -q '^(default) cache_dir = '; then
+    export CCACHE_DIR="${XDG_CACHE_HOME:-$HOME/.cache}/commerge-ccache"
+  fi
+  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+fi
 
 summary=()
 failed_configs=()
@@ -74,7 +85,7 @@ run_config() {
   local t0=$SECONDS t_configure t_build t_ctest
   echo "=== [$name] configure + build ($dir) ==="
   mkdir -p "$dir"
-  if ! cmake -S . -B "$dir" "$@" >"$dir/configure.log" 2>&1; then
+  if ! cmake -S . -B "$dir" "${launcher[@]}" "$@" >"$dir/configure.log" 2>&1; then
     cat "$dir/configure.log"
     summary+=("$name: FAILED at configure ($((SECONDS - t0)) s; log $dir/configure.log)")
     return 1
