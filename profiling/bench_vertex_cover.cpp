@@ -22,6 +22,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/exchange/balanced_cover_milp.hpp"
@@ -30,6 +31,7 @@
 #include "core/solvers/dimacs_graph.hpp"
 #include "core/solvers/lp_relaxation.hpp"
 #include "profiling/bench_common.hpp"
+#include "tests/support/exchange_graph_generators.hpp"
 
 namespace {
 
@@ -97,38 +99,29 @@ ExchangeGraph Blocks(int blocks, int k, int l, double keep, std::mt19937& rng) {
   return Make({na, blocks * l}, e);
 }
 
-ExchangeGraph RandomBipartite(int n, int m, double avg_degree, std::mt19937& rng) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const double p = avg_degree / m;
+// Two robots from bipartite edges (left u, right v): robot 0 holds vertices 0..n-1, robot 1 n..n+m-1.
+ExchangeGraph TwoRobots(int n, int m, const std::vector<commerge::BipartiteEdge>& bipartite) {
   std::vector<ExchangeEdge> e;
-  for (int u = 0; u < n; ++u)
-    for (int v = 0; v < m; ++v)
-      if (unit(rng) < p) e.push_back({u, n + v});
+  e.reserve(bipartite.size());
+  for (const commerge::BipartiteEdge& b : bipartite) e.push_back({b.left, n + b.right});
   return Make({n, m}, e);
+}
+
+// The random graph families of the test (tests/support/exchange_graph_generators.hpp).
+ExchangeGraph RandomBipartite(int n, int m, double avg_degree, std::mt19937& rng) {
+  return TwoRobots(n, m, commerge::test::RandomBipartiteEdges(n, m, avg_degree, rng));
 }
 
 // Stage-A-like output: left i joins right j when |j - i * m / n| <= half_width, each kept with probability keep.
 ExchangeGraph Band(int n, int m, double half_width, double keep, std::mt19937& rng) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::vector<ExchangeEdge> e;
-  for (int u = 0; u < n; ++u) {
-    const double centre = static_cast<double>(u) * m / n;
-    for (int v = 0; v < m; ++v)
-      if (std::fabs(v - centre) <= half_width && unit(rng) < keep) e.push_back({u, n + v});
-  }
-  return Make({n, m}, e);
+  return TwoRobots(n, m, commerge::test::DiagonalBandEdges(n, m, half_width, keep, rng));
 }
 
-// N robots with `per_robot` scans each; each pair of robots gets a band of candidate loops plus random ones.
+// N robots with `per_robot` scans each; every pair of scans of two robots is a candidate loop at random.
 ExchangeGraph RandomMultiRobot(int robots, int per_robot, double avg_degree, std::mt19937& rng) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const int n = robots * per_robot;
-  const double p = avg_degree / n;
-  std::vector<ExchangeEdge> e;
-  for (int u = 0; u < n; ++u)
-    for (int v = u + 1; v < n; ++v)
-      if (u / per_robot != v / per_robot && unit(rng) < p) e.push_back({u, v});
-  return Make(std::vector<int>(static_cast<std::size_t>(robots), per_robot), e);
+  std::vector<int> counts(static_cast<std::size_t>(robots), per_robot);
+  std::vector<ExchangeEdge> e = commerge::test::RandomMultiRobotEdges(counts, avg_degree, rng);
+  return Make(std::move(counts), std::move(e));
 }
 
 // Every random instance has its own generator, seeded from its name, so a family or instance filter never changes

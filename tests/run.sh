@@ -8,7 +8,11 @@
 #   jetson   aarch64 Cortex-A57 cross build (Release), tests under qemu-aarch64 -cpu cortex-a57 (not `heavy`)
 #   ipc      x86-64 -march=skylake (IPC-6000) build; its tests run when this CPU has AVX2/FMA (not `heavy`);
 #            not in the default set (CI time): run `tests/run.sh ipc`
-# Idempotent: build trees (build-<config>/) are reused. Exits non-zero when anything fails.
+# Idempotent: build trees (build-<config>/) are reused; with ccache installed every compile goes through it, with
+# its cache outside the tree ($CCACHE_DIR, else a cache_dir set in ccache.conf, else
+# ${XDG_CACHE_HOME:-~/.cache}/commerge-ccache). A failing configuration does not stop the others. Ends with a
+# summary: per configuration the time of configure, build and ctest, how many tests passed, failed and skipped,
+# and each skipped test with its CM-SKIP reason. Exits non-zero when anything fails.
 #
 # Usage: tests/run.sh [--no-install] [CONFIG...]      (default: host fuzz asan jetson)
 set -euo pipefail
@@ -21,7 +25,7 @@ for arg in "$@"; do
   case "$arg" in
     --no-install) install=0 ;;
     host|fuzz|asan|jetson|ipc) configs+=("$arg") ;;
-    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,/^# Usage:/p' "$0"; exit 0 ;;
     *) echo "tests/run.sh: unknown argument '$arg' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -35,24 +39,71 @@ export CTEST_OUTPUT_ON_FAILURE=1
 export ASAN_OPTIONS="allocator_may_return_null=1:detect_leaks=1:abort_on_error=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 
+# ccache: its cache lives outside the clone, so a fresh clone (CI) reuses what earlier runs compiled.
+launcher=()
+if command -v ccache >/dev/null 2>&1; then
+  if [ -z "${CCACHE_DIR:-}" ] && ccache --show-config 2>/dev/null | grep -q '^(default) cache_dir = '; then
+    export CCACHE_DIR="${XDG_CACHE_HOME:-$HOME/.cache}/commerge-ccache"
+  fi
+  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+fi
+
 summary=()
+failed_configs=()
+
+# Appends the summary lines of a finished ctest run: counts from ctest's own report ($dir/ctest.log), and for
+# each skipped test its first CM-SKIP line from $dir/Testing/Temporary/LastTest.log.
+summarize_tests() {
+  local dir=$1 log="$1/ctest.log" total failed skipped
+  total=$(sed -n 's/.* tests failed out of \([0-9]*\)$/\1/p' "$log" | tail -n 1)
+  failed=$(sed -n 's/.*tests passed, \([0-9]*\) tests failed out of .*/\1/p' "$log" | tail -n 1)
+  skipped=$(grep -cE '^[[:space:]]+[0-9]+ - .* \((Skipped|Disabled)\)$' "$log" || true)
+  if [ -z "$total" ]; then
+    summary+=("    tests: no ctest report (see $log)")
+    return
+  fi
+  summary+=("    tests: $total run, $((total - failed - skipped)) passed, $failed failed, $skipped skipped")
+  local name reason
+  while IFS= read -r name; do
+    reason=$(awk -v want="$name" '
+      /^[0-9]+\/[0-9]+ Test: / { sub(/^[0-9]+\/[0-9]+ Test: /, ""); current = ($0 == want); output = 0; next }
+      current && /^Output:$/ { output = 1; next }
+      current && /^<end of output>$/ { output = 0; next }
+      current && output && /CM-SKIP:/ { sub(/.*CM-SKIP: */, ""); print; exit }' "$dir/Testing/Temporary/LastTest.log")
+    summary+=("    skipped: $name -- ${reason:-no CM-SKIP line}")
+  done < <(sed -nE 's/^[[:space:]]+[0-9]+ - (.*) \((Skipped|Disabled)\)$/\1/p' "$log")
+  while IFS= read -r name; do
+    summary+=("    failed: $name")
+  done < <(sed -n '/^The following tests FAILED:/,/^$/s/^[[:space:]]\{1,\}[0-9]\{1,\} - //p' "$log")
+}
+
+# Configures, builds and tests one configuration; never exits the script (the caller records a failure).
 run_config() {
   local name=$1; shift
   local dir="build-$name"
   local ctest_args=(--test-dir "$dir" -j "$jobs" --timeout 900)
-  local start=$SECONDS
+  local t0=$SECONDS t_configure t_build t_ctest
   echo "=== [$name] configure + build ($dir) ==="
   mkdir -p "$dir"
-  cmake -S . -B "$dir" "$@" >"$dir/configure.log" 2>&1 || { cat "$dir/configure.log"; return 1; }
+  if ! cmake -S . -B "$dir" "${launcher[@]}" "$@" >"$dir/configure.log" 2>&1; then
+    cat "$dir/configure.log"
+    summary+=("$name: FAILED at configure ($((SECONDS - t0)) s; log $dir/configure.log)")
+    return 1
+  fi
+  t_configure=$((SECONDS - t0)); t0=$SECONDS
   local build_args=()
   if [ "$name" = fuzz ]; then build_args=(--target cm_fuzz_all); fi  # only what the fuzzers link, and their seeds
-  cmake --build "$dir" -j "$jobs" "${build_args[@]}"
+  if ! cmake --build "$dir" -j "$jobs" "${build_args[@]}"; then
+    summary+=("$name: FAILED at build (configure $t_configure s, build $((SECONDS - t0)) s)")
+    return 1
+  fi
+  t_build=$((SECONDS - t0)); t0=$SECONDS
   case "$name" in
     host) ;;
     ipc)
       if ! grep -qw avx2 /proc/cpuinfo || ! grep -qw fma /proc/cpuinfo; then
         echo "=== [ipc] built; tests skipped: this CPU lacks AVX2/FMA needed by -march=skylake ==="
-        summary+=("ipc: built, tests skipped (no AVX2/FMA on this CPU)")
+        summary+=("ipc: built, tests not run: this CPU lacks AVX2/FMA (configure $t_configure s, build $t_build s)")
         return 0
       fi
       ctest_args+=(-LE heavy) ;;
@@ -60,9 +111,13 @@ run_config() {
   esac
   echo "=== [$name] ctest ==="
   local rc=0
-  ctest "${ctest_args[@]}" || rc=$?
+  ctest "${ctest_args[@]}" 2>&1 | tee "$dir/ctest.log" || rc=$?
+  t_ctest=$((SECONDS - t0))
+  local verdict=passed
+  if [ $rc -ne 0 ]; then verdict=FAILED; fi
+  summary+=("$name: $verdict (configure $t_configure s, build $t_build s, ctest $t_ctest s)")
+  summarize_tests "$dir"
   if [ $rc -ne 0 ]; then failure_digest "$name" "$dir"; return $rc; fi
-  summary+=("$name: passed in $((SECONDS - start)) s")
 }
 
 # After a failed ctest: the failed tests and the lines of their logs that say why, last in the output (a CI log
@@ -80,15 +135,23 @@ failure_digest() {
   echo "=== [$name] FAILED (full log: $log) ==="
 }
 
+start=$SECONDS
 for c in "${configs[@]}"; do
+  rc=0
   case "$c" in
-    host)   run_config host -DCMAKE_BUILD_TYPE=RelWithDebInfo ;;
+    host)   run_config host -DCMAKE_BUILD_TYPE=RelWithDebInfo || rc=$? ;;
     fuzz)   run_config fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-                            -DCM_FUZZ=ON -DCM_BUILD_TESTS=OFF -DCM_BUILD_PROFILING=OFF ;;
-    asan)   run_config asan -DCMAKE_BUILD_TYPE=Debug -DCM_SANITIZE=ON -DCM_BUILD_PROFILING=OFF ;;
-    jetson) run_config jetson -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/aarch64-jetson-nano.cmake ;;
-    ipc)    run_config ipc -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/x86_64-ipc6000.cmake ;;
+                            -DCM_FUZZ=ON -DCM_BUILD_TESTS=OFF -DCM_BUILD_PROFILING=OFF || rc=$? ;;
+    asan)   run_config asan -DCMAKE_BUILD_TYPE=Debug -DCM_SANITIZE=ON -DCM_BUILD_PROFILING=OFF || rc=$? ;;
+    jetson) run_config jetson -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/aarch64-jetson-nano.cmake \
+            || rc=$? ;;
+    ipc)    run_config ipc -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/x86_64-ipc6000.cmake || rc=$? ;;
   esac
+  if [ $rc -ne 0 ]; then failed_configs+=("$c"); fi
 done
-echo "=== summary ==="
+echo "=== summary ($((SECONDS - start)) s) ==="
 printf '  %s\n' "${summary[@]}"
+if [ ${#failed_configs[@]} -gt 0 ]; then
+  echo "=== FAILED: ${failed_configs[*]} ==="
+  exit 1
+fi

@@ -10,6 +10,8 @@
 #include <string>
 #include <system_error>
 
+#include "tests/support/test_skip.hpp"
+
 namespace fs = std::filesystem;
 
 namespace commerge::test {
@@ -19,14 +21,14 @@ std::string SharedDataDir() {
   return CM_SHARED_DATA_DIR;
 }
 
-std::string SharedDataPathOrSkip(const std::string& relative) {
+std::string SharedDataPathOrSkip(const std::string& relative, const char* file, int line) {
   const fs::path p = fs::path(SharedDataDir()) / relative;
+  RequireNoAssertionYet("shared data " + p.string(), file, line);
   std::error_code ec;
   if (fs::exists(p, ec)) return p.string();
-  std::printf("CM-SKIP: this test needs %s (licensed test data, never in the repository; "
-              "set COMMERGE_SHARED_DATA to its location)\n",
-              p.string().c_str());
-  std::fflush(stdout);
+  SkipTestCase("this test needs " + p.string() +
+                   " (licensed test data, never in the repository; set COMMERGE_SHARED_DATA to its location)",
+               file, line);
   return {};
 }
 
@@ -70,5 +72,7 @@ std::string ScratchDir() {
   static Scratch scratch;
   return scratch.dir.string();
 }
+
+std::string ScratchFile(const std::string& name) { return ScratchDir() + "/" + name; }
 
 }  // namespace commerge::test

@@ -1,54 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Test fixtures shared by the agent tests: a scan encoded as the robot stores it, cut into the scan_chunk_t
-// messages the robot sends (the same ScanChunkRange the robot and the server use), and a deterministic cloud.
+// The scan fixtures moved to tests/support/scan_chunks.hpp; this header forwards to it for the tests that still
+// include it by its old path.
 #pragma once
 
-#include <doctest/doctest.h>
-
-#include <cstddef>
-#include <cstdint>
-#include <vector>
-
-#include "core/agent/messages.hpp"
-#include "core/cloud/scan_codec.hpp"
-
-namespace commerge::test {
-
-inline std::vector<std::uint8_t> EncodeForTest(const std::vector<PointXYZI>& points) {
-  std::vector<std::uint8_t> out(EncodedScanBytes(points.size()));
-  auto info = EncodeScan(Span<const PointXYZI>(points), Span<std::uint8_t>(out));
-  REQUIRE(info.ok());
-  out.resize(info->bytes_written);
-  return out;
-}
-
-/// The chunks of one encoded scan, each payload at most `max_payload` bytes.
-inline std::vector<ScanChunk> ChunksOf(int robot, std::uint32_t keyframe, const std::vector<std::uint8_t>& bytes,
-                                       std::size_t max_payload = kMaxScanChunkPayloadBytes) {
-  std::vector<ScanChunk> out;
-  const std::uint64_t n = ScanChunkCount(bytes.size(), max_payload);
-  for (std::uint64_t i = 0; i < n; ++i) {
-    const ChunkRange r = ScanChunkRange(bytes.size(), n, i);
-    ScanChunk c;
-    c.robot_id = robot;
-    c.keyframe = keyframe;
-    c.total_bytes = static_cast<std::uint32_t>(bytes.size());
-    c.chunk_index = static_cast<std::uint16_t>(i);
-    c.num_chunks = static_cast<std::uint16_t>(n);
-    c.payload.assign(bytes.begin() + static_cast<std::ptrdiff_t>(r.offset),
-                     bytes.begin() + static_cast<std::ptrdiff_t>(r.offset + r.size));
-    out.push_back(c);
-  }
-  return out;
-}
-
-/// n points on a small repeating lattice (encodes to a known size: 6 bytes a point plus the header).
-inline std::vector<PointXYZI> LatticePoints(std::size_t n) {
-  std::vector<PointXYZI> p;
-  for (std::size_t i = 0; i < n; ++i) {
-    p.push_back({static_cast<float>(i % 37) * 0.5f, static_cast<float>(i % 11), static_cast<float>(i % 5), 0.0f});
-  }
-  return p;
-}
-
-}  // namespace commerge::test
+#include "tests/support/scan_chunks.hpp"

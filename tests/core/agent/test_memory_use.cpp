@@ -24,9 +24,9 @@
 #include "core/memory/budget.hpp"
 #include "core/sim/synthetic_scan.hpp"
 #include "tests/core/agent/keyframe_batch_fixtures.hpp"
-#include "tests/core/agent/scan_chunk_fixtures.hpp"
+#include "tests/support/scan_chunks.hpp"
 #include "tests/core/registration/registration_test_support.hpp"
-#include "tests/core/slam/block_loop_drive.hpp"
+#include "tests/support/block_loop_drive.hpp"
 
 using namespace commerge;
 using commerge::test::ChunksOf;
@@ -63,22 +63,12 @@ Rig MakeRig(std::size_t store_bytes, const RobotAgentParams& params = RobotAgent
   return rig;
 }
 
-SpinningLidar Vlp16Like() {
-  SpinningLidar lidar;
-  lidar.beams = 16;
-  lidar.min_elevation_deg = -15.0f;
-  lidar.max_elevation_deg = 15.0f;
-  lidar.azimuth_steps = 600;
-  lidar.max_range_m = 80.0f;
-  return lidar;
-}
-
-// Drives arc length [0, length_m] of the block loop (tests/core/slam/block_loop_drive.hpp), one scan per metre
+// Drives arc length [0, length_m] of the block loop (tests/support/block_loop_drive.hpp), one scan per metre
 // (a keyframe each), odometry = truth. Calls `after(agent)` after every scan.
 template <class After>
 void DriveBlock(RobotAgent* agent, double length_m, After after) {
   const BoxScene scene = MakeBlockLoopScene(11, static_cast<float>(test::kWidth), static_cast<float>(test::kHeight));
-  const SpinningLidar lidar = Vlp16Like();
+  const SpinningLidar lidar = test::BlockLoopLidar();
   std::vector<PointXYZI> scan;
   for (double s = 0.0; s <= length_m; s += 1.0) {
     const Eigen::Isometry3d T = test::PoseOnLoop(s);

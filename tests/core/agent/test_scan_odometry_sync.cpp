@@ -15,8 +15,11 @@
 #include "core/agent/scan_odometry_sync.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
+#include "tests/support/pose_errors.hpp"
 
 using namespace commerge;
+using commerge::test::RotationErrorRad;
+using commerge::test::TranslationErrorM;
 
 namespace {
 
@@ -52,12 +55,6 @@ double Sagitta(double dt_s) {
   return rho * (1.0 - std::cos(kYawRate * dt_s / 2.0));
 }
 
-double TranslationError(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return (a.translation() - b.translation()).norm();
-}
-double RotationError(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return RotationAngleRad(a.linear().transpose() * b.linear());
-}
 
 std::vector<PointXYZI> Points(std::size_t n, float tag = 0.0f) {
   std::vector<PointXYZI> p(n);
@@ -137,10 +134,10 @@ TEST_CASE("scan/odometry sync: parameters outside their ranges are refused, nami
 
 TEST_CASE("scan/odometry sync: InterpolatePose is linear in translation and slerps the shorter arc") {
   const Eigen::Isometry3d a = Truth(0.3), b = Truth(0.9);
-  CHECK(TranslationError(InterpolatePose(a, b, 0.0), a) < 1e-12);
-  CHECK(RotationError(InterpolatePose(a, b, 0.0), a) < 1e-9);
-  CHECK(TranslationError(InterpolatePose(a, b, 1.0), b) < 1e-12);
-  CHECK(RotationError(InterpolatePose(a, b, 1.0), b) < 1e-9);
+  CHECK(TranslationErrorM(InterpolatePose(a, b, 0.0), a) < 1e-12);
+  CHECK(RotationErrorRad(InterpolatePose(a, b, 0.0), a) < 1e-9);
+  CHECK(TranslationErrorM(InterpolatePose(a, b, 1.0), b) < 1e-12);
+  CHECK(RotationErrorRad(InterpolatePose(a, b, 1.0), b) < 1e-9);
   const Eigen::Isometry3d mid = InterpolatePose(a, b, 0.25);
   CHECK((mid.translation() - (0.75 * a.translation() + 0.25 * b.translation())).norm() < 1e-12);
   // Yaw 170 deg to yaw -170 deg: the shorter arc passes 180 deg, not 0 deg.
@@ -149,7 +146,7 @@ TEST_CASE("scan/odometry sync: InterpolatePose is linear in translation and sler
   yb.linear() = RotationFromYawPitchRoll(-170.0 * kPi / 180.0, 0.0, 0.0);
   const Eigen::Isometry3d ym = InterpolatePose(ya, yb, 0.5);
   CHECK(std::abs(std::abs(YawRad(ym.linear())) - kPi) < 1e-9);
-  CHECK(RotationError(ym, ya) == doctest::Approx(10.0 * kPi / 180.0).epsilon(1e-9));
+  CHECK(RotationErrorRad(ym, ya) == doctest::Approx(10.0 * kPi / 180.0).epsilon(1e-9));
 }
 
 TEST_CASE("scan/odometry sync: scans on a constant-yaw-rate circle get the analytic pose within the chord error") {
@@ -170,8 +167,8 @@ TEST_CASE("scan/odometry sync: scans on a constant-yaw-rate circle get the analy
     while (sync.PopReady(&s)) {
       const double t = static_cast<double>(s.utime_us - kT0) * 1e-6;
       CHECK(s.points.size() == 10);
-      max_error = std::max(max_error, TranslationError(s.T_odom_sensor, Truth(t)));
-      max_rotation_error = std::max(max_rotation_error, RotationError(s.T_odom_sensor, Truth(t)));
+      max_error = std::max(max_error, TranslationErrorM(s.T_odom_sensor, Truth(t)));
+      max_rotation_error = std::max(max_rotation_error, RotationErrorRad(s.T_odom_sensor, Truth(t)));
       ++checked;
     }
   };
@@ -207,7 +204,7 @@ TEST_CASE("scan/odometry sync: scans on a constant-yaw-rate circle get the analy
   mid.PushScan(Us(1.0 + odo_dt / 2), Span<const PointXYZI>(cloud));
   SyncedScan s;
   REQUIRE(mid.PopReady(&s));
-  CHECK(TranslationError(s.T_odom_sensor, Truth(1.0 + odo_dt / 2)) == doctest::Approx(bound).epsilon(1e-4));
+  CHECK(TranslationErrorM(s.T_odom_sensor, Truth(1.0 + odo_dt / 2)) == doctest::Approx(bound).epsilon(1e-4));
 }
 
 TEST_CASE("scan/odometry sync: odometry before, after or interleaved with the scans gives the same poses") {
@@ -262,10 +259,10 @@ TEST_CASE("scan/odometry sync: odometry before, after or interleaved with the sc
     CHECK(first[i].utime_us == Us(scan_times[i]));  // in time order
     CHECK(after[i].utime_us == first[i].utime_us);
     CHECK(mixed[i].utime_us == first[i].utime_us);
-    CHECK(TranslationError(after[i].T_odom_sensor, first[i].T_odom_sensor) < 1e-12);
-    CHECK(RotationError(after[i].T_odom_sensor, first[i].T_odom_sensor) < 1e-9);
-    CHECK(TranslationError(mixed[i].T_odom_sensor, first[i].T_odom_sensor) < 1e-12);
-    CHECK(TranslationError(first[i].T_odom_sensor, Truth(scan_times[i])) <= Sagitta(0.05) + 1e-9);
+    CHECK(TranslationErrorM(after[i].T_odom_sensor, first[i].T_odom_sensor) < 1e-12);
+    CHECK(RotationErrorRad(after[i].T_odom_sensor, first[i].T_odom_sensor) < 1e-9);
+    CHECK(TranslationErrorM(mixed[i].T_odom_sensor, first[i].T_odom_sensor) < 1e-12);
+    CHECK(TranslationErrorM(first[i].T_odom_sensor, Truth(scan_times[i])) <= Sagitta(0.05) + 1e-9);
   }
 }
 
@@ -282,8 +279,8 @@ TEST_CASE("scan/odometry sync: a scan at an odometry sample's time takes that po
   SyncedScan s;
   REQUIRE(sync.PopReady(&s));
   CHECK(s.utime_us == Us(2.0));
-  CHECK(TranslationError(s.T_odom_sensor, Truth(2.0)) < 1e-12);
-  CHECK(RotationError(s.T_odom_sensor, Truth(2.0)) < 1e-9);
+  CHECK(TranslationErrorM(s.T_odom_sensor, Truth(2.0)) < 1e-12);
+  CHECK(RotationErrorRad(s.T_odom_sensor, Truth(2.0)) < 1e-9);
   REQUIRE(s.points.size() == cloud.size());
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     CHECK(s.points[i].x == cloud[i].x);

@@ -15,18 +15,13 @@
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/sim/synthetic_scan.hpp"
-#include "tests/core/slam/block_loop_drive.hpp"
+#include "tests/support/block_loop_drive.hpp"
 
 using namespace commerge;
 
 TEST_CASE("Robot agent streams poses moved beyond its threshold and refreshes requested ones exactly") {
   const BoxScene scene = MakeBlockLoopScene(11, static_cast<float>(test::kWidth), static_cast<float>(test::kHeight));
-  SpinningLidar lidar;
-  lidar.beams = 16;
-  lidar.min_elevation_deg = -15.0f;
-  lidar.max_elevation_deg = 15.0f;
-  lidar.azimuth_steps = 600;
-  lidar.max_range_m = 80.0f;
+  const SpinningLidar lidar = test::BlockLoopLidar();
   auto solid = SolidDescriptor::Create(SolidPreset(LidarSensor::kVelodyneVlp16));
   REQUIRE(solid.ok());
   ScanStoreParams store_params;

@@ -11,11 +11,14 @@
 #include <vector>
 
 #include "core/cloud/scan_codec.hpp"
+#include "tests/support/scan_chunks.hpp"
+#include "tests/support/strings.hpp"
 
 namespace commerge {
 namespace {
 
-bool Contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+using test::Contains;
+using test::EncodeForTest;
 
 // Bitwise CRC-32 (no table), straight from the polynomial.
 std::uint32_t ReferenceCrc32(const std::vector<std::uint8_t>& bytes) {
@@ -74,15 +77,6 @@ std::vector<PointXYZI> RandomCloud(std::mt19937& rng, std::size_t n, float exten
   return cloud;
 }
 
-std::vector<std::uint8_t> Encode(const std::vector<PointXYZI>& points, ScanEncodeInfo* info_out = nullptr) {
-  std::vector<std::uint8_t> buf(EncodedScanBytes(points.size()));
-  const Result<ScanEncodeInfo> info = EncodeScan(Span<const PointXYZI>(points), Span<std::uint8_t>(buf));
-  REQUIRE_MESSAGE(info.ok(), info.status().ToString());
-  buf.resize(info->bytes_written);
-  if (info_out) *info_out = *info;
-  return buf;
-}
-
 std::int16_t StoredCm(const std::vector<std::uint8_t>& buf, std::size_t point, int axis) {
   const std::size_t at = 12 + 6 * point + 2 * static_cast<std::size_t>(axis);
   const int u = buf[at] | (buf[at + 1] << 8);
@@ -117,7 +111,7 @@ TEST_CASE("scan_codec: random clouds round-trip within 0.5 cm, in order, byte-id
       CAPTURE(extent_m);
       const std::vector<PointXYZI> cloud = RandomCloud(rng, n, extent_m);
       ScanEncodeInfo info;
-      const std::vector<std::uint8_t> buf = Encode(cloud, &info);
+      const std::vector<std::uint8_t> buf = EncodeForTest(cloud, &info);
       CHECK(info.num_input == n);
       CHECK(info.num_encoded == n);
       CHECK(info.dropped_nonfinite == 0);
@@ -160,7 +154,7 @@ TEST_CASE("scan_codec: Quantisation rounds half away from zero and keeps exactly
       {0.0f, -327.68f, 0.0f, 0.0f},                                        // -32768 cm: dropped (range is symmetric)
       {0.0f, 0.0f, 1.0e6f, 0.0f},    {0.004999f, -0.005001f, 1.0f, 0.0f}};
   ScanEncodeInfo info;
-  const std::vector<std::uint8_t> buf = Encode(cloud, &info);
+  const std::vector<std::uint8_t> buf = EncodeForTest(cloud, &info);
   CHECK(info.num_encoded == 3);
   CHECK(info.dropped_out_of_range == 3);
   CHECK(info.dropped_nonfinite == 0);
@@ -185,7 +179,7 @@ TEST_CASE("scan_codec: Non-finite and out-of-range points are dropped and counte
                                         {0.0f, 0.0f, -500.0f, 0.0f}, {-7.0f, -8.0f, -9.0f, 0.0f}};
   CHECK(CountEncodablePoints(Span<const PointXYZI>(cloud)) == 3);
   ScanEncodeInfo info;
-  const std::vector<std::uint8_t> buf = Encode(cloud, &info);
+  const std::vector<std::uint8_t> buf = EncodeForTest(cloud, &info);
   CHECK(info.num_input == 8);
   CHECK(info.num_encoded == 3);
   CHECK(info.dropped_nonfinite == 3);
@@ -237,7 +231,7 @@ TEST_CASE("scan_codec: Encoding needs exactly EncodedScanBytes of the kept point
 
 TEST_CASE("scan_codec: Truncated and oversized buffers are rejected with the sizes in the message") {
   std::mt19937 rng(11);
-  const std::vector<std::uint8_t> buf = Encode(RandomCloud(rng, 5, 10.0f));
+  const std::vector<std::uint8_t> buf = EncodeForTest(RandomCloud(rng, 5, 10.0f));
   REQUIRE(buf.size() == 42);
   std::vector<PointXYZI> decoded = {{1, 2, 3, 4}};
   for (std::size_t len = 0; len < buf.size(); ++len) {
@@ -258,7 +252,7 @@ TEST_CASE("scan_codec: Truncated and oversized buffers are rejected with the siz
 
 TEST_CASE("scan_codec: Any single corrupted byte is detected (magic, version, flags, count, CRC, payload)") {
   std::mt19937 rng(5);
-  const std::vector<std::uint8_t> buf = Encode(RandomCloud(rng, 5, 10.0f));
+  const std::vector<std::uint8_t> buf = EncodeForTest(RandomCloud(rng, 5, 10.0f));
   std::vector<PointXYZI> decoded;
   for (std::size_t at = 0; at < buf.size(); ++at) {
     for (const std::uint8_t flip : {std::uint8_t{0x01}, std::uint8_t{0x80}, std::uint8_t{0xFF}}) {
@@ -291,7 +285,7 @@ TEST_CASE("scan_codec: Any single corrupted byte is detected (magic, version, fl
 
 TEST_CASE("scan_codec: DecodeScan bounds what an untrusted buffer may allocate and reuses the caller's vector") {
   std::mt19937 rng(9);
-  const std::vector<std::uint8_t> buf = Encode(RandomCloud(rng, 100, 10.0f));
+  const std::vector<std::uint8_t> buf = EncodeForTest(RandomCloud(rng, 100, 10.0f));
   std::vector<PointXYZI> decoded;
   const Result<std::size_t> limited = DecodeScan(Span<const std::uint8_t>(buf), &decoded, 99);
   REQUIRE_FALSE(limited.ok());

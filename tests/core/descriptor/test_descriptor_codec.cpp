@@ -16,9 +16,12 @@
 #include "tests/core/descriptor/descriptor_test_util.hpp"
 #include "core/descriptor/solid.hpp"
 #include "core/geometry/angles.hpp"
+#include "tests/support/pose_errors.hpp"
 
 namespace commerge {
 namespace {
+
+using test::RotationErrorRad;
 
 
 using Descriptor = std::array<float, kKeyframeDescriptorDim>;
@@ -81,9 +84,6 @@ Eigen::Isometry3d RandomPose(std::mt19937& rng, double extent_m) {
   return T;
 }
 
-double RotationError(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return Eigen::AngleAxisd(a.transpose() * b).angle();
-}
 
 KeyframeRecord MakeRecord(std::uint32_t index, const Eigen::Isometry3d& T, const Descriptor& d) {
   KeyframeRecord r;
@@ -178,7 +178,7 @@ TEST_CASE("keyframe record round trip: random descriptors and poses, derived err
     // Pose: float32 translation (<= half an ulp: 0.49 mm below 16 km), smallest-three rotation.
     const double t_err = (dec->T_map_sensor.translation() - T.translation()).cwiseAbs().maxCoeff();
     max_t_err = std::max(max_t_err, t_err);
-    const double rot_err = RotationError(dec->T_map_sensor.linear(), T.linear());
+    const double rot_err = RotationErrorRad(dec->T_map_sensor.linear(), T.linear());
     max_rot_err = std::max(max_rot_err, rot_err);
     const Eigen::Matrix3d R = dec->T_map_sensor.linear();
     CHECK((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-12);
@@ -260,7 +260,7 @@ TEST_CASE("keyframe record: quaternion edge cases (ties, sign, 180-degree turns)
     REQUIRE(EncodeKeyframeRecord(MakeRecord(7, T, d), AsSpan(rec)).ok());
     const auto dec = DecodeKeyframeRecord(AsSpan(rec));
     REQUIRE_MESSAGE(dec.ok(), dec.status().ToString());
-    CHECK(RotationError(dec->T_map_sensor.linear(), T.linear()) < 2e-4);
+    CHECK(RotationErrorRad(dec->T_map_sensor.linear(), T.linear()) < 2e-4);
   }
 }
 

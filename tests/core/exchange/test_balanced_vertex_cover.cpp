@@ -19,6 +19,7 @@
 #include "core/solvers/lp_relaxation.hpp"
 #include "core/solvers/min_cut.hpp"
 #include "tests/core/exchange/cover_reference.hpp"
+#include "tests/support/exchange_graph_generators.hpp"
 
 namespace commerge {
 namespace {
@@ -243,15 +244,7 @@ BipartiteGraph Complete(int n, int m) {
 
 // Like sequential matching output: left i joins right j when |j - i * m / n| <= half_width, with random gaps.
 BipartiteGraph DiagonalBand(int n, int m, double half_width, double keep, std::mt19937& rng) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::vector<BipartiteEdge> e;
-  for (int u = 0; u < n; ++u) {
-    const double centre = static_cast<double>(u) * static_cast<double>(m) / static_cast<double>(n);
-    for (int v = 0; v < m; ++v) {
-      if (std::fabs(static_cast<double>(v) - centre) <= half_width && unit(rng) < keep) e.push_back({u, v});
-    }
-  }
-  return MakeGraph(n, m, e);
+  return MakeGraph(n, m, test::DiagonalBandEdges(n, m, half_width, keep, rng));
 }
 
 // Hub-heavy: a few high-degree left vertices (a monologue-prone graph) plus sparse random edges.
@@ -309,11 +302,7 @@ void RunGlpkRandomBlock(unsigned seed) {
     const int n = size(rng);
     const int m = size(rng);
     const double avg_degree = 1.0 + 3.0 * unit(rng);
-    const double p = avg_degree / static_cast<double>(m);
-    std::vector<BipartiteEdge> e;
-    for (int u = 0; u < n; ++u)
-      for (int v = 0; v < m; ++v)
-        if (unit(rng) < p) e.push_back({u, v});
+    const std::vector<BipartiteEdge> e = test::RandomBipartiteEdges(n, m, avg_degree, rng);
     BalancedCoverParams params;
     params.participation = {0.5, 0.5};
     if (trial % 3 == 1) params.participation = {0.9, 0.1};
@@ -747,19 +736,13 @@ void CheckModelAgainstGlpk(const SmallModel& sm) {
 
 SmallModel RandomMediumModel(std::mt19937& rng, int robots, int per_robot_min, int per_robot_max, double avg_degree,
                              bool weighted) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::vector<int> counts(static_cast<std::size_t>(robots));
-  std::vector<int> robot_of;
+  int total = 0;
   for (int r = 0; r < robots; ++r) {
     counts[static_cast<std::size_t>(r)] = per_robot_min + static_cast<int>(rng() % static_cast<unsigned>(per_robot_max - per_robot_min + 1));
-    robot_of.insert(robot_of.end(), static_cast<std::size_t>(counts[static_cast<std::size_t>(r)]), r);
+    total += counts[static_cast<std::size_t>(r)];
   }
-  const int total = static_cast<int>(robot_of.size());
-  const double p = avg_degree / total;
-  std::vector<ExchangeEdge> edges;
-  for (int u = 0; u < total; ++u)
-    for (int v = u + 1; v < total; ++v)
-      if (robot_of[static_cast<std::size_t>(u)] != robot_of[static_cast<std::size_t>(v)] && unit(rng) < p) edges.push_back({u, v});
+  const std::vector<ExchangeEdge> edges = test::RandomMultiRobotEdges(counts, avg_degree, rng);
   SmallModel sm{MakeExchange(counts, edges), {}, {}, -1};
   if (weighted) {
     sm.weights.resize(static_cast<std::size_t>(total));

@@ -28,9 +28,11 @@ using test::ReadExchangeGraphIndex;
 
 constexpr double kGlpkLimitS = 20.0;
 
-// Balanced sweep over the graphs whose name contains `filter` (weighted = the files' weights, else unit).
-void BalancedSweep(const std::string& filter, bool weighted, int expected_graphs) {
-  CM_SHARED_DATA_OR_SKIP(tsv, "graphs/exchange_cslam_resource/exchange_graphs.tsv");
+constexpr const char* kIndex = "graphs/exchange_cslam_resource/exchange_graphs.tsv";
+
+// Balanced sweep over the graphs of the index `tsv` whose name contains `filter` (weighted = the files' weights,
+// else unit). The test cases request the index before their first sweep, so a missing one skips them cleanly.
+void BalancedSweep(const std::string& tsv, const std::string& filter, bool weighted, int expected_graphs) {
   const std::string dir = tsv.substr(0, tsv.find_last_of('/') + 1);
   int graphs = 0;
   for (const auto& [name, opt_mwvc] : ReadExchangeGraphIndex(tsv)) {
@@ -76,44 +78,59 @@ void BalancedSweep(const std::string& filter, bool weighted, int expected_graphs
 
 // Groups keep every test case well inside the CTest timeout (600 s) even when glp_intopt runs to its limit.
 TEST_CASE("Heavy exchange graphs: balanced weighted cover equals glp_intopt, KITTI 00 fov ov02 to ov04") {
-  for (const char* f : {"kitti00_fov_r30_ov02", "kitti00_fov_r30_ov03", "kitti00_fov_r30_ov04"}) BalancedSweep(f, true, 1);
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
+  for (const char* f : {"kitti00_fov_r30_ov02", "kitti00_fov_r30_ov03", "kitti00_fov_r30_ov04"}) {
+    BalancedSweep(tsv, f, true, 1);
+  }
 }
 TEST_CASE("Heavy exchange graphs: balanced weighted cover equals glp_intopt, KITTI 00 fov ov05 to ov08") {
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
   for (const char* f : {"kitti00_fov_r30_ov05", "kitti00_fov_r30_ov06", "kitti00_fov_r30_ov07", "kitti00_fov_r30_ov08"}) {
-    BalancedSweep(f, true, 1);
+    BalancedSweep(tsv, f, true, 1);
   }
 }
 TEST_CASE("Heavy exchange graphs: balanced weighted cover equals glp_intopt, KITTI 00 radius") {
-  BalancedSweep("kitti00_radius", true, 5);
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
+  BalancedSweep(tsv, "kitti00_radius", true, 5);
 }
 TEST_CASE("Heavy exchange graphs: balanced weighted cover equals glp_intopt, KITTI 00 DBoW2") {
-  BalancedSweep("kitti00_dbow2", true, 9);
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
+  BalancedSweep(tsv, "kitti00_dbow2", true, 9);
 }
 TEST_CASE("Heavy exchange graphs: balanced weighted cover equals glp_intopt, KITTI 06 fov") {
-  BalancedSweep("kitti06_fov", true, 7);
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
+  BalancedSweep(tsv, "kitti06_fov", true, 7);
 }
 TEST_CASE("Heavy exchange graphs: balanced weighted cover equals glp_intopt, KITTI 06 radius and DBoW2") {
-  BalancedSweep("kitti06_radius", true, 6);
-  BalancedSweep("kitti06_dbow2", true, 9);
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
+  BalancedSweep(tsv, "kitti06_radius", true, 6);
+  BalancedSweep(tsv, "kitti06_dbow2", true, 9);
 }
 TEST_CASE("Heavy exchange graphs: balanced unit cover equals glp_intopt, KITTI 00 fov ov02 to ov04") {
-  for (const char* f : {"kitti00_fov_r30_ov02", "kitti00_fov_r30_ov03", "kitti00_fov_r30_ov04"}) BalancedSweep(f, false, 1);
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
+  for (const char* f : {"kitti00_fov_r30_ov02", "kitti00_fov_r30_ov03", "kitti00_fov_r30_ov04"}) {
+    BalancedSweep(tsv, f, false, 1);
+  }
 }
 TEST_CASE("Heavy exchange graphs: balanced unit cover equals glp_intopt, KITTI 00 fov ov05 to ov08") {
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
   for (const char* f : {"kitti00_fov_r30_ov05", "kitti00_fov_r30_ov06", "kitti00_fov_r30_ov07", "kitti00_fov_r30_ov08"}) {
-    BalancedSweep(f, false, 1);
+    BalancedSweep(tsv, f, false, 1);
   }
 }
 TEST_CASE("Heavy exchange graphs: balanced unit cover equals glp_intopt, KITTI 00 radius") {
-  BalancedSweep("kitti00_radius", false, 5);
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
+  BalancedSweep(tsv, "kitti00_radius", false, 5);
 }
 TEST_CASE("Heavy exchange graphs: balanced unit cover equals glp_intopt, KITTI 00 DBoW2") {
-  BalancedSweep("kitti00_dbow2", false, 9);
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
+  BalancedSweep(tsv, "kitti00_dbow2", false, 9);
 }
 TEST_CASE("Heavy exchange graphs: balanced unit cover equals glp_intopt, KITTI 06") {
-  BalancedSweep("kitti06_fov", false, 7);
-  BalancedSweep("kitti06_radius", false, 6);
-  BalancedSweep("kitti06_dbow2", false, 9);
+  CM_SHARED_DATA_OR_SKIP(tsv, kIndex);
+  BalancedSweep(tsv, "kitti06_fov", false, 7);
+  BalancedSweep(tsv, "kitti06_radius", false, 6);
+  BalancedSweep(tsv, "kitti06_dbow2", false, 9);
 }
 
 }  // namespace

@@ -10,9 +10,12 @@
 
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
+#include "tests/support/pose_errors.hpp"
 
 namespace commerge {
 namespace {
+
+using test::RotationErrorRad;
 
 Eigen::Isometry3d RandomTransform(std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
@@ -37,9 +40,6 @@ std::vector<Eigen::Vector3d> Transformed(const Eigen::Isometry3d& T, const std::
   return out;
 }
 
-double RotationErrorRad(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return RotationAngleRad(a.linear().transpose() * b.linear());
-}
 
 }  // namespace
 

@@ -5,12 +5,10 @@
 
 #include "core/common/bytes.hpp"
 #include "core/memory/budget.hpp"
+#include "tests/support/strings.hpp"
 
 using namespace commerge;
-
-namespace {
-bool Contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
-}  // namespace
+using commerge::test::Contains;
 
 TEST_CASE("Board profiles parse by name and reject unknown names with the valid list") {
   CHECK(*ParseBoardProfile("jetson-nano") == BoardProfile::kJetsonNano);

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Shared by the registration tests (fast and heavy): cheap generated submap pairs, pose errors, real clouds.
+// Shared by the registration tests (fast and heavy): cheap generated submap pairs, real clouds; the pose errors
+// (RotationErrorDeg, TranslationErrorM) come from tests/support/pose_errors.hpp.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -16,6 +17,7 @@
 #include "core/registration/submap_registration.hpp"
 #include "core/sim/synthetic_submaps.hpp"
 #include "platform/io/kitti_bin.hpp"
+#include "tests/support/pose_errors.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace commerge::test {
@@ -25,14 +27,6 @@ inline Eigen::Isometry3d YawOffset(double yaw_deg, double x_m, double y_m, doubl
   T.linear() = Eigen::AngleAxisd(yaw_deg * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T.translation() = Eigen::Vector3d(x_m, y_m, z_m);
   return T;
-}
-
-inline double RotationErrorDeg(const Eigen::Isometry3d& truth, const Eigen::Isometry3d& estimate) {
-  return RotationAngleRad(truth.linear().transpose() * estimate.linear()) * 180.0 / kPi;
-}
-
-inline double TranslationErrorM(const Eigen::Isometry3d& truth, const Eigen::Isometry3d& estimate) {
-  return (truth.translation() - estimate.translation()).norm();
 }
 
 /// A light spinning LiDAR (32 x 512 rays, 80 m) so that a pair costs tens of milliseconds, also under qemu.

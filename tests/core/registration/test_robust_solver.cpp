@@ -14,13 +14,12 @@
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/registration/robust_solver.hpp"
+#include "tests/support/pose_errors.hpp"
 
 namespace commerge {
 namespace {
 
-double AngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return RotationAngleRad(a.transpose() * b) * 180.0 / kPi;
-}
+using test::RotationErrorDeg;
 
 // Brute force of the adaptive-voting definition: the candidate consensus sets are the windows
 // {v : v_k - 2 bound <= v <= v_k} (the intervals open at v_k - bound); the cheapest wins, ties to the first in
@@ -86,7 +85,7 @@ TEST_CASE("GNC-TLS rotation recovers a known rotation with 40 percent outliers")
   std::vector<double> w;
   const RotationGncResult r = EstimateRotationGncTls(x, y, 1.5, p, &w);
   REQUIRE(r.valid);
-  CHECK(AngleDeg(r.R, R) < 0.5);
+  CHECK(RotationErrorDeg(r.R, R) < 0.5);
   CHECK(r.R.determinant() == doctest::Approx(1.0).epsilon(1e-9));
   std::size_t agree = 0;
   for (std::size_t k = 0; k < w.size(); ++k) agree += (w[k] >= 0.5) == truth[k];
@@ -100,7 +99,7 @@ TEST_CASE("GNC-TLS rotation recovers a known rotation with 40 percent outliers")
   const RotationGncResult clean = EstimateRotationGncTls(x, y_clean, 1.5, p);
   CHECK(clean.iterations == 1);
   CHECK(clean.num_inliers == x.size());
-  CHECK(AngleDeg(clean.R, R) < 1e-6);
+  CHECK(RotationErrorDeg(clean.R, R) < 1e-6);
 }
 
 TEST_CASE("GNC-TLS rotation: planar measurements still give a proper rotation (reflection fix)") {
@@ -114,7 +113,7 @@ TEST_CASE("GNC-TLS rotation: planar measurements still give a proper rotation (r
   const RotationGncResult r = EstimateRotationGncTls(x, y, 1.5, RobustSolverParams{});
   REQUIRE(r.valid);
   CHECK(r.R.determinant() == doctest::Approx(1.0).epsilon(1e-9));
-  CHECK(AngleDeg(r.R, R) < 1e-6);
+  CHECK(RotationErrorDeg(r.R, R) < 1e-6);
 }
 
 TEST_CASE("Robust registration: known rigid transform from correspondences with 20 percent outliers") {
@@ -132,7 +131,7 @@ TEST_CASE("Robust registration: known rigid transform from correspondences with 
   }
   const RobustRegistrationResult r = SolveRobustRegistration(a, b, RobustSolverParams{});
   REQUIRE(r.valid);
-  CHECK(AngleDeg(r.T_target_source.linear(), T.linear()) < 1.0);
+  CHECK(RotationErrorDeg(r.T_target_source.linear(), T.linear()) < 1.0);
   CHECK((r.T_target_source.translation() - T.translation()).norm() < 0.3);
   // Translation inliers are counted over all correspondences (spec quirk 4): the 64 true ones.
   CHECK(r.num_final_inliers >= 62);

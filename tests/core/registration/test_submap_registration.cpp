@@ -313,6 +313,7 @@ TEST_CASE("Real pair small_gicp, 1 m pre-voxelised: coarse-to-fine within 0.5 de
 
 TEST_CASE("Real pair KITTI 07 submaps 0-1 (31.6 deg turn) register to the ground truth, different places do not") {
   CM_SHARED_DATA_OR_SKIP(dir, "kitti/kitti07_keyframes");
+  CM_SHARED_DATA_OR_SKIP(k00, "kitti/kitti00_frames0-15");
   auto poses = platform::ReadKittiPoses(dir + "/poses_lidar.txt");
   REQUIRE(poses.ok());
   const Eigen::Isometry3d truth = (*poses)[0].inverse() * (*poses)[1];
@@ -326,7 +327,6 @@ TEST_CASE("Real pair KITTI 07 submaps 0-1 (31.6 deg turn) register to the ground
   CHECK(RotationErrorDeg(truth, r->T_target_source) < 1.0);
   CHECK(TranslationErrorM(truth, r->T_target_source) < 0.2);
   // A KITTI 00 scan is another city block: never a success.
-  CM_SHARED_DATA_OR_SKIP(k00, "kitti/kitti00_frames0-15");
   const std::vector<PointXYZI> other = test::LoadVoxelised(k00 + "/velodyne/000000.bin", Eigen::Isometry3d::Identity(), 1.0);
   auto o = RegisterSubmaps({other, {}}, {target, {}}, params);
   REQUIRE(o.ok());

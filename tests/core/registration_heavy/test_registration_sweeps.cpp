@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstring>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -31,14 +30,6 @@ SpinningLidar SweepLidar() {
   lidar.azimuth_steps = 1024;
   lidar.max_range_m = 100.0f;
   return lidar;
-}
-
-Eigen::Isometry3d ReadMatrix4(const std::string& path) {
-  Eigen::Matrix4d m;
-  std::istringstream is(test::ReadTextFile(path));
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) is >> m(r, c);
-  return Eigen::Isometry3d(m);
 }
 
 }  // namespace
@@ -144,7 +135,7 @@ TEST_CASE("Heavy: random pairs - at least 95 percent of overlapping pairs succee
 
 TEST_CASE("Heavy: small_gicp protocol at 0.3 m, k = 20 - 4 initial poses and 2 shifted sources, forward and inverse") {
   CM_SHARED_DATA_OR_SKIP(dir, "kitti/small_gicp_pair");
-  const Eigen::Isometry3d truth = ReadMatrix4(dir + "/T_target_source.txt");
+  const Eigen::Isometry3d truth = test::ReadTransform4x4(dir + "/T_target_source.txt");
   SubmapRegistrationParams params = MakeSubmapRegistrationParams(0.3);
   params.features.covariance_neighbors = 20;
   for (int d = 0; d < 2; ++d) {

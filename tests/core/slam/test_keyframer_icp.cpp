@@ -17,9 +17,11 @@
 #include "core/slam/keyframer.hpp"
 #include "platform/io/kitti_bin.hpp"
 #include "platform/io/poses.hpp"
+#include "tests/support/pose_errors.hpp"
 #include "tests/support/test_data.hpp"
 
 using namespace commerge;
+using commerge::test::AngleDeg;
 
 namespace {
 
@@ -48,7 +50,6 @@ std::vector<PointXYZI> VoxelisedStreetScan(float x_m, float yaw_rad, std::uint32
   return vox;
 }
 
-double AngleDeg(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).angle() * 180.0 / kPi; }
 
 }  // namespace
 

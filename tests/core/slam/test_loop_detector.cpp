@@ -15,6 +15,7 @@
 #include "core/sim/synthetic_scan.hpp"
 #include "core/slam/loop_detector.hpp"
 #include "core/slam/robot_mapper.hpp"
+#include "tests/support/pose_errors.hpp"
 
 using namespace commerge;
 
@@ -184,8 +185,7 @@ TEST_CASE("LoopVerifier: the GICP refinement removes point-to-point ICP's bias o
     CHECK(gicp->loop.information.isApprox(icp->loop.information, 1e-9));
     const double e_icp = (T_true.inverse() * icp->loop.T_match_query).translation().norm();
     const double e_gicp = (T_true.inverse() * gicp->loop.T_match_query).translation().norm();
-    const double rot_gicp_deg =
-        Eigen::AngleAxisd((T_true.inverse() * gicp->loop.T_match_query).linear()).angle() * 180.0 / kPi;
+    const double rot_gicp_deg = test::AngleDeg((T_true.inverse() * gicp->loop.T_match_query).linear());
     CAPTURE(r.x0);
     CAPTURE(e_icp);
     CAPTURE(e_gicp);

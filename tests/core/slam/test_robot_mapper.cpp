@@ -16,7 +16,7 @@
 #include "core/geometry/umeyama.hpp"
 #include "core/sim/synthetic_scan.hpp"
 #include "core/slam/robot_mapper.hpp"
-#include "tests/core/slam/block_loop_drive.hpp"
+#include "tests/support/block_loop_drive.hpp"
 
 using namespace commerge;
 
@@ -47,12 +47,7 @@ struct DriveOutcome {
 /// 3 m apart is false.
 DriveOutcome DriveBlock(const RobotMapperParams& params, double yaw_drift_deg_per_m, double scale_error) {
   const BoxScene scene = MakeBlockLoopScene(11, static_cast<float>(kWidth), static_cast<float>(kHeight));
-  SpinningLidar lidar;  // VLP-16-like, coarse azimuth to keep the test fast under qemu
-  lidar.beams = 16;
-  lidar.min_elevation_deg = -15.0f;
-  lidar.max_elevation_deg = 15.0f;
-  lidar.azimuth_steps = 600;
-  lidar.max_range_m = 80.0f;
+  const SpinningLidar lidar = test::BlockLoopLidar();
 
   auto solid = SolidDescriptor::Create(SolidPreset(LidarSensor::kVelodyneVlp16));
   REQUIRE(solid.ok());

@@ -17,11 +17,13 @@
 
 #include "core/cloud/scan_codec.hpp"
 #include "core/slam/scan_store.hpp"
+#include "tests/support/scan_chunks.hpp"
+#include "tests/support/strings.hpp"
 
 namespace commerge {
 namespace {
 
-bool Contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+using test::Contains;
 
 // An encoded scan of `n` points whose coordinates identify the keyframe and the point.
 std::vector<std::uint8_t> MakeScan(std::uint32_t keyframe, std::size_t n) {
@@ -30,10 +32,8 @@ std::vector<std::uint8_t> MakeScan(std::uint32_t keyframe, std::size_t n) {
     cloud[i] = {static_cast<float>(keyframe % 30000) * 0.01f, static_cast<float>(i % 30000) * 0.01f,
                 static_cast<float>((keyframe + i) % 200) - 100.0f, 0.0f};
   }
-  std::vector<std::uint8_t> buf(EncodedScanBytes(n));
-  const Result<ScanEncodeInfo> info = EncodeScan(Span<const PointXYZI>(cloud), Span<std::uint8_t>(buf));
-  REQUIRE(info.ok());
-  REQUIRE(info->bytes_written == buf.size());
+  const std::vector<std::uint8_t> buf = test::EncodeForTest(cloud);
+  REQUIRE(buf.size() == EncodedScanBytes(n));
   return buf;
 }
 

@@ -17,8 +17,8 @@
 #include <vector>
 
 #include "core/common/tsv_table.hpp"
-#include "core/solvers/dimacs_graph.hpp"
 #include "core/solvers/max_clique.hpp"
+#include "tests/support/graph_data.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace commerge {
@@ -432,25 +432,11 @@ TEST_CASE("Max clique time limit returns the best clique so far with a valid bou
 // Rows of a TSV file keyed by the "name" column; each row maps column name -> value.
 std::map<std::string, TsvRow> ReadTsv(const std::string& path) {
   std::map<std::string, TsvRow> rows;
-  for (TsvRow& row : ParseTsvTable(test::ReadTextFile(path))) {
+  for (TsvRow& row : test::ReadTsvFile(path)) {
     const std::string name = row["name"];
     rows[name] = std::move(row);
   }
   return rows;
-}
-
-// Graph of a DIMACS file: vertex weights from its "n" lines when present, edge weights (u + v) mod 200 + 1 on
-// 1-based ids (the MEWC convention of the shared data README).
-CliqueGraph LoadDimacs(const std::string& path) {
-  Result<DimacsGraph> d = ParseDimacsGraph(test::ReadTextFile(path), path);
-  REQUIRE(d.ok());
-  Result<CliqueGraph> g = CliqueGraph::Create(d->num_vertices, true);
-  REQUIRE(g.ok());
-  for (const auto& e : d->edges) REQUIRE(g->AddEdge(e.first, e.second, static_cast<double>((e.first + e.second + 2) % 200 + 1)).ok());
-  for (std::size_t v = 0; v < d->vertex_weights.size(); ++v) {
-    REQUIRE(g->SetVertexWeight(static_cast<int>(v), d->vertex_weights[v]).ok());
-  }
-  return std::move(*g);
 }
 
 void CheckDimacs(const std::string& tsv, const std::vector<std::string>& names, const char* column,
@@ -462,7 +448,7 @@ void CheckDimacs(const std::string& tsv, const std::vector<std::string>& names, 
     const auto it = rows.find(name);
     REQUIRE(it != rows.end());
     const double optimum = std::stod(it->second.at(column));
-    const CliqueGraph g = LoadDimacs(dir + it->second.at("file"));
+    const CliqueGraph g = test::LoadDimacsCliqueGraph(dir + it->second.at("file"), true);
     Result<CliqueSearchResult> r = SolveMaxClique(g, Params(o));
     REQUIRE(r.ok());
     CHECK(r->status == CliqueSearchStatus::kOptimal);

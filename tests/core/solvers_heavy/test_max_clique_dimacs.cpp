@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "core/common/tsv_table.hpp"
-#include "core/solvers/dimacs_graph.hpp"
 #include "core/solvers/max_clique.hpp"
+#include "tests/support/graph_data.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace commerge {
@@ -33,23 +33,8 @@ constexpr double kSlowTimeLimitS = 150.0;  // brock400_4, DSJC1000_5
 
 using Row = TsvRow;
 
-std::vector<Row> ReadTsv(const std::string& path) { return ParseTsvTable(test::ReadTextFile(path)); }
-
-CliqueGraph LoadDimacs(const std::string& path, bool edge_weights) {
-  Result<DimacsGraph> d = ParseDimacsGraph(test::ReadTextFile(path), path);
-  REQUIRE(d.ok());
-  Result<CliqueGraph> g = CliqueGraph::Create(d->num_vertices, edge_weights);
-  REQUIRE(g.ok());
-  for (const auto& e : d->edges) {
-    // 0-based ids from the parser; the convention uses 1-based DIMACS ids.
-    const double w = static_cast<double>(((e.first + 1) + (e.second + 1)) % 200 + 1);
-    REQUIRE(g->AddEdge(e.first, e.second, w).ok());
-  }
-  for (std::size_t v = 0; v < d->vertex_weights.size(); ++v) {
-    REQUIRE(g->SetVertexWeight(static_cast<int>(v), d->vertex_weights[v]).ok());
-  }
-  return std::move(*g);
-}
+using test::LoadDimacsCliqueGraph;
+using test::ReadTsvFile;
 
 double Recompute(const CliqueGraph& g, const std::vector<int>& k, CliqueObjective o) {
   double sum = 0.0;
@@ -70,12 +55,12 @@ void RunRows(const std::string& tsv, const char* column, CliqueObjective o,
   const std::string dir = tsv.substr(0, tsv.find_last_of('/') + 1);
   int runs = 0;
   int proven = 0;
-  for (const Row& row : ReadTsv(tsv)) {
+  for (const Row& row : ReadTsvFile(tsv)) {
     if (!select(row)) continue;
     const std::string& name = row.at("name");
     CAPTURE(name);
     const double optimum = std::stod(row.at(column));
-    const CliqueGraph g = LoadDimacs(dir + row.at("file"), o == CliqueObjective::kEdgeWeight);
+    const CliqueGraph g = LoadDimacsCliqueGraph(dir + row.at("file"), o == CliqueObjective::kEdgeWeight);
     CliqueSearchParams p;
     p.objective = o;
     const double limit_s = (name == "brock400_4" || name == "DSJC1000_5") ? kSlowTimeLimitS : kTimeLimitS;

@@ -16,7 +16,7 @@
 
 namespace commerge::platform {
 
-inline std::string ScratchFile(const std::string& name) { return test::ScratchDir() + "/" + name; }
+using test::ScratchFile;
 
 /// Header text followed by raw bytes, written with fwrite.
 inline std::string WriteFile(const std::string& name, const std::string& header, const std::string& bytes = {}) {

@@ -17,7 +17,7 @@
 namespace commerge::platform {
 namespace {
 
-std::string ScratchFile(const std::string& name) { return test::ScratchDir() + "/" + name; }
+using test::ScratchFile;
 
 /// Writes `bytes` bytes from `data` with plain fwrite (the independent writer).
 void WriteRawFile(const std::string& path, const void* data, std::size_t bytes) {

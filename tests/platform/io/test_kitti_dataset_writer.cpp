@@ -41,7 +41,7 @@ Written WriteSmallDataset(const std::string& name, OverlapMode overlap, int keyf
   auto plan = PlanMission(p);
   REQUIRE(plan.ok());
   const World world = *BuildMissionWorld(*plan);
-  const std::string root = test::ScratchDir() + "/" + name;
+  const std::string root = test::ScratchFile(name);
   auto writer = KittiDatasetWriter::Create(root, 2, false);
   REQUIRE_MESSAGE(writer.ok(), writer.status().ToString());
   std::vector<Eigen::Isometry3d> starts;

@@ -15,7 +15,7 @@
 namespace commerge::platform {
 namespace {
 
-std::string ScratchFile(const std::string& name) { return test::ScratchDir() + "/" + name; }
+using test::ScratchFile;
 
 std::string FirstBytes(const std::string& path, std::size_t n) {
   std::FILE* f = std::fopen(path.c_str(), "rb");

@@ -2,7 +2,7 @@
 // Helpers shared by the LCM codec tests: big-endian bytes read and patched by hand (independently of the codecs),
 // the generated types' own encode/decode as the reference, error-message checks, and the hostile-buffer sweeps
 // (every truncation, trailing bytes, counts and string lengths patched beyond MAX or the buffer) every decoder
-// must survive.
+// must survive, and a fully set robot_status_t.
 #pragma once
 
 #include <doctest/doctest.h>
@@ -15,8 +15,12 @@
 
 #include <Eigen/Geometry>
 
+#include <commerge/robot_status_t.hpp>
+
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
+#include "tests/support/pose_errors.hpp"
+#include "tests/support/strings.hpp"
 
 namespace commerge::platform {
 
@@ -69,7 +73,7 @@ inline void PutBeDouble(Buffer* b, std::size_t offset, double d) {
 
 inline Span<const std::uint8_t> S(const Buffer& b) { return Span<const std::uint8_t>(b.data(), b.size()); }
 
-inline bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+using test::Contains;
 
 // ---- the generated type's own encoding ----
 
@@ -193,11 +197,37 @@ void CheckPatchedStringLength(const Buffer& valid, std::size_t offset, const std
   CheckDataLoss(decode(S(b)), {field, "NUL"});
 }
 
+// ---- a generated message with every field set ----
+
+/// A robot_status_t with two modules and every field set (its generated encode/decode as the reference).
+inline commerge::robot_status_t SampleRobotStatusT() {
+  commerge::robot_status_t s{};
+  s.utime = 1763800000123456;
+  s.robot_id = 2;
+  s.session = 1763799999000002;
+  s.peak_rss_bytes = 300LL << 20;
+  s.budget_total_bytes = 275LL << 20;
+  s.budget_limit_bytes = 2650LL << 20;
+  s.num_modules = 2;
+  s.module_name = {"scan_store", "descriptor_db"};
+  s.module_budget_bytes = {160LL << 20, 10LL << 20};
+  s.module_used_bytes = {12345678, 4096};
+  s.module_high_water_bytes = {23456789, 8192};
+  s.keyframes = 120;
+  s.keyframes_acked = 100;
+  s.queued_keyframes = 20;
+  s.queued_poses = 3;
+  s.queued_chunks = 41;
+  s.bytes_sent = 123456789;
+  s.bytes_resent = 4567;
+  s.request_id = 5;
+  s.state = "sending scans";
+  return s;
+}
+
 // ---- poses ----
 
-inline double RotationError(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return Eigen::AngleAxisd(a.transpose() * b).angle();
-}
+using test::RotationErrorRad;
 
 inline Eigen::Isometry3d Pose(double angle, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -210,7 +240,7 @@ inline Eigen::Isometry3d Pose(double angle, const Eigen::Vector3d& axis, const E
 inline bool NearPose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   const double scale = std::max(1.0, b.translation().cwiseAbs().maxCoeff());
   return (a.translation() - b.translation()).cwiseAbs().maxCoeff() < 1e-5 * scale &&
-         RotationError(a.linear(), b.linear()) < 1e-5;
+         RotationErrorRad(a.linear(), b.linear()) < 1e-5;
 }
 
 }  // namespace commerge::platform

@@ -300,7 +300,7 @@ TEST_CASE("input codec: odometry round trip keeps the frames, the pose and the c
   CHECK(d->odom_frame == "odom");
   CHECK(d->sensor_frame == "velodyne");
   CHECK((d->T_odom_sensor.translation() - m.T_odom_sensor.translation()).norm() == 0.0);  // doubles: exact
-  CHECK(RotationError(d->T_odom_sensor.linear(), m.T_odom_sensor.linear()) < 1e-12);
+  CHECK(RotationErrorRad(d->T_odom_sensor.linear(), m.T_odom_sensor.linear()) < 1e-12);
   CHECK(d->covariance == m.covariance);
 
   OdometrySample identity;  // empty names, unknown covariance
@@ -360,7 +360,7 @@ TEST_CASE("input codec: the odometry decoder refuses non-finite values and a qua
   CheckDataLoss(DecodeOdometry(S(scaled(0.0))), {"odometry_t", "orientation", "norm"});
   auto near = DecodeOdometry(S(scaled(1.0009)));
   REQUIRE(near.ok());
-  CHECK(RotationError(near->T_odom_sensor.linear(), MakeOdometry().T_odom_sensor.linear()) < 1e-12);
+  CHECK(RotationErrorRad(near->T_odom_sensor.linear(), MakeOdometry().T_odom_sensor.linear()) < 1e-12);
   CHECK((near->T_odom_sensor.linear().transpose() * near->T_odom_sensor.linear() - Eigen::Matrix3d::Identity())
             .cwiseAbs()
             .maxCoeff() < 1e-14);

@@ -8,7 +8,6 @@
 #include <chrono>
 #include <csignal>
 #include <cstdint>
-#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -18,6 +17,7 @@
 #include <vector>
 
 #include "platform/lcm/lcm_bus.hpp"
+#include "tests/support/test_skip.hpp"
 
 namespace commerge::platform {
 namespace {
@@ -267,10 +267,8 @@ TEST_CASE("LcmBus: with a receive thread, signing here and verifying there keep 
 TEST_CASE("LcmBus udpm: LCM drops unpolled messages beyond its queue, the receive thread loses none") {
   // Real udpm on loopback: only inside the namespace of tests/apps/in_private_netns.sh (CTest "lcm bus: udpm in a
   // private network namespace ..."), which has no interface but lo, so nothing can leave the machine.
-  if (std::getenv("CM_PRIVATE_NETNS") == nullptr) {
-    std::printf("CM-SKIP: needs a private network namespace: run through tests/apps/in_private_netns.sh\n");
-    return;
-  }
+  CM_SKIP_TEST_IF(std::getenv("CM_PRIVATE_NETNS") == nullptr,
+                  "needs a private network namespace: run through tests/apps/in_private_netns.sh");
   // The interfaces of this process's network namespace (/proc/self/net/dev: two header lines, then "name: ...").
   std::ifstream dev("/proc/self/net/dev");
   REQUIRE(dev.good());

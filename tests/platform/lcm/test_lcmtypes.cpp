@@ -8,32 +8,11 @@
 
 #include <vector>
 
+#include "tests/platform/lcm/lcm_test_util.hpp"
+
 namespace {
 
-commerge::robot_status_t MakeStatus() {
-  commerge::robot_status_t s{};
-  s.utime = 1763800000123456;
-  s.robot_id = 2;
-  s.session = 1763799999000002;
-  s.peak_rss_bytes = 300LL << 20;
-  s.budget_total_bytes = 275LL << 20;
-  s.budget_limit_bytes = 2650LL << 20;
-  s.num_modules = 2;
-  s.module_name = {"scan_store", "descriptor_db"};
-  s.module_budget_bytes = {160LL << 20, 10LL << 20};
-  s.module_used_bytes = {12345678, 4096};
-  s.module_high_water_bytes = {23456789, 8192};
-  s.keyframes = 120;
-  s.keyframes_acked = 100;
-  s.queued_keyframes = 20;
-  s.queued_poses = 3;
-  s.queued_chunks = 41;
-  s.bytes_sent = 123456789;
-  s.bytes_resent = 4567;
-  s.request_id = 5;
-  s.state = "sending scans";
-  return s;
-}
+using commerge::platform::SampleRobotStatusT;
 
 struct Receiver {
   int received = 0;
@@ -53,7 +32,7 @@ void OnStatus(const lcm::ReceiveBuffer* rbuf, const std::string&, Receiver* rx) 
 }  // namespace
 
 TEST_CASE("robot_status_t encodes and decodes to the same values, and a truncated buffer is refused") {
-  const commerge::robot_status_t s = MakeStatus();
+  const commerge::robot_status_t s = SampleRobotStatusT();
   std::vector<std::uint8_t> buf(static_cast<std::size_t>(s.getEncodedSize()));
   REQUIRE(s.encode(buf.data(), 0, static_cast<int>(buf.size())) == static_cast<int>(buf.size()));
   commerge::robot_status_t d;
@@ -77,7 +56,7 @@ TEST_CASE("robot_status_t travels through LCM in process (memq://, no network)")
   REQUIRE(lcm.good());
   Receiver rx;
   lcm.subscribeFunction("COMMERGE_ROBOT_STATUS", &OnStatus, &rx);
-  const commerge::robot_status_t s = MakeStatus();
+  const commerge::robot_status_t s = SampleRobotStatusT();
   REQUIRE(lcm.publish("COMMERGE_ROBOT_STATUS", &s) == 0);
   while (lcm.handleTimeout(0) > 0) {
   }

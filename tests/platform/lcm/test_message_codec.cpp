@@ -151,20 +151,6 @@ commerge::scan_chunk_t ToLcm(const ScanChunk& m) {
   return msg;
 }
 
-commerge::robot_status_t MakeStatus() {
-  commerge::robot_status_t s{};
-  s.utime = 1763800000123456;
-  s.robot_id = 2;
-  s.peak_rss_bytes = 300LL << 20;
-  s.budget_total_bytes = 275LL << 20;
-  s.budget_limit_bytes = 2650LL << 20;
-  s.num_modules = 2;
-  s.module_name = {"scan_store", "descriptor_db"};
-  s.module_budget_bytes = {160LL << 20, 10LL << 20};
-  s.module_used_bytes = {12345678, 4096};
-  s.module_high_water_bytes = {23456789, 8192};
-  return s;
-}
 
 Buffer Encoded(const KeyframeBatch& m) {
   Buffer b;
@@ -258,7 +244,7 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
     CHECK(r->keyframe_index == original.keyframe_index);
     CHECK(r->descriptor_valid);
     CHECK((r->T_map_sensor.translation() - original.T_map_sensor.translation()).norm() < 1e-5);
-    CHECK(RotationError(r->T_map_sensor.linear(), original.T_map_sensor.linear()) < 2e-4);
+    CHECK(RotationErrorRad(r->T_map_sensor.linear(), original.T_map_sensor.linear()) < 2e-4);
     double dist2 = 0.0;
     for (std::size_t k = 0; k < kKeyframeDescriptorDim; ++k) {
       const double e = static_cast<double>(r->descriptor[k]) - static_cast<double>(original.descriptor[k]);
@@ -314,7 +300,7 @@ TEST_CASE("message codec: pose update round trip keeps poses within float precis
     const Eigen::Quaterniond q(static_cast<double>(GetBeFloat(b, q0 + 16 * i)), static_cast<double>(GetBeFloat(b, q0 + 16 * i + 4)),
                                static_cast<double>(GetBeFloat(b, q0 + 16 * i + 8)), static_cast<double>(GetBeFloat(b, q0 + 16 * i + 12)));
     CHECK(std::abs(q.norm() - 1.0) < 1e-6);
-    CHECK(RotationError(q.normalized().toRotationMatrix(), m.T_map_sensor[i].linear()) < 1e-5);
+    CHECK(RotationErrorRad(q.normalized().toRotationMatrix(), m.T_map_sensor[i].linear()) < 1e-5);
   }
   const auto lcm = LcmDecode<commerge::pose_update_t>(b);
   CHECK(lcm.getEncodedSize() == static_cast<int>(b.size()));
@@ -332,7 +318,7 @@ TEST_CASE("message codec: pose update round trip keeps poses within float precis
   for (std::size_t i = 0; i < 4; ++i) {
     INFO("pose ", i);
     CHECK((d->T_map_sensor[i].translation() - m.T_map_sensor[i].translation()).cwiseAbs().maxCoeff() < 1e-5);
-    CHECK(RotationError(d->T_map_sensor[i].linear(), m.T_map_sensor[i].linear()) < 1e-5);
+    CHECK(RotationErrorRad(d->T_map_sensor[i].linear(), m.T_map_sensor[i].linear()) < 1e-5);
     // A proper rotation (orthonormal, det 1) comes back.
     CHECK((d->T_map_sensor[i].linear().transpose() * d->T_map_sensor[i].linear() - Eigen::Matrix3d::Identity())
               .cwiseAbs()
@@ -488,7 +474,7 @@ TEST_CASE("message codec: every decoder refuses a foreign message type by its fi
   const Buffer poses = Encoded(MakePoseUpdate(1));
   const Buffer request = Encoded(MakeRequest({1, 2, 3, 4, 5}));
   const Buffer chunk = Encoded(MakeChunk(10));
-  const Buffer status = LcmEncode(MakeStatus());
+  const Buffer status = LcmEncode(SampleRobotStatusT());
   // Every buffer is at least as long as the longest header (38 bytes), so the fingerprint decides.
   for (const Buffer* b : {&batch, &poses, &request, &chunk, &status}) REQUIRE(b->size() >= 38);
 
@@ -844,7 +830,7 @@ TEST_CASE("message codec: a pose update with a non-unit quaternion or bad values
   REQUIRE(ok.ok());
   const Eigen::Matrix3d expected = Eigen::AngleAxisd(2.0 * kPi / 3.0,
                                                      Eigen::Vector3d(1, 1, 1).normalized()).toRotationMatrix();
-  CHECK(RotationError(ok->T_map_sensor[1].linear(), expected) < 1e-6);
+  CHECK(RotationErrorRad(ok->T_map_sensor[1].linear(), expected) < 1e-6);
   CHECK((ok->T_map_sensor[1].translation() - Eigen::Vector3d(1, 2, 3)).norm() == 0.0);
   CHECK(ok->keyframes[1] == 4);
 }

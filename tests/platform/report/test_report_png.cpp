@@ -30,7 +30,7 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr Rgb kWhite{255, 255, 255};
 constexpr Rgb kRed{255, 0, 0};
 
-std::string Scratch(const std::string& name) { return test::ScratchDir() + "/" + name; }
+using test::ScratchFile;
 
 bool Exists(const std::string& path) {
   struct stat st {};
@@ -181,7 +181,7 @@ RgbImage GradientImage(int w, int h) {
 
 void CheckRoundTrip(const RgbImage& image, const std::string& name) {
   CAPTURE(name);
-  const std::string path = Scratch(name);
+  const std::string path = ScratchFile(name);
   const Status written = WritePng(path, image);
   REQUIRE_MESSAGE(written.ok(), written.ToString());
   CHECK_FALSE(Exists(path + ".tmp"));
@@ -218,17 +218,17 @@ TEST_CASE("PNG files decode with an independent reader to exactly the written pi
 TEST_CASE("PNG writer splits large IDAT data into several chunks and uses several filters") {
   const RgbImage noise = RandomImage(160, 160, 7);  // 76.8 kB of incompressible pixels
   CheckRoundTrip(noise, "noise.png");
-  const Decoded decoded = DecodePng(Scratch("noise.png"));
+  const Decoded decoded = DecodePng(ScratchFile("noise.png"));
   CHECK(decoded.idat_chunks >= 2);
   const RgbImage ramp = GradientImage(64, 64);
   CheckRoundTrip(ramp, "ramp.png");
-  const Decoded ramp_decoded = DecodePng(Scratch("ramp.png"));
+  const Decoded ramp_decoded = DecodePng(ScratchFile("ramp.png"));
   CHECK(ramp_decoded.filters_used.size() >= 2);
   CHECK(*ramp_decoded.filters_used.rbegin() > 0);  // not only filter 0
 }
 
 TEST_CASE("PNG writer replaces an existing file") {
-  const std::string path = Scratch("replace.png");
+  const std::string path = ScratchFile("replace.png");
   std::FILE* f = std::fopen(path.c_str(), "wb");
   REQUIRE(f != nullptr);
   std::fputs("not a png, and longer than nothing", f);
@@ -237,7 +237,7 @@ TEST_CASE("PNG writer replaces an existing file") {
 }
 
 TEST_CASE("PNG writer names the path when the directory does not exist and leaves no file") {
-  const std::string path = Scratch("no_such_dir/picture.png");
+  const std::string path = ScratchFile("no_such_dir/picture.png");
   const Status s = WritePng(path, MakeImage(4, 4));
   REQUIRE_FALSE(s.ok());
   CHECK(s.code() == StatusCode::kIoError);
@@ -248,7 +248,7 @@ TEST_CASE("PNG writer names the path when the directory does not exist and leave
 }
 
 TEST_CASE("PNG writer reports a rename onto a directory and removes the temporary file") {
-  const std::string path = Scratch("is_a_dir.png");
+  const std::string path = ScratchFile("is_a_dir.png");
   REQUIRE(::mkdir(path.c_str(), 0755) == 0);
   const Status s = WritePng(path, MakeImage(4, 4));
   REQUIRE_FALSE(s.ok());
@@ -262,7 +262,7 @@ TEST_CASE("PNG writer reports a full disk and removes the temporary file") {
     MESSAGE("/dev/full is not writable here; full-disk case not run");
     return;
   }
-  const std::string path = Scratch("full.png");
+  const std::string path = ScratchFile("full.png");
   REQUIRE(::symlink("/dev/full", (path + ".tmp").c_str()) == 0);  // the writer's temporary file hits ENOSPC
   const Status s = WritePng(path, RandomImage(40, 40, 3));
   REQUIRE_FALSE(s.ok());
@@ -274,7 +274,7 @@ TEST_CASE("PNG writer reports a full disk and removes the temporary file") {
 }
 
 TEST_CASE("PNG writer refuses an empty image") {
-  const std::string path = Scratch("empty.png");
+  const std::string path = ScratchFile("empty.png");
   const Status s = WritePng(path, RgbImage());
   CHECK(s.code() == StatusCode::kInvalidArgument);
   CHECK(s.message().find(path) != std::string::npos);

@@ -13,14 +13,15 @@
 #include "core/cloud/scan_codec.hpp"
 #include "core/slam/scan_store.hpp"
 #include "platform/storage/scan_spill_file.hpp"
+#include "tests/support/scan_chunks.hpp"
+#include "tests/support/strings.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace commerge::platform {
 namespace {
 
 namespace fs = std::filesystem;
-
-bool Contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+using test::Contains;
 
 std::string FreshDir(const std::string& name) {
   const fs::path dir = fs::path(test::ScratchDir()) / name;
@@ -34,9 +35,7 @@ std::vector<std::uint8_t> MakeScan(std::uint32_t keyframe, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) {
     cloud[i] = {static_cast<float>(keyframe) * 0.5f, static_cast<float>(i) * 0.01f, -1.25f, 0.0f};
   }
-  std::vector<std::uint8_t> buf(EncodedScanBytes(n));
-  REQUIRE(EncodeScan(Span<const PointXYZI>(cloud), Span<std::uint8_t>(buf)).ok());
-  return buf;
+  return test::EncodeForTest(cloud);
 }
 
 std::unique_ptr<ScanSpillFile> OpenOrFail(const std::string& dir, const ScanSpillFileOptions& options = {}) {

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// A rectangular block drive (MakeBlockLoopScene's road): the ground-truth pose at any arc length. Shared by
-// the robot mapper and robot agent tests.
+// A rectangular block drive (MakeBlockLoopScene's road): the ground-truth pose at any arc length, and the LiDAR
+// the drives scan with. Shared by the robot mapper and robot agent tests.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "core/geometry/angles.hpp"
+#include "core/sim/synthetic_scan.hpp"
 
 namespace commerge::test {
 
@@ -31,6 +32,17 @@ inline Eigen::Isometry3d PoseOnLoop(double s) {
   T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T.translation() = Eigen::Vector3d(x, y, kSensorZ);
   return T;
+}
+
+/// VLP-16-like (16 beams, +-15 deg, 80 m) with a coarse azimuth (600 steps) to keep the drives fast under qemu.
+inline SpinningLidar BlockLoopLidar() {
+  SpinningLidar lidar;
+  lidar.beams = 16;
+  lidar.min_elevation_deg = -15.0f;
+  lidar.max_elevation_deg = 15.0f;
+  lidar.azimuth_steps = 600;
+  lidar.max_range_m = 80.0f;
+  return lidar;
 }
 
 }  // namespace commerge::test
