@@ -111,13 +111,26 @@ struct RunJob {
   std::vector<ModeOutcome> outcomes;
   double robots_s = 0.0, cascade_s = 0.0;
   std::int64_t robots_peak_rss = 0;
+  /// Bytes the send-all mode puts on the wire (every stored scan and its fresh pose, beside the stream),
+  /// counted whether or not that mode ran.
+  std::uint64_t send_all_bytes = 0;
 
   int num_robots() const { return static_cast<int>(robots.size()); }
-  /// The outcome of send-all, or nullptr when that mode did not run.
-  const ModeOutcome* send_all() const;
   std::uint64_t stream_bytes() const { return stream_ledger->Total().bytes; }
   std::uint64_t raw_keyframe_bytes() const;
 };
+
+/// How robot r of the final mode compares with the truth: whether a chain of robot pairs that share a place
+/// (core/eval/shared_place.hpp) joins it to robot 0, whether it was placed, and the placement's error.
+struct RobotVerdict {
+  bool has_gt = false;
+  bool reachable = false;
+  bool merged = false;
+  TransformError error;  ///< of T_world_map against the truth (when merged and has_gt)
+  bool wrong = false;    ///< merged and off the truth by more than kWrongMergeM / kWrongMergeDeg
+};
+constexpr double kWrongMergeM = 1.0;
+constexpr double kWrongMergeDeg = 3.0;
 
 // run_report.cpp: the results, side by side; the output files and pictures.
 /// Prints the mode table and the final mode's result (and keeps the text for the report's summary.md).
@@ -125,6 +138,8 @@ std::string PrintResults(const RunJob& job);
 /// Writes transforms.txt, trajectories/, merged_map.pcd/.ply, and with --report the pictures, summary.md and
 /// metrics.tsv. Returns the merged map's point count.
 std::size_t WriteRunOutputs(const RunJob& job, const std::string& summary);
+/// report/keyframes_<r>.tsv for every robot (--dump-keyframes).
+void DumpKeyframes(const RunJob& job);
 /// The robot's loops file (trajectories/robot_<r>_loops.txt).
 Status WriteLoops(const RobotRun& r, const std::string& path);
 /// The loop of `r` against its ground truth: E = (T_match_query_gt)^-1 T_match_query, in the query's frame.

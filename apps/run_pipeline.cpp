@@ -54,13 +54,6 @@ std::size_t ModeOutcome::pairs_merged() const {
   return n;
 }
 
-const ModeOutcome* RunJob::send_all() const {
-  for (const ModeOutcome& m : outcomes) {
-    if (m.mode == ExchangeMode::kSendAll) return &m;
-  }
-  return nullptr;
-}
-
 std::uint64_t RunJob::raw_keyframe_bytes() const {
   std::uint64_t n = 0;
   for (const RobotRun& r : robots) n += r.raw_keyframe_bytes;
@@ -123,7 +116,7 @@ int ReadInputs(RunJob* job) {
   for (int r = 0; r < num_robots; ++r) {
     auto spec = platform::ParseRobotDatasetSpec(o.datasets[static_cast<std::size_t>(r)]);
     if (!spec.ok()) return Fail(*job, kExitUsage, spec.status().message());
-    auto data = platform::OpenRobotDataset(*spec, o.gt_from_poses);
+    auto data = platform::OpenRobotDataset(*spec, o.gt_from_poses, o.odometry_file);
     if (!data.ok()) return Fail(*job, kExitFailure, data.status().message());
     job->robots[static_cast<std::size_t>(r)].data = std::move(*data);
   }
@@ -436,7 +429,9 @@ class Wire {
 };
 
 // Policies to the robots; their answers (the requested keyframes' current poses, then the scans) to the server.
-Status DeliverRequests(RunJob* job, ModeOutcome* out, Wire* wire, const std::vector<ScanRequest>& requests) {
+// `to_server` false: only counted (the bytes send-all would cost, without the server holding every scan).
+Status DeliverRequests(RunJob* job, ModeOutcome* out, Wire* wire, const std::vector<ScanRequest>& requests,
+                       bool to_server = true) {
   MergeServer& server = *job->server;
   std::vector<ScanChunk> chunks;
   for (const ScanRequest& req : requests) {
@@ -456,14 +451,16 @@ Status DeliverRequests(RunJob* job, ModeOutcome* out, Wire* wire, const std::vec
       auto rx = wire->Send(fresh_poses, req.robot_id, MessageKind::kPoseUpdates, Direction::kRobotToServer,
                            platform::EncodePoseUpdate, platform::DecodePoseUpdate);
       if (!rx.ok()) return Status(rx.status().code(), "pose update: " + rx.status().message());
-      if (Status st = server.OnPoseUpdate(*rx); !st.ok()) return Status(st.code(), "server refused a pose update: " + st.message());
+      if (Status st = to_server ? server.OnPoseUpdate(*rx) : Status::Ok(); !st.ok()) {
+        return Status(st.code(), "server refused a pose update: " + st.message());
+      }
     }
     out->scans_missing += answer->missing.size();
     for (const ScanChunk& c : chunks) {
       auto rx = wire->Send(c, req.robot_id, MessageKind::kScans, Direction::kRobotToServer, platform::EncodeScanChunk,
                            platform::DecodeScanChunk);
       if (!rx.ok()) return Status(rx.status().code(), "scan chunk: " + rx.status().message());
-      if (Status st = server.OnScanChunk(*rx); !st.ok()) {
+      if (Status st = to_server ? server.OnScanChunk(*rx) : Status::Ok(); !st.ok()) {
         std::fprintf(stderr, "%s: server refused a scan chunk: %s\n", job->tag, st.message().c_str());
       }
     }
@@ -523,6 +520,19 @@ class ProgressObserver : public MergeRoundObserver {
   ExchangeMode mode_;
 };
 
+// What send-all costs on the wire: the send-all plan's requests answered and counted, not delivered.
+int CountSendAllBytes(RunJob* job) {
+  ModeOutcome out;
+  out.mode = ExchangeMode::kSendAll;
+  out.ledger = std::make_unique<ByteLedger>(job->ledger_params);
+  Wire wire(out.ledger.get());
+  auto plan = job->server->Plan(ExchangeMode::kSendAll);
+  Status st = plan.ok() ? DeliverRequests(job, &out, &wire, plan->requests, /*to_server=*/false) : plan.status();
+  if (!st.ok()) return Fail(*job, kExitFailure, std::string("send-all bytes: ") + st.message());
+  job->send_all_bytes = job->stream_bytes() + out.ledger->Total().bytes;
+  return kExitOk;
+}
+
 // One merge round of `mode` on a server without scans; exchange_s is the time the messages took, merge_s the
 // round's own work.
 int RunMode(RunJob* job, ExchangeMode mode, Progress* progress) {
@@ -571,6 +581,9 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
   AddSolidMinZFlag(cmd, &o->solid_min_z_m);
   cmd->add_flag("--gt-from-poses", o->gt_from_poses,
                 "without poses_gt.txt, use the poses file as ground truth (real sequences split into robots)");
+  cmd->add_option("--odometry", o->odometry_file,
+                  "the robots' odometry: this file of each dataset directory instead of poses.txt (e.g. odom_poses.txt, "
+                  "a trajectory before loop closure); poses.txt stays the reference for --gt-from-poses");
   AddMergeFlags(cmd, &o->server);
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m,
                   "robots take a keyframe every this many metres (paper 1.0; datasets written at exactly 1 m "
@@ -579,6 +592,9 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "robots processed in parallel")->check(CLI::Range(1, 64))->capture_default_str();
   cmd->add_flag("!--no-report", o->report, "skip the PNG report pictures");
+  cmd->add_flag("--dump-keyframes", o->dump_keyframes,
+                "write report/keyframes_<r>.tsv: per keyframe its descriptor as the server holds it, its pose in the "
+                "robot's map frame and its ground truth (for offline analysis of place recognition)");
   cmd->add_flag("!--no-progress", o->progress, "no progress line on stderr");
   AddMemoryFlags(cmd, &o->memory);
 }
@@ -592,6 +608,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
   if (int rc = MapRobots(&job, &progress); rc != kExitOk) return rc;
   PrintRobots(&job);
   if (int rc = RunCascades(&job); rc != kExitOk) return rc;
+  if (int rc = CountSendAllBytes(&job); rc != kExitOk) return rc;
   for (ExchangeMode mode : job.modes) {
     if (int rc = RunMode(&job, mode, &progress); rc != kExitOk) return rc;
   }
@@ -607,11 +624,9 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     summary_out->pairs_merged = static_cast<int>(final_mode.pairs_merged());
     summary_out->final_rmse_m.clear();
     for (const PairEval& e : final_mode.robot_eval) summary_out->final_rmse_m.push_back(e.has_gt ? e.rmse_m : -1.0);
-    if (const ModeOutcome* all = job.send_all()) {
-      summary_out->final_reduction_percent =
-          100.0 * (1.0 - static_cast<double>(job.stream_bytes() + final_mode.ledger->Total().bytes) /
-                             static_cast<double>(job.stream_bytes() + all->ledger->Total().bytes));
-    }
+    summary_out->final_reduction_percent =
+        100.0 * (1.0 - static_cast<double>(job.stream_bytes() + final_mode.ledger->Total().bytes) /
+                           static_cast<double>(job.send_all_bytes));
   }
   if (final_mode.pairs_merged() == 0) return Fail(job, kExitFailure, "no robot pair could be merged (see above)");
   return kExitOk;

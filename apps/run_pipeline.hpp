@@ -21,12 +21,14 @@ struct RunOptions {
   std::string sensor = "hdl-64e";  ///< SOLiD preset of the robots' LiDAR
   double solid_min_z_m = SolidParams{}.min_z_m;  ///< --solid-min-z-m (off: -infinity)
   bool gt_from_poses = false;
+  std::string odometry_file;  ///< --odometry: the robots' odometry file in each dataset directory ("" = poses.txt)
   /// The merge server's parameters: the flags `run` shares with `server` (apps/merge_flags.hpp); max_submap_points
   /// comes from the memory configuration.
   MergeServerParams server;
   double keyframe_spacing_m = 1.0;  ///< the robots' keyframe spacing (paper: 1 m)
   int threads = 2;                  ///< robots processed at once
   bool report = true;
+  bool dump_keyframes = false;  ///< --dump-keyframes: report/keyframes_<r>.tsv (descriptors, poses, truth)
   bool progress = true;
   MemoryFlags memory;
   std::string tag = "commerge run";  ///< message prefix

@@ -12,6 +12,7 @@
 #include "apps/run_job.hpp"
 #include "core/agent/merge_round.hpp"
 #include "core/common/bytes.hpp"
+#include "core/eval/shared_place.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/merge/merged_map.hpp"
@@ -32,15 +33,140 @@ std::string PoseText(const Eigen::Isometry3d& T) {
          Fmt("%.2f", YawRad(T.linear()) * kRadToDeg) + " deg";
 }
 
+// ---- against ground truth: robots that share a place, merged, wrong; where unmerged pairs stopped
+
+// A forward-looking sensor (Livox Avia, 70 deg wide) does not see a place again from a heading more than its
+// field of view away; a spinning one does.
+SharedPlaceParams SharedPlaceFor(const RunJob& job) {
+  SharedPlaceParams p;
+  auto sensor = SolidPresetFor(job.options.sensor);
+  if (sensor.ok() && SolidParameterId(*sensor) == SolidParameterId(SolidPreset(LidarSensor::kLivoxAvia))) {
+    p.max_heading_deg = 70.0;
+  }
+  return p;
+}
+
+// Per pair (in the final round's order): the two robots share a place by ground truth; empty without it.
+std::vector<SharedPlace> SharedPlaces(const RunJob& job, const ModeOutcome& m) {
+  std::vector<SharedPlace> out;
+  const SharedPlaceParams params = SharedPlaceFor(job);
+  for (const PairMergeResult& p : m.round.pairs) {
+    const Trajectories& a = job.trajectories[static_cast<std::size_t>(p.alpha)];
+    const Trajectories& b = job.trajectories[static_cast<std::size_t>(p.beta)];
+    if (a.ground_truth.empty() || b.ground_truth.empty()) return {};
+    out.push_back(MeasureSharedPlace(Span<const Eigen::Isometry3d>(a.ground_truth),
+                                     Span<const Eigen::Isometry3d>(b.ground_truth), params));
+  }
+  return out;
+}
+
+std::vector<RobotVerdict> RobotVerdicts(const RunJob& job, const ModeOutcome& m) {
+  const std::vector<SharedPlace> shared = SharedPlaces(job, m);
+  std::vector<bool> shared_pairs;
+  for (int a = 0; a < job.num_robots(); ++a) {
+    for (int b = a + 1; b < job.num_robots(); ++b) {
+      bool s = false;
+      for (std::size_t i = 0; i < shared.size(); ++i) {
+        if (m.round.pairs[i].alpha == a && m.round.pairs[i].beta == b) s = shared[i].shared;
+      }
+      shared_pairs.push_back(s);
+    }
+  }
+  const std::vector<bool> reachable = ReachableFromRobot0(job.num_robots(), shared_pairs);
+  std::vector<RobotVerdict> out(static_cast<std::size_t>(job.num_robots()));
+  for (int r = 0; r < job.num_robots(); ++r) {
+    RobotVerdict& v = out[static_cast<std::size_t>(r)];
+    const Trajectories& t = job.trajectories[static_cast<std::size_t>(r)];
+    v.has_gt = !shared.empty();
+    v.reachable = v.has_gt && reachable[static_cast<std::size_t>(r)];
+    v.merged = m.round.in_world(r);
+    if (v.merged && v.has_gt) {
+      const Eigen::Isometry3d truth = job.trajectories[0].T_gt_map.inverse() * t.T_gt_map;
+      v.error = ComputeTransformError(m.round.T_world_map(r), truth);
+      v.wrong = r > 0 && (v.error.translation_m > kWrongMergeM || v.error.rotation_deg > kWrongMergeDeg);
+    }
+  }
+  return out;
+}
+
+// The stage that stopped pair i: "merged", the cascade stage that found nothing, the registration verdict, or
+// the frame solver.
+std::string StoppedAt(const RunJob& job, const ModeOutcome& m, std::size_t i) {
+  const PairMergeResult& p = m.round.pairs[i];
+  if (p.attempted && p.registration.success()) {
+    std::size_t k = 0;  // SolveFrames numbers the successful pairs in order
+    for (std::size_t j = 0; j < i; ++j) k += m.round.pairs[j].attempted && m.round.pairs[j].registration.success();
+    const bool rejected = m.round.frames_ok && k < m.round.frames.measurements.size() &&
+                          m.round.frames.measurements[k].verdict == MeasurementVerdict::kRejected;
+    return rejected ? "frame solver (inconsistent)" : "merged";
+  }
+  if (p.attempted) return std::string("registration (") + RegistrationVerdictName(p.registration.verdict) + ")";
+  const ExchangeCascadeResult* c = job.server->cascade(p.alpha, p.beta);
+  const std::string& reason = c != nullptr && !c->no_candidate_reason.empty() ? c->no_candidate_reason : p.reason;
+  const std::size_t colon = reason.find(':');
+  return colon == std::string::npos ? reason : reason.substr(0, colon);
+}
+
+// Descriptor distances of keyframe pairs at the same place (ground truth within kTruePairM and, for a
+// forward-looking sensor, headings within its field of view) and at different places (beyond kFalsePairM):
+// how well the descriptor separates them, per robot pair.
+constexpr double kTruePairM = 3.0;
+constexpr double kFalsePairM = 20.0;
+struct DistanceQuantiles {
+  std::size_t true_pairs = 0, false_pairs = 0;
+  double true_p05 = 0, true_p50 = 0, true_p95 = 0;     ///< of the true pairs
+  double false_p01 = 0, false_p05 = 0, false_p50 = 0;  ///< of the false pairs
+};
+
+double Quantile(std::vector<float>* v, double q) {
+  if (v->empty()) return -1.0;
+  const std::size_t k = std::min(v->size() - 1, static_cast<std::size_t>(q * static_cast<double>(v->size())));
+  std::nth_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(k), v->end());
+  return (*v)[k];
+}
+
+DistanceQuantiles DescriptorSeparation(const RunJob& job, int a, int b) {
+  DistanceQuantiles out;
+  const RobotKeyframeDb& A = job.server->robot(a);
+  const RobotKeyframeDb& B = job.server->robot(b);
+  const Trajectories& ta = job.trajectories[static_cast<std::size_t>(a)];
+  const Trajectories& tb = job.trajectories[static_cast<std::size_t>(b)];
+  const double max_heading_rad = SharedPlaceFor(job).max_heading_deg * kDegToRad;
+  std::vector<float> same, different;
+  for (std::size_t i = 0; i < A.size() && i < ta.ground_truth.size(); ++i) {
+    if (!A.valid[i]) continue;
+    for (std::size_t j = 0; j < B.size() && j < tb.ground_truth.size(); ++j) {
+      if (!B.valid[j]) continue;
+      const double d = (ta.ground_truth[i].translation() - tb.ground_truth[j].translation()).norm();
+      if (d > kTruePairM && d < kFalsePairM) continue;
+      const double heading =
+          RotationAngleRad(Eigen::AngleAxisd(YawRad(ta.ground_truth[i].linear()) - YawRad(tb.ground_truth[j].linear()),
+                                             Eigen::Vector3d::UnitZ()).toRotationMatrix());
+      if (d <= kTruePairM && heading > max_heading_rad) continue;
+      float dot = 0.0f;
+      for (std::size_t k = 0; k < kKeyframeDescriptorDim; ++k) {
+        dot += A.descriptors[i * kKeyframeDescriptorDim + k] * B.descriptors[j * kKeyframeDescriptorDim + k];
+      }
+      (d <= kTruePairM ? same : different).push_back(std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot)));
+    }
+  }
+  out.true_pairs = same.size();
+  out.false_pairs = different.size();
+  out.true_p05 = Quantile(&same, 0.05);
+  out.true_p50 = Quantile(&same, 0.5);
+  out.true_p95 = Quantile(&same, 0.95);
+  out.false_p01 = Quantile(&different, 0.01);
+  out.false_p05 = Quantile(&different, 0.05);
+  out.false_p50 = Quantile(&different, 0.5);
+  return out;
+}
+
 // ---- stdout
 
 std::string ModeRow(const RunJob& job, const ModeOutcome& m) {
   const std::uint64_t total = job.stream_bytes() + m.ledger->Total().bytes;
-  std::string vs = "-";
-  if (const ModeOutcome* all = job.send_all()) {
-    const double all_bytes = static_cast<double>(job.stream_bytes() + all->ledger->Total().bytes);
-    vs = Fmt("%.2f %% less", 100.0 * (1.0 - static_cast<double>(total) / all_bytes));
-  }
+  const std::string vs =
+      Fmt("%.2f %% less", 100.0 * (1.0 - static_cast<double>(total) / static_cast<double>(job.send_all_bytes)));
   std::string rmse;
   for (std::size_t r = 1; r < m.robot_eval.size(); ++r) {
     if (!rmse.empty()) rmse += ", ";
@@ -99,6 +225,20 @@ void FinalResult(const RunJob& job, const ModeOutcome& m, const std::function<vo
       if (e.has_gt) s += "; e_rmse " + Fmt("%.3f m", e.rmse_m);
     }
     line(s);
+  }
+  const std::vector<RobotVerdict> verdicts = RobotVerdicts(job, m);
+  if (job.num_robots() > 1 && verdicts[1].has_gt) {
+    int reachable = 0, merged = 0, wrong = 0;
+    for (int r = 1; r < job.num_robots(); ++r) {
+      const RobotVerdict& v = verdicts[static_cast<std::size_t>(r)];
+      reachable += v.reachable;
+      merged += v.merged && !v.wrong;
+      wrong += v.wrong;
+    }
+    line("  against ground truth: " + std::to_string(reachable) + " of " + std::to_string(job.num_robots() - 1) +
+         " robots share a place with robot 0's team, " + std::to_string(merged) + " placed right, " +
+         std::to_string(wrong) + " wrong (> " + Fmt("%.0f m", kWrongMergeM) + " or " + Fmt("%.0f deg", kWrongMergeDeg) +
+         " off)");
   }
   for (const MeasurementOutcome& mo : m.round.frames.measurements) {
     if (mo.verdict == MeasurementVerdict::kRejected) {
@@ -326,6 +466,35 @@ void WriteMetrics(const RunJob& job) {
       kv(p + "loop_error_max_m", Fmt("%.4f", le.max_m));
     }
   }
+  kv("stored_send_all_bytes", std::to_string(job.send_all_bytes));
+  const ModeOutcome& final_mode = job.outcomes.back();
+  const std::vector<SharedPlace> shared = SharedPlaces(job, final_mode);
+  for (std::size_t i = 0; i < final_mode.round.pairs.size(); ++i) {
+    const PairMergeResult& p = final_mode.round.pairs[i];
+    const std::string k = "pair." + std::to_string(p.alpha) + "-" + std::to_string(p.beta) + ".";
+    if (!shared.empty()) kv(k + "shared_path_m", Fmt("%.1f", std::min(shared[i].alpha_path_m, shared[i].beta_path_m)));
+    const bool no_place = !shared.empty() && !shared[i].shared;
+    const std::string stopped = StoppedAt(job, final_mode, i);
+    kv(k + "stopped", no_place && stopped != "merged" ? "no shared place" : stopped);
+    if (shared.empty()) continue;
+    const DistanceQuantiles q = DescriptorSeparation(job, p.alpha, p.beta);
+    kv(k + "true_pairs", std::to_string(q.true_pairs));
+    kv(k + "false_pairs", std::to_string(q.false_pairs));
+    kv(k + "true_distance_p05_p50_p95", Fmt("%.3f", q.true_p05) + " " + Fmt("%.3f", q.true_p50) + " " + Fmt("%.3f", q.true_p95));
+    kv(k + "false_distance_p01_p05_p50", Fmt("%.3f", q.false_p01) + " " + Fmt("%.3f", q.false_p05) + " " + Fmt("%.3f", q.false_p50));
+  }
+  const std::vector<RobotVerdict> verdicts = RobotVerdicts(job, final_mode);
+  for (int r = 0; r < job.num_robots(); ++r) {
+    const RobotVerdict& v = verdicts[static_cast<std::size_t>(r)];
+    const std::string k = "robot." + std::to_string(r) + ".";
+    kv(k + "reachable", v.has_gt ? std::to_string(v.reachable ? 1 : 0) : "-1");
+    kv(k + "merged", std::to_string(v.merged ? 1 : 0));
+    kv(k + "wrong", v.has_gt ? std::to_string(v.wrong ? 1 : 0) : "-1");
+    if (v.merged && v.has_gt) {
+      kv(k + "error_m", Fmt("%.3f", v.error.translation_m));
+      kv(k + "error_deg", Fmt("%.2f", v.error.rotation_deg));
+    }
+  }
   kv("peak_rss_after_robots_bytes", std::to_string(job.robots_peak_rss));
   kv("peak_rss_end_bytes", std::to_string(platform::ReadRss().peak_bytes));
   for (const ModeOutcome& m : job.outcomes) {
@@ -413,6 +582,34 @@ std::string PrintResults(const RunJob& job) {
   return summary;
 }
 
+void DumpKeyframes(const RunJob& job) {
+  for (int r = 0; r < job.num_robots(); ++r) {
+    const RobotKeyframeDb& db = job.server->robot(r);
+    const Trajectories& t = job.trajectories[static_cast<std::size_t>(r)];
+    const std::string path = job.report_dir + "/keyframes_" + std::to_string(r) + ".tsv";
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    if (f == nullptr) {
+      std::fprintf(stderr, "%s: cannot write %s\n", job.tag, path.c_str());
+      continue;
+    }
+    std::fprintf(f, "# keyframe valid x y z yaw_deg (map frame) gx gy gz gyaw_deg (ground truth, nan without) "
+                    "then the %zu descriptor values\n", kKeyframeDescriptorDim);
+    for (std::size_t k = 0; k < db.size(); ++k) {
+      const Eigen::Isometry3d& T = db.T_map_sensor[k];
+      const bool gt = k < t.ground_truth.size();
+      const Eigen::Isometry3d G = gt ? t.ground_truth[k] : Eigen::Isometry3d::Identity();
+      const double nan = std::nan("");
+      std::fprintf(f, "%zu %d %.4f %.4f %.4f %.3f %.4f %.4f %.4f %.3f", k, db.valid[k] ? 1 : 0, T.translation().x(),
+                   T.translation().y(), T.translation().z(), YawRad(T.linear()) * kRadToDeg,
+                   gt ? G.translation().x() : nan, gt ? G.translation().y() : nan, gt ? G.translation().z() : nan,
+                   gt ? YawRad(G.linear()) * kRadToDeg : nan);
+      for (std::size_t d = 0; d < kKeyframeDescriptorDim; ++d) std::fprintf(f, " %.6g", static_cast<double>(db.descriptors[k * kKeyframeDescriptorDim + d]));
+      std::fprintf(f, "\n");
+    }
+    std::fclose(f);
+  }
+}
+
 std::size_t WriteRunOutputs(const RunJob& job, const std::string& summary) {
   MergedMapBuilder after{MergedMapParams{}}, before{MergedMapParams{}};
   WriteMergeFiles(job, &after, job.options.report ? &before : nullptr);
@@ -428,6 +625,7 @@ std::size_t WriteRunOutputs(const RunJob& job, const std::string& summary) {
     }
   }
   WriteMetrics(job);
+  if (job.options.dump_keyframes) DumpKeyframes(job);
   return after.points().size();
 }
 

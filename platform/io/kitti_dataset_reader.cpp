@@ -55,7 +55,7 @@ Result<RobotDatasetSpec> ParseRobotDatasetSpec(const std::string& argument) {
   return spec;
 }
 
-Result<RobotDataset> OpenRobotDataset(const RobotDatasetSpec& spec, bool gt_from_poses) {
+Result<RobotDataset> OpenRobotDataset(const RobotDatasetSpec& spec, bool gt_from_poses, const std::string& odometry_file) {
   RobotDataset d;
   d.name = spec.dir + (spec.has_range ? ":" + std::to_string(spec.first_scan) + "-" + std::to_string(spec.end_scan) : "");
   std::error_code ec;
@@ -86,6 +86,18 @@ Result<RobotDataset> OpenRobotDataset(const RobotDatasetSpec& spec, bool gt_from
     return InvalidArgument("dataset " + spec.dir + ": " + poses_path + " has " + std::to_string(poses->size()) +
                            " poses for " + std::to_string(files.size()) + " scans in velodyne/");
   }
+  std::vector<Eigen::Isometry3d> reference;  // poses.txt when the odometry comes from another file
+  if (!odometry_file.empty()) {
+    const std::string odometry_path = (fs::path(spec.dir) / odometry_file).string();
+    auto odometry = ReadKittiPoses(odometry_path);
+    if (!odometry.ok()) return odometry.status();
+    if (odometry->size() != files.size()) {
+      return InvalidArgument("dataset " + spec.dir + ": " + odometry_path + " has " + std::to_string(odometry->size()) +
+                             " poses for " + std::to_string(files.size()) + " scans in velodyne/");
+    }
+    reference = std::move(*poses);
+    *poses = std::move(*odometry);
+  }
   std::vector<Eigen::Isometry3d> gt;
   const std::string gt_path = (fs::path(spec.dir) / "poses_gt.txt").string();
   if (fs::exists(gt_path, ec)) {
@@ -109,7 +121,7 @@ Result<RobotDataset> OpenRobotDataset(const RobotDatasetSpec& spec, bool gt_from
       break;
     }
   } else if (gt_from_poses) {
-    gt = *poses;
+    gt = reference.empty() ? *poses : reference;
     d.ground_truth_source = poses_path + " (--gt-from-poses)";
   }
   std::vector<double> times;

@@ -45,7 +45,10 @@ struct RobotDataset {
 
 /// Lists and validates (counts agree, files present). `gt_from_poses`: with no poses_gt.txt, take the poses
 /// file as ground truth (real sequences whose poses are the reference trajectory; the robot's own estimate then
-/// starts from the slice's first pose, so the unknown start frames remain to be found). Errors name the file.
-Result<RobotDataset> OpenRobotDataset(const RobotDatasetSpec& spec, bool gt_from_poses);
+/// starts from the slice's first pose, so the unknown start frames remain to be found). `odometry_file`
+/// (non-empty): the robot's odometry is DIR/odometry_file (e.g. odom_poses.txt, the trajectory before loop
+/// closure) while poses.txt stays the reference for `gt_from_poses`. Errors name the file.
+Result<RobotDataset> OpenRobotDataset(const RobotDatasetSpec& spec, bool gt_from_poses,
+                                      const std::string& odometry_file = "");
 
 }  // namespace commerge::platform

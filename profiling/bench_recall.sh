@@ -1,0 +1,172 @@
+#!/usr/bin/env bash
+# Usage: profiling/bench_recall.sh [--commerge BUILD/commerge] [--work DIR] [--slice quick|generated|long|real|all]
+#                                  [--seeds "11 12"] [--keyframes 800] [--long-keyframes 3000] [--run-args "ARGS"]
+#                                  [--worlds "urban campus indoor cave"] [--reuse-data] [--shared-data DIR]
+# Merge recall of `commerge run` with its default flags (only --lidar, and the data's own description:
+# keyframe spacing of generated data, odometry and reference files of real data), scenario by scenario:
+#   generated  every world x 2, 3 and 5 robots x complete / moderate / partial overlap x same / alternating
+#              directions x roll-pitch wobble 0 and the simulator's default, --keyframes per robot, per seed;
+#   long       a --long-keyframes subset: every world x 2 robots x complete / partial, the simulator's defaults;
+#   real       ../shared/data/real/{hku_mb,hku2} split in halves, thirds and two overlapping windows (odometry
+#              from odom_poses.txt, reference from poses.txt), and KITTI 00 frames 0-10 / 5-16;
+#   quick      a CI slice: two generated scenarios and the hku2 halves;
+#   all        generated + long + real.
+# Per scenario one row: robots that truly share a place with robot 0's component (from ground truth,
+# core/eval/shared_place.hpp), robots merged (right and wrong: > 1 m or > 3 deg from the truth), the worst
+# transform error, the worst e_rmse, bytes of A+B+C against sending every stored scan and against every raw
+# keyframe scan, and the stage that stopped each pair that shares a place and was not merged. Then one summary
+# line: recall, real splits merged, wrong merges, median byte reductions. Exit 0 (it measures; it does not judge)
+# unless a run fails (a crash, an unreadable input; "no pair merged" is a measurement, not a failure).
+# --run-args adds options to every `commerge run` (e.g. the paper's values: "--tau-area 10000 --tau-inter 0.1").
+set -euo pipefail
+bin=build/commerge
+work=${TMPDIR:-/tmp}/commerge-recall
+slice=all
+seeds="11"
+keyframes=800
+long_keyframes=3000
+run_args=""
+worlds="urban campus indoor cave"
+reuse=0
+shared=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --commerge) bin=$2; shift 2 ;;
+    --work) work=$2; shift 2 ;;
+    --slice) slice=$2; shift 2 ;;
+    --seeds) seeds=$2; shift 2 ;;
+    --keyframes) keyframes=$2; shift 2 ;;
+    --long-keyframes) long_keyframes=$2; shift 2 ;;
+    --run-args) run_args=$2; shift 2 ;;
+    --worlds) worlds=$2; shift 2 ;;
+    --reuse-data) reuse=1; shift ;;
+    --shared-data) shared=$2; shift 2 ;;
+    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+    *) echo "bench_recall.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+case "$slice" in quick|generated|long|real|all) ;; *) echo "bench_recall.sh: --slice: quick, generated, long, real or all" >&2; exit 2 ;; esac
+[ -x "$bin" ] || { echo "bench_recall.sh: $bin is not an executable (use --commerge)" >&2; exit 2; }
+here=$(cd "$(dirname "$0")" && pwd)
+[ -n "$shared" ] || shared=${COMMERGE_SHARED_DATA:-$here/../../shared/data}
+mkdir -p "$work"
+rows="$work/rows.tsv"
+: > "$rows"
+failures=0
+get() { awk -F'\t' -v k="$1" '$1 == k { print $2 }' "$2"; }
+
+# One `commerge run`; appends its row (and prints it). $1 = name, $2 = lidar preset, then dataset specs; extra
+# run options in the array `opts`.
+run_scenario() {
+  local name=$1 lidar=$2
+  shift 2
+  local out="$work/$name/run"
+  set +e
+  "$bin" run "$@" --lidar "$lidar" --modes A+B+C --no-report --no-progress --out "$out" "${opts[@]}" $run_args \
+      > "$work/$name.run.log" 2>&1
+  local rc=$?
+  set -e
+  local m="$out/report/metrics.tsv"
+  if [ ! -f "$m" ] || [ -z "$(get robots "$m")" ]; then
+    printf '%s\trun failed (exit %d, see %s)\n' "$name" "$rc" "$work/$name.run.log" | tee -a "$rows"
+    failures=$((failures + 1))
+    return
+  fi
+  local robots reachable=0 merged=0 wrong=0 worst_m=0 worst_deg=0 stops=""
+  robots=$(get robots "$m")
+  for ((r = 1; r < robots; r++)); do
+    local reach ok bad em ed
+    reach=$(get "robot.$r.reachable" "$m"); ok=$(get "robot.$r.merged" "$m"); bad=$(get "robot.$r.wrong" "$m")
+    [ "$reach" = 1 ] && reachable=$((reachable + 1))
+    if [ "$ok" = 1 ]; then
+      if [ "$bad" = 1 ]; then wrong=$((wrong + 1)); elif [ "$reach" = 1 ]; then merged=$((merged + 1)); fi
+      em=$(get "robot.$r.error_m" "$m"); ed=$(get "robot.$r.error_deg" "$m")
+      worst_m=$(awk -v a="$worst_m" -v b="$em" 'BEGIN { print (b > a ? b : a) }')
+      worst_deg=$(awk -v a="$worst_deg" -v b="$ed" 'BEGIN { print (b > a ? b : a) }')
+    fi
+  done
+  stops=$(awk -F'\t' '$1 ~ /^pair\..*\.stopped$/ && $2 != "merged" && $2 != "no shared place" {
+                        p = $1; sub(/^pair\./, "", p); sub(/\.stopped$/, "", p); s = s (s ? "; " : "") p ": " $2 }
+                      END { print s }' "$m")
+  local total stored raw
+  total=$(get mode.A+B+C.total_bytes "$m"); stored=$(get stored_send_all_bytes "$m"); raw=$(get raw_keyframe_scan_bytes "$m")
+  printf '%s\t%d\t%d\t%d\t%d\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$((robots - 1))" "$reachable" "$merged" "$wrong" \
+      "$(printf '%.2f m / %.2f deg' "$worst_m" "$worst_deg")" "$(get mode.A+B+C.worst_rmse_m "$m")" "$total" "$stored" \
+      "$(awk -v a="$stored" -v b="$total" 'BEGIN { printf "%.2f", 100 * (1 - b / a) }')" "$raw" \
+      "$(awk -v a="$raw" -v b="$total" 'BEGIN { printf "%.3f", 100 * (1 - b / a) }')" "${stops:--}" | tee -a "$rows"
+}
+
+generated() {  # $1 = keyframes, $2 = seed, $3 = world, $4 = robots, $5 = overlap, $6 = direction, $7 = wobble
+  local kf=$1 seed=$2 world=$3 robots=$4 overlap=$5 direction=$6 wobble=$7
+  local name="$world-${robots}r-$overlap-$direction-w$wobble-k$kf-s$seed"
+  local data="$work/$name/data"
+  if [ "$reuse" = 0 ] || [ ! -f "$data/robot_$((robots - 1))/poses.txt" ]; then
+    "$bin" sim --world "$world" --robots "$robots" --overlap "$overlap" --keyframes "$kf" --lidar vlp16 --seed "$seed" \
+        --threads 2 --direction "$direction" --wobble-deg "$wobble" --out "$data" --force > "$work/$name.sim.log" 2>&1
+  fi
+  local dirs=()
+  for ((r = 0; r < robots; r++)); do dirs+=("$data/robot_$r"); done
+  # The simulator writes one scan per metre: a keyframe every 0.9 m keeps every scan despite odometry noise.
+  opts=(--keyframe-spacing-m 0.9 --max-keyframes $((kf + 100)))
+  run_scenario "$name" vlp-16 "${dirs[@]}"
+}
+
+real_splits() {  # $1 = folder under real/, $2 = scans
+  local dir="$shared/real/$1" n=$2
+  if [ ! -f "$dir/poses.txt" ]; then
+    echo "CM-SKIP: $dir is absent: the real splits of $1 are not run" >&2
+    return
+  fi
+  opts=(--gt-from-poses --odometry odom_poses.txt)
+  local h=$((n / 2)) t=$((n / 3)) a=$((n * 6 / 10)) b=$((n * 4 / 10))
+  run_scenario "$1-halves" avia "$dir:0-$h" "$dir:$h-$n"
+  [ "$slice" = quick ] && return
+  run_scenario "$1-thirds" avia "$dir:0-$t" "$dir:$t-$((2 * t))" "$dir:$((2 * t))-$n"
+  run_scenario "$1-windows" avia "$dir:0-$a" "$dir:$b-$n"
+}
+
+echo "commerge recall benchmark: slice $slice, seeds $seeds, $keyframes keyframes (long: $long_keyframes)${run_args:+, run options: $run_args}"
+printf 'scenario\tother robots\tsharing robots\tmerged\twrong\tworst transform error\tworst e_rmse [m]\tA+B+C bytes\tstored send-all bytes\treduction %%\traw scan bytes\treduction vs raw %%\tunmerged pairs stopped at\n'
+for seed in $seeds; do
+  case "$slice" in
+    quick)
+      generated "$keyframes" "$seed" urban 2 complete same 0
+      generated "$keyframes" "$seed" campus 3 moderate alternate 0.5 ;;
+    generated|all)
+      for world in $worlds; do
+        for robots in 2 3 5; do
+          for overlap in complete moderate partial; do
+            for direction in same alternate; do
+              for wobble in 0 0.5; do generated "$keyframes" "$seed" "$world" "$robots" "$overlap" "$direction" "$wobble"; done
+            done
+          done
+        done
+      done ;;
+  esac
+  if [ "$slice" = long ] || [ "$slice" = all ]; then
+    for world in $worlds; do
+      for overlap in complete partial; do generated "$long_keyframes" "$seed" "$world" 2 "$overlap" alternate 0.5; done
+    done
+  fi
+done
+if [ "$slice" = real ] || [ "$slice" = all ] || [ "$slice" = quick ]; then
+  real_splits hku2 266
+  [ "$slice" = quick ] || real_splits hku_mb 457
+  if [ "$slice" != quick ] && [ -f "$shared/kitti/kitti00_frames0-15/poses.txt" ]; then
+    opts=(--gt-from-poses)
+    run_scenario kitti00-0-10-5-16 hdl-64e "$shared/kitti/kitti00_frames0-15:0-10" "$shared/kitti/kitti00_frames0-15:5-16"
+  fi
+fi
+awk -F'\t' '
+  NF >= 13 { reach += $3; merged += $4; wrong += $5; n++; red[n] = $10; raw[n] = $12
+             if ($1 ~ /^(hku|kitti)/) { real_robots += $2; real_merged += $4 } }
+  function median(a, k,   i, j, t) {
+    for (i = 1; i <= k; i++) for (j = i + 1; j <= k; j++) if (a[j] < a[i]) { t = a[i]; a[i] = a[j]; a[j] = t }
+    return k % 2 ? a[(k + 1) / 2] : (a[k / 2] + a[k / 2 + 1]) / 2
+  }
+  END {
+    if (n == 0) { print "summary: no scenario ran"; exit }
+    printf "summary: %d scenarios; recall %d of %d robots that share a place (%.1f %%); real splits: %d of %d robots merged; %d wrong merges; median reduction %.2f %% vs stored send-all, %.3f %% vs raw scans\n",
+           n, merged, reach, reach ? 100 * merged / reach : 100, real_merged, real_robots, wrong, median(red, n), median(raw, n)
+  }' "$rows"
+[ "$failures" -eq 0 ] || { echo "bench_recall.sh: $failures run(s) failed" >&2; exit 1; }
