@@ -4,10 +4,14 @@
 #   host     x86-64 RelWithDebInfo, every test including those labelled `heavy`
 #   fuzz     x86-64 clang RelWithDebInfo with libFuzzer + ASan + UBSan (tests/fuzz): every LCM decoder and the
 #            server inbox fuzzed from their seed corpora for a bounded time (about 2.5 minutes of ctest)
-#   asan     x86-64 Debug with AddressSanitizer + UndefinedBehaviorSanitizer (not `heavy`)
-#   jetson   aarch64 Cortex-A57 cross build (Release), tests under qemu-aarch64 -cpu cortex-a57 (not `heavy`)
+#   asan     x86-64 Debug (-O1, toolchains/cmake/CmDefaults.cmake) with AddressSanitizer + UndefinedBehaviorSanitizer
+#            (not `heavy`)
+#   jetson   aarch64 Cortex-A57 cross build (Release, no benchmarks), tests under qemu-aarch64 -cpu cortex-a57
+#            (not `heavy`)
 #   ipc      x86-64 -march=skylake (IPC-6000) build; its tests run when this CPU has AVX2/FMA (not `heavy`);
 #            not in the default set (CI time): run `tests/run.sh ipc`
+# Debug info is line tables only (CM_DEBUG_INFO=lines: backtraces and sanitizer reports keep file:line, the
+# builds take far less time); CM_DEBUG_INFO=full in the environment builds with full debug info instead.
 # Idempotent: build trees (build-<config>/) are reused; with ccache installed every compile goes through it, with
 # its cache outside the tree ($CCACHE_DIR, else a cache_dir set in ccache.conf, else
 # ${XDG_CACHE_HOME:-~/.cache}/commerge-ccache). A failing configuration does not stop the others. Ends with a
@@ -48,6 +52,8 @@ if command -v ccache >/dev/null 2>&1; then
   launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 fi
 
+debug_info=${CM_DEBUG_INFO:-lines}
+
 summary=()
 failed_configs=()
 
@@ -85,7 +91,7 @@ run_config() {
   local t0=$SECONDS t_configure t_build t_ctest
   echo "=== [$name] configure + build ($dir) ==="
   mkdir -p "$dir"
-  if ! cmake -S . -B "$dir" "${launcher[@]}" "$@" >"$dir/configure.log" 2>&1; then
+  if ! cmake -S . -B "$dir" "${launcher[@]}" -DCM_DEBUG_INFO="$debug_info" "$@" >"$dir/configure.log" 2>&1; then
     cat "$dir/configure.log"
     summary+=("$name: FAILED at configure ($((SECONDS - t0)) s; log $dir/configure.log)")
     return 1
@@ -144,7 +150,7 @@ for c in "${configs[@]}"; do
                             -DCM_FUZZ=ON -DCM_BUILD_TESTS=OFF -DCM_BUILD_PROFILING=OFF || rc=$? ;;
     asan)   run_config asan -DCMAKE_BUILD_TYPE=Debug -DCM_SANITIZE=ON -DCM_BUILD_PROFILING=OFF || rc=$? ;;
     jetson) run_config jetson -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/aarch64-jetson-nano.cmake \
-            || rc=$? ;;
+                              -DCM_BUILD_PROFILING=OFF || rc=$? ;;
     ipc)    run_config ipc -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/x86_64-ipc6000.cmake || rc=$? ;;
   esac
   if [ $rc -ne 0 ]; then failed_configs+=("$c"); fi
