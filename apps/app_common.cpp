@@ -7,6 +7,8 @@
 #include <optional>
 
 #include "core/common/bytes.hpp"
+#include "core/descriptor/ring_occupancy.hpp"
+#include "core/descriptor/solid.hpp"
 #include "platform/memory/allocator.hpp"
 #include "platform/memory/budget_check.hpp"
 #include "platform/memory/memory_limits.hpp"
@@ -117,6 +119,86 @@ void AddSolidMinZFlag(CLI::App* cmd, double* min_z_m) {
                   "whose rings move with roll and pitch; raise --tau-inter with it on the server (see core/README.md, "
                   "\"SOLiD without the ground\"). Every robot of a team needs the same value")
       ->check(CLI::Range(-1000.0, 1000.0));
+}
+
+void AddDescriptorFlags(CLI::App* cmd, DescriptorFlags* flags) {
+  cmd->add_option("--descriptor", flags->name,
+                  "the robots' place descriptor: ring (ours: occupancy of range rings by height above the ground, "
+                  "on the levelled scan) or solid (the paper's SOLiD on the raw scan); every robot of a team needs "
+                  "the same")
+      ->check(CLI::IsMember({"ring", "solid"}))
+      ->capture_default_str();
+  cmd->add_option("--descriptor-window-m", flags->window_m,
+                  "ring descriptor: the keyframes of the last this many metres of path join the scan (default: 5 "
+                  "for a forward-looking --lidar such as avia, 0 for a spinning one) [m]")
+      ->check(CLI::Range(-1.0, 50.0));
+  AddSolidMinZFlag(cmd, &flags->solid_min_z_m);
+  cmd->add_option("--tau-intra", flags->tau_intra,
+                  "intra-robot loops: a keyframe's nearest earlier keyframe is a loop candidate (then checked by ICP) "
+                  "when its descriptor distance is at most this (default: 0.15 for ring; SOLiD the paper's 0.05 for "
+                  "a spinning, 0.01 for a non-repetitive --lidar) [unit-vector L2 distance; paper: tau_intra]")
+      ->check(CLI::Range(0.0, 2.0));
+  cmd->add_option("--tau-window", flags->tau_window_keyframes,
+                  "intra-robot loops: the last this many keyframes are never candidates (paper: tau_window = 100)"
+                  " [keyframes]")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+}
+
+namespace {
+
+bool ForwardLooking(const std::string& lidar) {
+  auto preset = SolidPresetFor(lidar);
+  return preset.ok() && SolidParameterId(*preset) == SolidParameterId(SolidPreset(LidarSensor::kLivoxAvia));
+}
+
+}  // namespace
+
+double DefaultTauIntra(const std::string& descriptor, const std::string& lidar) {
+  if (descriptor == "ring") return 0.15;
+  return ForwardLooking(lidar) ? 0.01 : 0.05;
+}
+
+DescriptorInputParams RingDescriptorInput(const std::string& lidar) {
+  DescriptorInputParams input;
+  input.level = true;
+  input.local_map_window_m = ForwardLooking(lidar) ? 5.0 : 0.0;
+  return input;
+}
+
+Result<RobotDescriptor> MakeRobotDescriptor(const DescriptorFlags& flags, const std::string& lidar) {
+  RobotDescriptor out;
+  out.tau_intra = flags.tau_intra >= 0.0 ? flags.tau_intra : DefaultTauIntra(flags.name, lidar);
+  if (flags.name == "solid") {
+    auto params = SolidParamsFromFlags(lidar, flags.solid_min_z_m);
+    if (!params.ok()) return params.status();
+    auto solid = SolidDescriptor::Create(*params);
+    if (!solid.ok()) return solid.status();
+    out.descriptor = std::make_unique<SolidDescriptor>(std::move(*solid));
+    out.text = "SOLiD " + lidar + ", " + SolidMinZText(*params) + ", on the raw scan";
+    return out;
+  }
+  if (flags.name != "ring") return InvalidArgument("--descriptor: unknown descriptor '" + flags.name + "' (ring, solid)");
+  if (std::isfinite(flags.solid_min_z_m)) {
+    return InvalidArgument("--solid-min-z-m: applies to --descriptor solid only (the ring descriptor finds the "
+                           "ground itself)");
+  }
+  if (auto preset = SolidPresetFor(lidar); !preset.ok()) {
+    return Status(preset.status().code(), "--lidar: " + preset.status().message());
+  }
+  auto ring = RingOccupancyDescriptor::Create(RingOccupancyParams{});
+  if (!ring.ok()) return ring.status();
+  out.descriptor = std::make_unique<RingOccupancyDescriptor>(std::move(*ring));
+  out.input = RingDescriptorInput(lidar);
+  if (flags.window_m >= 0.0) out.input.local_map_window_m = flags.window_m;
+  char text[128];
+  std::snprintf(text, sizeof(text), "ring occupancy on the levelled scan%s", out.input.local_map_window_m > 0.0 ? "" : " alone");
+  out.text = text;
+  if (out.input.local_map_window_m > 0.0) {
+    std::snprintf(text, sizeof(text), " and the last %.1f m of keyframes", out.input.local_map_window_m);
+    out.text += text;
+  }
+  return out;
 }
 
 Result<SolidParams> SolidParamsFromFlags(const std::string& lidar, double min_z_m) {

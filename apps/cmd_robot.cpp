@@ -49,7 +49,7 @@ struct RobotOptions {
   std::string odometry_channel = platform::kOdometryChannel;
   double idle_finish_s = 5.0;
   std::string lidar = "hdl-64e";
-  double solid_min_z_m = SolidParams{}.min_z_m;
+  DescriptorFlags descriptor;
   double rate_hz = 10.0;
   double keyframe_spacing_m = 1.0;
   // One keyframe_batch_t / pose_update_t stays inside one UDP datagram at a 1500-byte MTU (WiFi): LCM drops a
@@ -104,9 +104,9 @@ class RobotProcess {
   static constexpr const char* kTag = "commerge robot";
   const RobotOptions& o_;
   MemorySetup setup_;
-  SolidParams solid_params_;
+  std::string descriptor_text_;
   platform::RobotDataset data_;
-  std::unique_ptr<SolidDescriptor> solid_;
+  std::unique_ptr<PlaceDescriptor> descriptor_;
   std::unique_ptr<ScanStore> store_;
   std::unique_ptr<RobotAgent> agent_;
   std::unique_ptr<RobotLink> link_;
@@ -123,9 +123,6 @@ class RobotProcess {
   Inbox inbox_;
   TokenBucket bucket_;  ///< --bandwidth-kbps
   std::int64_t bytes_sent_ = 0, bytes_resent_ = 0, publish_failures_ = 0;
-  // The map frame is the first scan's sensor frame: poses are relative to the first odometry pose.
-  Eigen::Isometry3d T_first_inv_ = Eigen::Isometry3d::Identity();
-  bool have_first_ = false;
   std::int64_t last_scan_us_ = -1, next_scan_us_ = 0, data_end_us_ = -1;
   std::size_t scan_ = 0;
   // The server session whose merge result placed this robot (0: none yet). Kept once set: a duplicated or late
@@ -141,12 +138,13 @@ int RobotProcess::Configure() {
     std::fprintf(stderr, "%s: give exactly one input: --data DIR (replay) or --live (odometry stack on LCM)\n", kTag);
     return kExitUsage;
   }
-  auto solid_params = SolidParamsFromFlags(o_.lidar, o_.solid_min_z_m);
-  if (!solid_params.ok()) {
-    std::fprintf(stderr, "%s: %s\n", kTag, solid_params.status().message().c_str());
+  auto descriptor = MakeRobotDescriptor(o_.descriptor, o_.lidar);
+  if (!descriptor.ok()) {
+    std::fprintf(stderr, "%s: %s\n", kTag, descriptor.status().message().c_str());
     return kExitUsage;
   }
-  solid_params_ = *solid_params;
+  descriptor_ = std::move(descriptor->descriptor);
+  descriptor_text_ = descriptor->text;
   if (!o_.live) {
     auto spec = platform::ParseRobotDatasetSpec(o_.data);
     if (!spec.ok()) {
@@ -160,13 +158,11 @@ int RobotProcess::Configure() {
     }
     data_ = std::move(*opened);
   }
-  auto solid = SolidDescriptor::Create(solid_params_);
   auto store_params = ScanStoreParamsFromBudget(setup_.config, ScanStorePolicy::kEvictOldest);
-  if (!solid.ok() || !store_params.ok()) {
-    std::fprintf(stderr, "%s: %s\n", kTag, (!solid.ok() ? solid.status() : store_params.status()).message().c_str());
+  if (!store_params.ok()) {
+    std::fprintf(stderr, "%s: %s\n", kTag, store_params.status().message().c_str());
     return kExitFailure;
   }
-  solid_ = std::make_unique<SolidDescriptor>(std::move(*solid));
   auto store = ScanStore::Create(*store_params);
   if (!store.ok()) {
     std::fprintf(stderr, "%s: scan store: %s\n", kTag, store.status().message().c_str());
@@ -179,6 +175,9 @@ int RobotProcess::Configure() {
   capacity.max_points_per_stored_scan = static_cast<std::size_t>(setup_.config.max_points_per_stored_scan);
   RobotAgentParams agent_params;
   agent_params.mapper.keyframer.keyframe_spacing_m = o_.keyframe_spacing_m;
+  agent_params.mapper.descriptor_input = descriptor->input;
+  agent_params.mapper.loop.max_descriptor_distance = descriptor->tau_intra;
+  agent_params.mapper.loop.window_keyframes = o_.descriptor.tau_window_keyframes;
   agent_params.max_records_per_batch = o_.records_per_batch;
   agent_params.max_poses_per_update = o_.poses_per_update;
   RobotLinkParams link_params;
@@ -189,7 +188,7 @@ int RobotProcess::Configure() {
       return kExitUsage;
     }
   }
-  agent_ = std::make_unique<RobotAgent>(o_.id, agent_params, capacity, solid_.get(), store_.get());
+  agent_ = std::make_unique<RobotAgent>(o_.id, agent_params, capacity, descriptor_.get(), store_.get());
   session_ = platform::WallTimeUs();
   link_ = std::make_unique<RobotLink>(session_, link_params, agent_.get());
   bus_params_.url = o_.lcm_url;
@@ -254,9 +253,8 @@ void RobotProcess::SayStart() const {
                    static_cast<long long>(session_), data_.scan_files.size(), o_.data.c_str(), o_.rate_hz);
     }
     // The id is not in the messages: the operator compares it across the team's robots.
-    std::fprintf(stderr, "%s %d: descriptor SOLiD %s, %s, parameter id 0x%08X (every robot must show the same)\n",
-                 kTag, o_.id, o_.lidar.c_str(), SolidMinZText(solid_params_).c_str(),
-                 static_cast<unsigned>(SolidParameterId(solid_params_)));
+    std::fprintf(stderr, "%s %d: descriptor %s, parameter id 0x%08X (every robot must show the same)\n", kTag,
+                 o_.id, descriptor_text_.c_str(), static_cast<unsigned>(agent_->mapper().descriptor_parameter_id()));
   }
   if (!o_.quiet || !bus_params_.authenticate) {
     std::fprintf(stderr, "%s %d: %s\n", kTag, o_.id, AuthDescription(o_.auth, bus_params_).c_str());
@@ -264,11 +262,9 @@ void RobotProcess::SayStart() const {
 }
 
 bool RobotProcess::MapScan(Span<const PointXYZI> points, const Eigen::Isometry3d& T_odom_sensor, const char* what) {
-  if (!have_first_) {
-    T_first_inv_ = T_odom_sensor.inverse();
-    have_first_ = true;
-  }
-  auto step = agent_->AddScan(points, T_first_inv_ * T_odom_sensor);
+  // The odometry pose as it comes: the mapper's map frame is its first keyframe's sensor frame, and the
+  // odometry frame's z (gravity, in an IMU-aided odometry) levels the descriptor's input.
+  auto step = agent_->AddScan(points, T_odom_sensor);
   if (!step.ok()) std::fprintf(stderr, "%s: scan %s: %s\n", kTag, what, step.status().message().c_str());
   return step.ok();
 }
@@ -455,8 +451,6 @@ int RobotProcess::Run() {
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   SayStart();
-  if (!o_.live) T_first_inv_ = data_.poses.front().inverse();
-  have_first_ = !o_.live;
   next_scan_us_ = platform::MonotonicUs();
   std::int64_t next_status_us = next_scan_us_;
   bool merged = false;
@@ -556,7 +550,7 @@ Command AddRobotCommand(CLI::App& root) {
       ->check(CLI::Range(0.1, 86400.0))
       ->capture_default_str();
   cmd->add_option("--lidar", o->lidar, "SOLiD sensor preset (hdl-64e, vlp-16, os1-64, os1-128, os2-128, avia, aeva)")->capture_default_str();
-  AddSolidMinZFlag(cmd, &o->solid_min_z_m);
+  AddDescriptorFlags(cmd, &o->descriptor);
   cmd->add_option("--rate-hz", o->rate_hz, "scans replayed per second")->check(CLI::Range(0.1, 1000.0))->capture_default_str();
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m, "distance between keyframes [m]")->capture_default_str();
   cmd->add_option("--lcm-url", o->lcm_url, "LCM provider URL (default: LCM_DEFAULT_URL)");

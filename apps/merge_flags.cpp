@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "core/exchange/exchange_policy.hpp"
+#include "core/exchange/neighbour_rank.hpp"
 #include "core/exchange/sequence_smoothing.hpp"
 
 namespace commerge::app {
@@ -15,7 +16,8 @@ using T = MergeFlag::Type;
 
 const MergeFlag kMergeFlags[] = {
     {"--tau-inter", "cascade.stage_a.tau_inter", "", 0.0, 2.0, "tau_inter",
-     "stage A: a keyframe pair is a candidate when its R-SOLiD descriptor distance is at most this", T::kDouble,
+     "stage A: a keyframe pair is a candidate when its descriptor distance (unit vectors, L2) is at most this; "
+     "with --neighbour-rank a cap on the nearest neighbours", T::kDouble,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.tau_inter; }},
     {"--tau-area", "cascade.stage_a.tau_area", "cells", 0.0, 1e12, "tau_area",
      "stage A: smallest span area (rows x columns of the bounding box) of an accepted cluster", T::kUint64,
@@ -26,6 +28,11 @@ const MergeFlag kMergeFlags[] = {
      "through each cell instead of the cell alone (sequence matching as in SeqSLAM); bridges single keyframes "
      "that jump above --tau-inter in corridors; 0 = the paper's per-cell threshold",
      T::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.sequence_half_window; }},
+    {"--neighbour-rank", "cascade.stage_a.neighbour_rank", "keyframes", 0.0, static_cast<double>(kMaxNeighbourRank),
+     "ours",
+     "stage A keeps a cell only when it is among the k nearest keyframes of its row or of its column (after the "
+     "sequence smoothing); --tau-inter is then a cap; 0 = the paper's absolute threshold alone",
+     T::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.neighbour_rank; }},
     {"--tau-con-m", "cascade.stage_c.tau_con_m", "m", 1e-3, 1e4, "tau_con",
      "stage C: two loops are compatible when their positional inconsistency is below this", T::kDouble,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_c.tau_con_m; }},

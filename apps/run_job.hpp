@@ -35,7 +35,7 @@ constexpr std::uint64_t kRawPointBytes = 16;
 
 struct RobotRun {
   platform::RobotDataset data;
-  std::unique_ptr<SolidDescriptor> solid;
+  std::unique_ptr<PlaceDescriptor> descriptor;
   std::unique_ptr<ScanStore> store;
   std::unique_ptr<RobotAgent> agent;
   std::vector<std::size_t> keyframe_scan;  ///< scan index (within the slice) of each keyframe
@@ -99,7 +99,9 @@ struct RunJob {
   const char* tag;
   RunClock::time_point start = RunClock::now();
   std::vector<ExchangeMode> modes;
-  SolidParams solid_params;
+  DescriptorInputParams descriptor_input;
+  double tau_intra = 0.05;  ///< the robots' loop gate (RobotDescriptor::tau_intra)
+  std::string descriptor_text;
   std::vector<RobotRun> robots;
   MemorySetup memory;
   std::string report_dir;

@@ -109,9 +109,11 @@ int ReadInputs(RunJob* job) {
     return Fail(*job, kExitUsage, std::to_string(num_robots) + " datasets given; one per robot, 2.." +
                                       std::to_string(kFrameSolverMaxRobots));
   }
-  auto solid_params = SolidParamsFromFlags(o.sensor, o.solid_min_z_m);
-  if (!solid_params.ok()) return Fail(*job, kExitUsage, solid_params.status().message());
-  job->solid_params = *solid_params;
+  auto descriptor = MakeRobotDescriptor(o.descriptor, o.sensor);  // checks the flags once, for every robot
+  if (!descriptor.ok()) return Fail(*job, kExitUsage, descriptor.status().message());
+  job->descriptor_input = descriptor->input;
+  job->descriptor_text = descriptor->text;
+  job->tau_intra = descriptor->tau_intra;
   job->robots.resize(static_cast<std::size_t>(num_robots));
   for (int r = 0; r < num_robots; ++r) {
     auto spec = platform::ParseRobotDatasetSpec(o.datasets[static_cast<std::size_t>(r)]);
@@ -134,7 +136,8 @@ int SetUpRun(RunJob* job) {
     return Fail(*job, kExitUsage, "--robots " + std::to_string(job->memory.config.max_robots) + " is fewer than the " +
                                       std::to_string(job->num_robots()) + " datasets");
   }
-  std::printf("%s: %d robots; %s\n", job->tag, job->num_robots(), job->memory.verdict.c_str());
+  std::printf("%s: %d robots; descriptor: %s; %s\n", job->tag, job->num_robots(), job->descriptor_text.c_str(),
+              job->memory.verdict.c_str());
   std::error_code ec;
   job->report_dir = o.out_dir + "/report";
   std::filesystem::create_directories(job->report_dir, ec);
@@ -201,18 +204,21 @@ int CreateRobots(RunJob* job) {
   capacity.max_points_per_stored_scan = static_cast<std::size_t>(config.max_points_per_stored_scan);
   for (int ri = 0; ri < job->num_robots(); ++ri) {
     RobotRun& r = job->robots[static_cast<std::size_t>(ri)];
-    auto solid = SolidDescriptor::Create(job->solid_params);
+    auto descriptor = MakeRobotDescriptor(job->options.descriptor, job->options.sensor);
     auto store_params = ScanStoreParamsFromBudget(config, ScanStorePolicy::kEvictOldest);
-    if (!solid.ok() || !store_params.ok()) {
-      return Fail(*job, kExitFailure, (!solid.ok() ? solid.status() : store_params.status()).message());
+    if (!descriptor.ok() || !store_params.ok()) {
+      return Fail(*job, kExitFailure, (!descriptor.ok() ? descriptor.status() : store_params.status()).message());
     }
-    r.solid = std::make_unique<SolidDescriptor>(std::move(*solid));
+    r.descriptor = std::move(descriptor->descriptor);
     auto store = ScanStore::Create(*store_params);
     if (!store.ok()) return Fail(*job, kExitFailure, "robot " + std::to_string(ri) + " scan store: " + store.status().message());
     r.store = std::move(*store);
     RobotAgentParams agent_params;
     agent_params.mapper.keyframer.keyframe_spacing_m = job->options.keyframe_spacing_m;
-    r.agent = std::make_unique<RobotAgent>(ri, agent_params, capacity, r.solid.get(), r.store.get());
+    agent_params.mapper.descriptor_input = job->descriptor_input;
+    agent_params.mapper.loop.max_descriptor_distance = job->tau_intra;
+    agent_params.mapper.loop.window_keyframes = job->options.descriptor.tau_window_keyframes;
+    r.agent = std::make_unique<RobotAgent>(ri, agent_params, capacity, r.descriptor.get(), r.store.get());
   }
   return kExitOk;
 }
@@ -221,8 +227,7 @@ int CreateRobots(RunJob* job) {
 Status MapRobot(RobotRun& r, std::atomic<std::size_t>* scans_done, std::vector<OutboxEntry>* outbox) {
   std::vector<std::uint8_t> buffer;
   const auto t0 = RunClock::now();
-  // The robot knows only its own odometry, from its own start: the slice's first pose is its origin.
-  const Eigen::Isometry3d T_first_inv = r.data.poses.front().inverse();
+  // The robot knows only its own odometry (the poses file); its map frame is its first keyframe's sensor frame.
   Status st;
   for (std::size_t s = 0; s < r.data.scan_files.size() && st.ok(); ++s) {
     auto cloud = platform::ReadKittiBin(r.data.scan_files[s]);
@@ -230,7 +235,7 @@ Status MapRobot(RobotRun& r, std::atomic<std::size_t>* scans_done, std::vector<O
       st = cloud.status();
       break;
     }
-    auto step = r.agent->AddScan(Span<const PointXYZI>(cloud->points), T_first_inv * r.data.poses[s]);
+    auto step = r.agent->AddScan(Span<const PointXYZI>(cloud->points), r.data.poses[s]);
     if (!step.ok()) {
       st = Status(step.status().code(), "scan " + r.data.scan_files[s] + ": " + step.status().message());
       break;
@@ -578,7 +583,7 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
   cmd->add_option("--lidar", o->sensor, "SOLiD sensor preset of the robots' LiDAR (hdl-64e, vlp-16, os1-64, os1-128, "
                                         "os2-128, avia, aeva)")
       ->capture_default_str();
-  AddSolidMinZFlag(cmd, &o->solid_min_z_m);
+  AddDescriptorFlags(cmd, &o->descriptor);
   cmd->add_flag("--gt-from-poses", o->gt_from_poses,
                 "without poses_gt.txt, use the poses file as ground truth (real sequences split into robots)");
   cmd->add_option("--odometry", o->odometry_file,

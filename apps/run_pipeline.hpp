@@ -18,8 +18,8 @@ struct RunOptions {
   std::string out_dir = "out/run";
   /// Modes run side by side; the last one gives the final result (merged map, trajectories).
   std::vector<std::string> modes = {"send-all", "A", "A+B", "A+C", "A+B+C"};
-  std::string sensor = "hdl-64e";  ///< SOLiD preset of the robots' LiDAR
-  double solid_min_z_m = SolidParams{}.min_z_m;  ///< --solid-min-z-m (off: -infinity)
+  std::string sensor = "hdl-64e";  ///< --lidar: the robots' LiDAR (its preset)
+  DescriptorFlags descriptor;      ///< --descriptor, --descriptor-window-m, --solid-min-z-m
   bool gt_from_poses = false;
   std::string odometry_file;  ///< --odometry: the robots' odometry file in each dataset directory ("" = poses.txt)
   /// The merge server's parameters: the flags `run` shares with `server` (apps/merge_flags.hpp); max_submap_points

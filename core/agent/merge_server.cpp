@@ -13,6 +13,21 @@
 
 namespace commerge {
 
+SequentialMatchParams ServerStageADefaults() {
+  SequentialMatchParams p;
+  p.neighbour_rank = 1;
+  p.sequence_half_window = 4;
+  p.tau_area = 400;
+  p.tau_inter = 0.5;
+  return p;
+}
+
+ExchangeCascadeParams ServerCascadeDefaults() {
+  ExchangeCascadeParams p;
+  p.stage_a = ServerStageADefaults();
+  return p;
+}
+
 namespace {
 
 std::string RobotText(int robot) { return "robot " + std::to_string(robot); }

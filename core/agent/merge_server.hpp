@@ -42,8 +42,17 @@ const char* ExchangeModeName(ExchangeMode mode) noexcept;
 /// Parses the names above (also "all", "a", "ab", "ac", "abc"); the error lists them.
 Result<ExchangeMode> ExchangeModeFromName(const std::string& name);
 
+/// The server's stage A (ours; measured by profiling/bench_recall.sh, profiling/RESULTS.md "Merge recall"):
+/// neighbour rank 1 (a cell is a candidate when it is the nearest keyframe of its row or column,
+/// neighbour_rank.hpp) on the sequence-smoothed matrix (half window 4), tau_area 400 cells (20 x 20 keyframes:
+/// about 20 m of shared path; chance chains in a matrix of noise stay below 200), tau_inter 0.5 as a loose cap.
+/// The paper's stage A is SequentialMatchParams{} (--neighbour-rank 0 --sequence-half-window 0 --tau-area 10000
+/// --tau-inter 0.1).
+SequentialMatchParams ServerStageADefaults();
+ExchangeCascadeParams ServerCascadeDefaults();
+
 struct MergeServerParams {
-  ExchangeCascadeParams cascade;
+  ExchangeCascadeParams cascade = ServerCascadeDefaults();
   /// Voxel size of the submaps [m] (the robots' scans already are 1 m voxels; the union is voxelised again).
   double submap_voxel_size_m = 1.0;
   /// When a submap has more points, its voxel size grows by 25 % steps (at most 8) until it fits.

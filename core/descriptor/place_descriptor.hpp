@@ -14,7 +14,7 @@
 
 namespace commerge {
 
-enum class DescriptorKind : std::uint8_t { kSolid = 1, kScanContext = 2 };
+enum class DescriptorKind : std::uint8_t { kSolid = 1, kScanContext = 2, kRingOccupancy = 3 };
 
 /// Diagnostics of one descriptor computation.
 struct DescriptorInfo {

@@ -26,6 +26,11 @@ Result<IncrementalSequentialMatcher> IncrementalSequentialMatcher::Create(const 
                            ") changes cells near the old borders when keyframes arrive; use the full "
                            "RunSequentialMatching for it");
   }
+  if (params.stage_a.neighbour_rank != 0) {
+    return InvalidArgument("incremental matching: neighbour_rank " + std::to_string(params.stage_a.neighbour_rank) +
+                           " ranks each row and column over the whole matrix, which changes as keyframes arrive; "
+                           "use the full RunSequentialMatching for it");
+  }
   constexpr std::size_t kMaxIndex = std::numeric_limits<std::uint32_t>::max();
   for (const std::size_t capacity : {params.alpha_capacity, params.beta_capacity}) {
     if (capacity > kMaxIndex || capacity > std::numeric_limits<std::size_t>::max() / sizeof(float) / params.dim) {

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -473,6 +474,10 @@ Status ValidateSequentialMatchParams(const SequentialMatchParams& p) {
     return InvalidArgument("sequential matching: sequence_half_window must be <= " +
                            std::to_string(kMaxSequenceHalfWindow) + ", got " + std::to_string(p.sequence_half_window));
   }
+  if (p.neighbour_rank > kMaxNeighbourRank) {
+    return InvalidArgument("sequential matching: neighbour_rank must be <= " + std::to_string(kMaxNeighbourRank) +
+                           ", got " + std::to_string(p.neighbour_rank));
+  }
   return Status::Ok();
 }
 
@@ -545,11 +550,21 @@ Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const Sequen
 Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, const SequentialMatchParams& p) {
   Status s = ValidateSequentialMatchParams(p);
   if (!s.ok()) return s;
-  if (p.sequence_half_window == 0) return RunStageA(source, p);
-  Result<SequenceSmoothedTileSource> smoothed =
-      SequenceSmoothedTileSource::Create(&source, p.sequence_half_window, p.tile_rows, p.tile_cols);
-  if (!smoothed.ok()) return smoothed.status();
-  return RunStageA(*smoothed, p);
+  AffinityTileSource* served = &source;
+  std::optional<SequenceSmoothedTileSource> smoothed;
+  if (p.sequence_half_window > 0) {
+    Result<SequenceSmoothedTileSource> made =
+        SequenceSmoothedTileSource::Create(&source, p.sequence_half_window, p.tile_rows, p.tile_cols);
+    if (!made.ok()) return made.status();
+    smoothed.emplace(std::move(*made));
+    served = &*smoothed;
+  }
+  if (p.neighbour_rank == 0) return RunStageA(*served, p);
+  Result<NeighbourRankTileSource> ranked =
+      NeighbourRankTileSource::Create(served, p.neighbour_rank, p.tile_rows, p.tile_cols);
+  if (!ranked.ok()) return ranked.status();
+  if (Status prep = ranked->Prepare(); !prep.ok()) return prep;
+  return RunStageA(*ranked, p);
 }
 
 Result<SequentialMatchResult> RunSequentialMatching(const DescriptorSetView& alpha, const DescriptorSetView& beta,
@@ -571,9 +586,9 @@ Result<SequentialMatchResult> RunSequentialMatchingOnHits(Span<const CompactHit>
                                                           double min_distance, const SequentialMatchParams& p) {
   Status s = ValidateSequentialMatchParams(p);
   if (!s.ok()) return s;
-  if (p.sequence_half_window != 0) {
+  if (p.sequence_half_window != 0 || p.neighbour_rank != 0) {
     return InvalidArgument("sequential matching: the sparse path thresholds the cells it is given; "
-                           "sequence_half_window must be 0 there (use RunSequentialMatching)");
+                           "sequence_half_window and neighbour_rank must be 0 there (use RunSequentialMatching)");
   }
   if (std::isnan(min_distance)) return InvalidArgument("sequential matching: min_distance is NaN");
   if (hits.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) {

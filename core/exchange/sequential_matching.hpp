@@ -17,6 +17,7 @@
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 #include "core/exchange/affinity.hpp"
+#include "core/exchange/neighbour_rank.hpp"
 #include "core/exchange/sequence_smoothing.hpp"
 
 namespace commerge {
@@ -32,10 +33,14 @@ struct SequentialMatchParams {
   /// (sequence_smoothing.hpp). Clusters, means, L_seq's cell distances and min_distance are then those of V.
   /// Not supported by the incremental matcher (its Create refuses it).
   std::size_t sequence_half_window = 0;
+  /// 0 = every cell is a candidate when at most tau_inter (the paper). k >= 1 (at most kMaxNeighbourRank): only
+  /// cells among the k smallest of their row or of their column (after the smoothing above) can be candidates,
+  /// tau_inter becomes a cap (neighbour_rank.hpp). Not supported by the incremental matcher.
+  std::size_t neighbour_rank = 0;
 };
 
 /// Errors (invalid argument): tau_inter negative or not finite, a zero tile size, sequence_half_window above
-/// kMaxSequenceHalfWindow.
+/// kMaxSequenceHalfWindow, neighbour_rank above kMaxNeighbourRank.
 Status ValidateSequentialMatchParams(const SequentialMatchParams& params);
 
 /// One 8-connected cluster S_l of B. Span bounds are INCLUSIVE indices: the cluster's cells lie in rows
@@ -79,7 +84,8 @@ struct SequentialMatchResult {
 
 /// Stage A over any tile source (two passes; the source must be deterministic). With sequence_half_window
 /// w >= 1 the source is read through a SequenceSmoothedTileSource, so it must accept blocks of up to
-/// (tile_rows + 2w + 2) x (tile_cols + 2w + 2). Tie-break between equal
+/// (tile_rows + 2w + 2) x (tile_cols + 2w + 2). With neighbour_rank k >= 1 the (smoothed) source is read through
+/// a NeighbourRankTileSource (one more pass). Tie-break between equal
 /// means: smaller row_min, then col_min, then row_max, then col_max. Errors only for bad parameters or a
 /// failing source; degenerate inputs (empty sets, nothing below tau_inter, clusters too small) give an OK
 /// result with found == false and no_candidate_reason set.

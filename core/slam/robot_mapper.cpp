@@ -1,10 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/slam/robot_mapper.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
+#include "core/descriptor/sensor_presets.hpp"
 #include "core/geometry/angles.hpp"
+#include "core/geometry/se3.hpp"
 
 namespace commerge {
 
@@ -17,7 +20,28 @@ Status ValidateRobotMapperParams(const RobotMapperParams& p) {
   if (!(p.odometry_sigma_translation_m > 0.0) || !(p.odometry_sigma_rotation_rad > 0.0)) {
     return InvalidArgument("robot mapper: odometry_sigma_translation_m and odometry_sigma_rotation_rad must be > 0");
   }
+  const DescriptorInputParams& d = p.descriptor_input;
+  if (!(d.local_map_window_m >= 0.0 && d.local_map_window_m <= 50.0)) {
+    return InvalidArgument("robot mapper: descriptor local_map_window_m = " + std::to_string(d.local_map_window_m) +
+                           " is outside [0, 50]");
+  }
+  if (!(d.voxel_m >= 0.05 && d.voxel_m <= 2.0)) {
+    return InvalidArgument("robot mapper: descriptor voxel_m = " + std::to_string(d.voxel_m) + " is outside [0.05, 2]");
+  }
   return Status::Ok();
+}
+
+std::uint32_t DescriptorInputId(std::uint32_t descriptor_id, const DescriptorInputParams& input) noexcept {
+  if (input.local_map_window_m <= 0.0 && !input.level) return descriptor_id;
+  std::uint32_t h = detail::Fnv1aInt32(detail::kFnv1aOffset, static_cast<std::int32_t>(descriptor_id));
+  h = detail::Fnv1aByte(h, static_cast<std::uint8_t>('i'));
+  h = detail::Fnv1aDouble(h, input.local_map_window_m);
+  h = detail::Fnv1aDouble(h, input.voxel_m);
+  return detail::Fnv1aByte(h, input.level ? 1 : 0);
+}
+
+std::uint32_t RobotMapper::descriptor_parameter_id() const noexcept {
+  return DescriptorInputId(descriptor_->parameter_id(), params_.descriptor_input);
 }
 
 RobotMapper::RobotMapper(const RobotMapperParams& params, const RobotMapperCapacity& capacity,
@@ -41,7 +65,87 @@ RobotMapper::RobotMapper(const RobotMapperParams& params, const RobotMapperCapac
 
 std::size_t RobotMapper::scan_workspace_bytes() const {
   return voxel_grid_.workspace_capacity_bytes() + voxels_.capacity() * sizeof(PointXYZI) + encoded_.capacity() +
-         descriptor_scratch_.capacity() * sizeof(float);
+         descriptor_scratch_.capacity() * sizeof(float) + local_keyframes_.capacity() * sizeof(LocalKeyframe) +
+         (local_points_.capacity() + local_cloud_.capacity() + local_scratch_.capacity()) * sizeof(PointXYZI);
+}
+
+namespace {
+
+// Roll and pitch of the sensor in the odometry frame, as the rotation that removes them: R_level p has its z
+// along the odometry frame's z and keeps the sensor's heading.
+Eigen::Matrix3f LevellingRotation(const Eigen::Isometry3d& T_odom_sensor) {
+  const Eigen::Matrix3d R = T_odom_sensor.linear();
+  const Eigen::Matrix3d Rz = Eigen::AngleAxisd(YawRad(R), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return (Rz.transpose() * R).cast<float>();
+}
+
+void AppendTransformed(Span<const PointXYZI> points, const Eigen::Matrix3f& R, const Eigen::Vector3f& t,
+                       std::vector<PointXYZI>* out) {
+  for (const PointXYZI& p : points) {
+    const Eigen::Vector3f q = R * Eigen::Vector3f(p.x, p.y, p.z) + t;
+    out->push_back({q.x(), q.y(), q.z(), p.intensity});
+  }
+}
+
+}  // namespace
+
+Result<Span<const PointXYZI>> RobotMapper::DescriptorInput(Span<const PointXYZI> raw_scan,
+                                                           const Eigen::Isometry3d& T_odom_sensor) {
+  const DescriptorInputParams& d = params_.descriptor_input;
+  if (d.local_map_window_m <= 0.0 && !d.level) return raw_scan;
+  const Eigen::Matrix3f R_level = d.level ? LevellingRotation(T_odom_sensor) : Eigen::Matrix3f::Identity();
+  local_cloud_.clear();
+  AppendTransformed(raw_scan, R_level, Eigen::Vector3f::Zero(), &local_cloud_);
+  if (d.local_map_window_m <= 0.0) return Span<const PointXYZI>(local_cloud_);
+  // Past keyframes within the window, in this keyframe's (levelled) sensor frame.
+  const Eigen::Isometry3d T_sensor_odom = T_odom_sensor.inverse();
+  for (const LocalKeyframe& k : local_keyframes_) {
+    if (path_m_ - k.path_m > d.local_map_window_m) continue;
+    const Eigen::Isometry3d T = T_sensor_odom * k.T_odom_sensor;
+    AppendTransformed(Span<const PointXYZI>(local_points_.data() + k.begin, k.end - k.begin),
+                      R_level * T.linear().cast<float>(), R_level * T.translation().cast<float>(), &local_cloud_);
+  }
+  VoxelGridParams v;
+  v.voxel_size_m = d.voxel_m;
+  auto vox = voxel_grid_.Downsample(Span<const PointXYZI>(local_cloud_), v, &local_scratch_);
+  if (!vox.ok()) return vox.status();
+  return Span<const PointXYZI>(local_scratch_);
+}
+
+Status RobotMapper::RememberForLocalMap(Span<const PointXYZI> raw_scan, const Eigen::Isometry3d& T_odom_sensor) {
+  const DescriptorInputParams& d = params_.descriptor_input;
+  if (d.local_map_window_m <= 0.0) return Status::Ok();
+  // Keyframes that left the window, and the oldest ones while the points exceed one raw scan's capacity.
+  std::size_t drop = 0;
+  while (drop < local_keyframes_.size() && path_m_ - local_keyframes_[drop].path_m > d.local_map_window_m) ++drop;
+  VoxelGridParams v;
+  v.voxel_size_m = d.voxel_m;
+  auto vox = voxel_grid_.Downsample(raw_scan, v, &local_scratch_);
+  if (!vox.ok()) return vox.status();
+  const std::size_t cap = capacity_.max_points_per_raw_scan;
+  std::size_t kept = local_points_.size() - (drop < local_keyframes_.size() ? local_keyframes_[drop].begin : local_points_.size());
+  while (drop < local_keyframes_.size() && kept + local_scratch_.size() > cap) {
+    kept -= local_keyframes_[drop].end - local_keyframes_[drop].begin;
+    ++drop;
+  }
+  if (drop > 0) {
+    const std::size_t first = drop < local_keyframes_.size() ? local_keyframes_[drop].begin : local_points_.size();
+    local_points_.erase(local_points_.begin(), local_points_.begin() + static_cast<std::ptrdiff_t>(first));
+    local_keyframes_.erase(local_keyframes_.begin(), local_keyframes_.begin() + static_cast<std::ptrdiff_t>(drop));
+    for (LocalKeyframe& k : local_keyframes_) {
+      k.begin -= first;
+      k.end -= first;
+    }
+  }
+  const std::size_t n = std::min(local_scratch_.size(), cap);
+  LocalKeyframe k;
+  k.T_odom_sensor = T_odom_sensor;
+  k.path_m = path_m_;
+  k.begin = local_points_.size();
+  local_points_.insert(local_points_.end(), local_scratch_.begin(), local_scratch_.begin() + static_cast<std::ptrdiff_t>(n));
+  k.end = local_points_.size();
+  local_keyframes_.push_back(k);
+  return Status::Ok();
 }
 
 std::size_t RobotMapper::loop_closure_workspace_bytes() const {
@@ -67,12 +171,17 @@ Result<KeyframeStep> RobotMapper::AddScan(Span<const PointXYZI> raw_scan, const 
   step.keyframe = static_cast<std::uint32_t>(graph_.num_nodes());
   ++stats_.keyframes;
 
-  // 2. Descriptor on the raw scan.
-  auto info = descriptor_->Compute(raw_scan, Span<float>(descriptor_scratch_));
+  // 2. Descriptor on the raw scan, or on its levelled local map (DescriptorInputParams).
+  if (step.keyframe > 0) path_m_ += (T_odom_sensor.translation() - T_odom_last_keyframe_.translation()).norm();
+  auto input = DescriptorInput(raw_scan, T_odom_sensor);
+  if (!input.ok()) return input.status();
+  auto info = descriptor_->Compute(*input, Span<float>(descriptor_scratch_));
   if (!info.ok()) return info.status();
   step.descriptor = *info;
   if (!step.descriptor.valid) ++stats_.invalid_descriptors;
   if (Status s = db_.Add(Span<const float>(descriptor_scratch_), step.descriptor.valid); !s.ok()) return s;
+
+  if (Status s = RememberForLocalMap(raw_scan, T_odom_sensor); !s.ok()) return s;
 
   // 3. Voxelised scan into the store.
   auto vox = voxel_grid_.Downsample(raw_scan, params_.voxel, &voxels_);

@@ -2,7 +2,8 @@
 // commerge: the robot side of the paper's pipeline (Section "Intra-Robot SLAM for Local Mapping"), one call
 // per LiDAR scan:
 //   1. keyframe selection every keyframe_spacing_m (Delta d = 1 m) or keyframe_rotation_deg;
-//   2. the place descriptor (SOLiD) on the RAW scan;
+//   2. the place descriptor on the RAW scan (the paper: SOLiD), or on its descriptor input (DescriptorInputParams,
+//      ours): the scan levelled by the odometry's gravity and joined by the keyframes of the last few metres;
 //   3. the scan voxelised to voxel_size_m (Delta nu = 1 m), encoded (int16 cm) into the fixed-size scan store;
 //   4. a pose-graph node with an odometry edge;
 //   5. intra-robot loop closure: descriptor nearest neighbour outside tau_window, gate tau_intra, ICP check
@@ -27,8 +28,22 @@
 
 namespace commerge {
 
+/// What the place descriptor is computed on (ours; the paper's SOLiD takes the raw scan: both off).
+struct DescriptorInputParams {
+  /// The points of the keyframes of the last local_map_window_m of path (in their odometry poses) join the
+  /// keyframe's own scan: a forward-looking or sparse sensor sees more of the place in a few metres than in one
+  /// scan. 0: the keyframe's scan alone. [m], in [0, 50].
+  double local_map_window_m = 0.0;
+  /// Rotate the cloud about the sensor so that its z axis is the odometry frame's z (gravity, in a LIO/VIO or
+  /// IMU-aided odometry): roll and pitch out, yaw kept.
+  bool level = false;
+  /// Voxel size of the past keyframes kept for the local map and of the joined cloud [m], in [0.05, 2].
+  double voxel_m = 0.25;
+};
+
 struct RobotMapperParams {
   KeyframerParams keyframer;
+  DescriptorInputParams descriptor_input;
   VoxelGridParams voxel;  ///< Delta nu = 1.0 m
   LoopDetectorParams loop;
   PoseGraphParams graph;
@@ -42,6 +57,10 @@ struct RobotMapperParams {
 };
 
 Status ValidateRobotMapperParams(const RobotMapperParams& params);
+
+/// `descriptor_id` unchanged when both descriptor-input options are off (the paper's SOLiD keeps its id);
+/// otherwise FNV-1a of it with the byte 'i', the window and voxel as binary64 and the levelling flag.
+std::uint32_t DescriptorInputId(std::uint32_t descriptor_id, const DescriptorInputParams& input) noexcept;
 
 /// Capacities fixed at construction (from the robot's memory budget).
 struct RobotMapperCapacity {
@@ -101,10 +120,12 @@ class RobotMapper {
   const RobotMapperStats& stats() const noexcept { return stats_; }
   const PoseGraph& graph() const noexcept { return graph_; }
   const DescriptorDatabase& descriptor_db() const noexcept { return db_; }
-  /// PlaceDescriptor::parameter_id() of the descriptor this mapper computes.
-  std::uint32_t descriptor_parameter_id() const noexcept { return descriptor_->parameter_id(); }
+  /// Id of the descriptors this mapper computes: PlaceDescriptor::parameter_id(), with the descriptor input's
+  /// parameters mixed in when levelling or the local map is on (DescriptorInputId).
+  std::uint32_t descriptor_parameter_id() const noexcept;
   /// Bytes of the per-scan buffers (capacities): the voxel grid's sort workspace, the voxelised and the encoded
-  /// scan, the descriptor scratch.
+  /// scan, the descriptor scratch, and the descriptor input (the past keyframes of the local map, the joined
+  /// and levelled cloud).
   std::size_t scan_workspace_bytes() const;
   /// Bytes of the loop-closure buffers (capacities): the match's decoded scan and spill buffer, the verifier's
   /// k-d tree, ICP scratch and yaw restarts.
@@ -112,6 +133,19 @@ class RobotMapper {
 
  private:
   Status FindLoop(std::uint32_t query, Span<const float> query_descriptor, KeyframeStep* step);
+  /// The cloud the descriptor sees for a keyframe with this scan and odometry pose (DescriptorInputParams);
+  /// the raw scan itself when neither option is on.
+  Result<Span<const PointXYZI>> DescriptorInput(Span<const PointXYZI> raw_scan, const Eigen::Isometry3d& T_odom_sensor);
+  /// Keeps this keyframe's scan for the next keyframes' local maps; drops those beyond the window.
+  Status RememberForLocalMap(Span<const PointXYZI> raw_scan, const Eigen::Isometry3d& T_odom_sensor);
+
+  /// A past keyframe of the local map: its odometry pose, its path position and its voxelised points (a range
+  /// of local_points_).
+  struct LocalKeyframe {
+    Eigen::Isometry3d T_odom_sensor = Eigen::Isometry3d::Identity();
+    double path_m = 0.0;
+    std::size_t begin = 0, end = 0;
+  };
 
   RobotMapperParams params_;
   RobotMapperCapacity capacity_;
@@ -134,6 +168,9 @@ class RobotMapper {
   std::uint32_t last_optimisation_keyframe_ = 0;
   std::vector<float> descriptor_scratch_;
   std::vector<PointXYZI> voxels_, match_points_;
+  std::vector<LocalKeyframe> local_keyframes_;        ///< oldest first
+  std::vector<PointXYZI> local_points_, local_cloud_, local_scratch_;
+  double path_m_ = 0.0;                               ///< odometry path length up to the last keyframe
   std::vector<std::uint8_t> encoded_, spill_buffer_;
   RobotMapperStats stats_;
 };

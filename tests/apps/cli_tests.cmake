@@ -162,12 +162,16 @@ set_tests_properties("cli: run: campus with roll and pitch merges once SOLiD lea
                      PROPERTIES FIXTURES_REQUIRED sim_campus)
 cm_cli_test(NAME "run: --solid-min-z-m beyond the preset's range is a usage error naming the flag" RC 2
             REGEX "--solid-min-z-m: SOLiD parameters: min_z_m must be -infinity \\(off\\) or finite within"
-            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/none-a" "${CM_CLI_OUT}/none-b" --lidar vlp-16 --solid-min-z-m -90
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/none-a" "${CM_CLI_OUT}/none-b" --lidar vlp-16 --descriptor solid --solid-min-z-m -90
                     --out "${CM_CLI_OUT}/run-bad")
 cm_cli_test(NAME "robot: --solid-min-z-m beyond the preset's range is a usage error naming the flag" RC 2
             REGEX "--solid-min-z-m: SOLiD parameters: min_z_m"
             COMMAND ${CM_BIN} robot --id 0 --lcm-url memq:// --data "${CM_CLI_OUT}/none-a" --lidar vlp-16
-                    --solid-min-z-m 85 --check)
+                    --descriptor solid --solid-min-z-m 85 --check)
+cm_cli_test(NAME "run: --solid-min-z-m with the ring descriptor is a usage error naming the flag" RC 2
+            REGEX "--solid-min-z-m: applies to --descriptor solid only"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/none-a" "${CM_CLI_OUT}/none-b" --lidar vlp-16 --solid-min-z-m -0.5
+                    --out "${CM_CLI_OUT}/run-bad")
 cm_cli_test(NAME "sim: an unknown world is a usage error" RC 2 REGEX "--world: forest not in"
             COMMAND ${CM_BIN} sim --world forest --out "${CM_CLI_OUT}/sim-bad")
 cm_cli_test(NAME "sim: six robots is a usage error" RC 2 REGEX "--robots: Value 6 not in range"

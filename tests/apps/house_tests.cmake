@@ -25,5 +25,5 @@ add_test(NAME "house: the function-length check accepts a function of exactly it
 add_test(NAME "house: README.md has at most 300 lines"
          COMMAND "${CMAKE_COMMAND}" -DFILE=${PROJECT_SOURCE_DIR}/README.md -DMAX=300
                  -P "${CMAKE_CURRENT_SOURCE_DIR}/apps/check_line_count.cmake")
-add_test(NAME "cli: run and server share the merge flags: same help, range and default, the paper's values"
+add_test(NAME "cli: run and server share the merge flags: same help, range and default, the documented defaults"
          COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/shared_flags_test.sh" $<TARGET_FILE:commerge>)

@@ -40,6 +40,7 @@ MergeServerParams InboxMergeServerParams() {
   MergeServerParams p;
   // The recorded missions are short (tens of keyframes per robot): stage A's span area must let them through
   // (the daemon's --tau-area; the paper's 10000 cells is a 100 x 100 keyframe overlap).
+  p.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   p.cascade.stage_a.tau_area = 100;
   // A fuzzed keyframe database can make stage B / C search until their wall-clock limits (5 s / 2 s per pair
   // by default): 0.5 s keeps one input well inside libFuzzer's -timeout. Same code, smaller budget.

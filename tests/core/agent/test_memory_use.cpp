@@ -279,6 +279,7 @@ TEST_CASE("Merge server memory: the cascade, the submaps and the registration co
   SyntheticSubmapPair pair;
   REQUIRE(MakeStreetSubmapPair(test::LightStreetSpec(41, test::YawOffset(70.0, 12.0, -6.0, 0.3)), &pair).ok());
   MergeServerParams params;
+  params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   params.cascade.stage_a.tau_area = 100;
   MergeServer server(2, 100, params);
   // Stage A: beta's keyframe j sees alpha's place j + 5.

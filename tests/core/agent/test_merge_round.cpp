@@ -37,6 +37,7 @@ constexpr int kN = 40, kShift = 5;
 // Robots 0 and 1 whose descriptors repeat with a shift (stage A finds the diagonal), stage A's tau_area 100.
 std::unique_ptr<MergeServer> ShiftedServer(int max_widen_steps) {
   MergeServerParams params;
+  params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   params.cascade.stage_a.tau_area = 100;
   params.max_widen_steps = max_widen_steps;
   auto server = std::make_unique<MergeServer>(2, 100, params);
@@ -193,6 +194,7 @@ TEST_CASE("Merge round: a pair verified in an earlier round is kept while its sc
   // Robot 0's keyframe 3 and robot 1's keyframe 0 share a descriptor (stage A's only loop) and hold the two
   // submaps: the cascade asks for exactly them and registration recovers the true transform.
   MergeServerParams params;
+  params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   params.cascade.stage_a.tau_area = 1;
   MergeServer server(2, 100, params);
   std::mt19937 rng(3);
@@ -288,6 +290,7 @@ TEST_CASE("Server link emits the merge result the direct round makes on the same
 
     // Over messages, as commerge server does.
     MergeServerParams mp;
+    mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
     mp.cascade.stage_a.tau_area = 100;
     mp.max_widen_steps = steps;
     MergeServer server(2, 100, mp);

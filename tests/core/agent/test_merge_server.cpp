@@ -53,6 +53,7 @@ std::vector<std::uint32_t> BruteForceWiden(const std::vector<std::uint32_t>& sel
 // A server (stage A's tau_area 100) holding ShiftedPairBatches(n, shift), its cascades run.
 std::unique_ptr<MergeServer> ShiftedPairServer(int n, int shift) {
   MergeServerParams params;
+  params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   params.cascade.stage_a.tau_area = 100;
   auto server = std::make_unique<MergeServer>(2, 100, params);
   for (const KeyframeBatch& b : ShiftedPairBatches(n, shift)) REQUIRE(server->OnKeyframeBatch(b).ok());
@@ -123,6 +124,7 @@ TEST_CASE("Merge server compares only robots of one descriptor id and refuses a 
   const int n = 40, shift = 5;
   const std::uint32_t kId = 0x761BEAA5u, kOtherId = 0x12345678u;
   MergeServerParams params;
+  params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   params.cascade.stage_a.tau_area = 100;
   MergeServer server(3, 100, params);
   std::vector<KeyframeBatch> batches = ShiftedPairBatches(n, shift);
@@ -183,6 +185,7 @@ TEST_CASE("Merge server compares only robots of one descriptor id and refuses a 
 TEST_CASE("Server link: a robot restarted with the team's descriptor setting is adopted, within a session its id is held") {
   const std::uint32_t kId = 0x761BEAA5u, kOtherId = 0x12345678u;
   MergeServerParams mp;
+  mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   mp.cascade.stage_a.tau_area = 100;
   MergeServer server(2, 100, mp);
   ServerLinkParams lp;
@@ -552,6 +555,7 @@ TEST_CASE("Server link: a refused pair is widened, the extra scans are asked for
   for (int steps : {0, 1, 2}) {
     CAPTURE(steps);
     MergeServerParams mp;
+    mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
     mp.cascade.stage_a.tau_area = 100;
     mp.max_widen_steps = steps;
     MergeServer server(2, 100, mp);
@@ -605,6 +609,7 @@ TEST_CASE("Server link: a refused pair is widened, the extra scans are asked for
 
 TEST_CASE("Merge server does not widen a refused pair whose robots merged pairs already join") {
   MergeServerParams params;
+  params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   params.cascade.stage_a.tau_area = 100;
   MergeServer server(3, 100, params);
   for (const KeyframeBatch& b : ShiftedPairBatches(40, 5)) REQUIRE(server.OnKeyframeBatch(b).ok());

@@ -97,6 +97,7 @@ class Mission {
 
   void StartServer(std::int64_t session) {
     MergeServerParams mp;
+    mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
     mp.cascade.stage_a.tau_area = 4;  // short test missions
     merge_ = std::make_unique<MergeServer>(static_cast<int>(std::max<std::size_t>(2, robots_.size())), 64, mp);
     server_ = std::make_unique<ServerLink>(session, server_params_, merge_.get());
@@ -506,6 +507,7 @@ TEST_CASE("Reliable transfer: after a robot left, later rounds register with the
 MergeResultMessage Replay(const std::vector<std::pair<std::int64_t, RobotOutgoing>>& recorded,
                           const ServerLinkParams& params) {
   MergeServerParams mp;
+  mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   mp.cascade.stage_a.tau_area = 4;
   MergeServer merge(2, 64, mp);
   ServerLink link(777, params, &merge);

@@ -288,6 +288,11 @@ TEST_CASE("incremental matching capacity and format errors") {
     const Status smoothing = IncrementalSequentialMatcher::Create(p).status();
     CHECK(smoothing.code() == StatusCode::kInvalidArgument);
     CHECK(smoothing.message().find("sequence_half_window") != std::string::npos);
+    p = ip;
+    p.stage_a.neighbour_rank = 1;  // ranks change as keyframes arrive: refused too
+    const Status ranked = IncrementalSequentialMatcher::Create(p).status();
+    CHECK(ranked.code() == StatusCode::kInvalidArgument);
+    CHECK(ranked.message().find("neighbour_rank") != std::string::npos);
   }
   SUBCASE("appending beyond the capacity or a malformed batch changes nothing") {
     auto matcher = IncrementalSequentialMatcher::Create(ip);

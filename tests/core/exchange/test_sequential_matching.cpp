@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/exchange/affinity.hpp"
+#include "core/exchange/neighbour_rank.hpp"
 #include "core/exchange/sequence_smoothing.hpp"
 #include "core/exchange/sequential_matching.hpp"
 
@@ -791,6 +792,189 @@ TEST_CASE("Sequence smoothing: window limits and the paths that refuse it") {
   CHECK_FALSE(RunSequentialMatchingOnHits(hits, 4, 4, 0.05, p).ok());
   p.sequence_half_window = 0;
   CHECK(RunSequentialMatchingOnHits(hits, 4, 4, 0.05, p).ok());
+}
+
+// Dense reference of NeighbourRankTileSource: the k-th smallest finite value of every row and column by full
+// sort, and a cell kept when at most either.
+std::vector<float> DenseRanked(const std::vector<float>& a, std::size_t n, std::size_t m, std::size_t k) {
+  auto kth = [&](std::vector<float> line) {
+    line.erase(std::remove_if(line.begin(), line.end(), [](float v) { return !std::isfinite(v); }), line.end());
+    std::sort(line.begin(), line.end());
+    return line.size() < k ? kInf : line[k - 1];
+  };
+  std::vector<float> row_kth(n), col_kth(m);
+  for (std::size_t i = 0; i < n; ++i) row_kth[i] = kth(std::vector<float>(a.begin() + i * m, a.begin() + (i + 1) * m));
+  for (std::size_t j = 0; j < m; ++j) {
+    std::vector<float> col(n);
+    for (std::size_t i = 0; i < n; ++i) col[i] = a[i * m + j];
+    col_kth[j] = kth(col);
+  }
+  std::vector<float> out(n * m, kInf);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < m; ++j) {
+      const float v = a[i * m + j];
+      if (std::isfinite(v) && (v <= row_kth[i] || v <= col_kth[j])) out[i * m + j] = v;
+    }
+  }
+  return out;
+}
+
+TEST_CASE("Neighbour rank: served tiles equal the dense definition for every grid and k") {
+  std::uint32_t seed = 900;
+  for (const auto& nm : std::vector<std::pair<std::size_t, std::size_t>>{{1, 1}, {1, 9}, {17, 3}, {60, 75}}) {
+    const std::size_t n = nm.first, m = nm.second;
+    MatrixTileSource src(RandomMatrixWithHoles(n, m, ++seed), n, m);
+    for (const std::size_t k : {std::size_t{1}, std::size_t{3}, kMaxNeighbourRank}) {
+      const std::vector<float> ref = DenseRanked(src.matrix(), n, m, k);
+      for (const auto& tile : std::vector<std::pair<std::size_t, std::size_t>>{{1, 1}, {7, 5}, {64, 64}}) {
+        CAPTURE(n);
+        CAPTURE(m);
+        CAPTURE(k);
+        CAPTURE(tile.first);
+        auto ranked = NeighbourRankTileSource::Create(&src, k, tile.first, tile.second);
+        REQUIRE(ranked.ok());
+        AffinityTile t;
+        CHECK_FALSE(ranked->ComputeTile(0, 0, 1, 1, &t).ok());  // before Prepare
+        REQUIRE(ranked->Prepare().ok());
+        for (std::size_t r0 = 0; r0 < n; r0 += tile.first) {
+          for (std::size_t c0 = 0; c0 < m; c0 += tile.second) {
+            const std::size_t rows = std::min(tile.first, n - r0), cols = std::min(tile.second, m - c0);
+            REQUIRE(ranked->ComputeTile(r0, c0, rows, cols, &t).ok());
+            float lowest = kInf;
+            for (std::size_t r = 0; r < rows; ++r) {
+              for (std::size_t c = 0; c < cols; ++c) {
+                const float want = ref[(r0 + r) * m + c0 + c];
+                REQUIRE((t.at(r, c) == want || (std::isinf(want) && std::isinf(t.at(r, c)))));
+                lowest = std::min(lowest, want);
+              }
+            }
+            CHECK(t.min_distance == lowest);
+          }
+        }
+      }
+    }
+  }
+  MatrixTileSource src(RandomMatrixWithHoles(4, 4, 1), 4, 4);
+  CHECK_FALSE(NeighbourRankTileSource::Create(&src, 0, 4, 4).ok());
+  CHECK_FALSE(NeighbourRankTileSource::Create(&src, kMaxNeighbourRank + 1, 4, 4).ok());
+  CHECK_FALSE(NeighbourRankTileSource::Create(&src, 1, 0, 4).ok());
+}
+
+TEST_CASE("Neighbour rank: stage A with k equals the naive stage A on the ranked (smoothed) matrix") {
+  std::uint32_t seed = 950;
+  for (const auto& nm : std::vector<std::pair<std::size_t, std::size_t>>{{3, 57}, {60, 75}, {130, 140}}) {
+    const std::size_t n = nm.first, m = nm.second;
+    MatrixTileSource src(RandomMatrixWithHoles(n, m, ++seed), n, m);
+    for (const std::size_t w : {std::size_t{0}, std::size_t{3}}) {
+      for (const std::size_t k : {std::size_t{1}, std::size_t{2}}) {
+        const std::vector<float> served = DenseRanked(w == 0 ? src.matrix() : DenseServed(src.matrix(), n, m, w), n, m, k);
+        for (const std::uint64_t tau_area : {std::uint64_t{1}, std::uint64_t{100}}) {
+          const RefResult ref = NaiveStageA(served, n, m, 0.5, tau_area);
+          for (const std::size_t tile : {std::size_t{16}, std::size_t{256}}) {
+            CAPTURE(n);
+            CAPTURE(w);
+            CAPTURE(k);
+            CAPTURE(tau_area);
+            CAPTURE(tile);
+            SequentialMatchParams p;
+            p.tau_inter = 0.5;
+            p.tau_area = tau_area;
+            p.tile_rows = p.tile_cols = tile;
+            p.sequence_half_window = w;
+            p.neighbour_rank = k;
+            auto got = RunSequentialMatching(src, p);
+            REQUIRE(got.ok());
+            CheckEqual(*got, ref, served, m);
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST_CASE("Neighbour rank finds revisits that no one absolute threshold separates, and no cluster in noise") {
+  // Two places seen by two sensors: in the first, every distance is low (background 0.1-0.6, revisit
+  // 0.02-0.08); in the second, high (background 0.4-1.2, revisit 0.3-0.45). Each has 40 keyframes of shared
+  // path (span 1 600 cells), one along the diagonal, one against it.
+  const std::size_t n = 300, m = 260;
+  std::mt19937 rng(11);
+  struct Scene {
+    float bg_lo, bg_hi, rv_lo, rv_hi;
+    int direction;
+  };
+  const Scene scenes[] = {{0.1f, 0.6f, 0.02f, 0.08f, +1}, {0.4f, 1.2f, 0.3f, 0.45f, -1}};
+  auto band_col = [](int direction, std::size_t i) { return direction > 0 ? i - 100 : 300 - i; };
+  std::vector<MatrixTileSource> sources;
+  for (const Scene& sc : scenes) {
+    std::uniform_real_distribution<float> background(sc.bg_lo, sc.bg_hi), revisit(sc.rv_lo, sc.rv_hi);
+    std::vector<float> a(n * m);
+    for (float& v : a) v = background(rng);
+    for (std::size_t i = 120; i < 160; ++i) a[i * m + band_col(sc.direction, i)] = revisit(rng);
+    sources.emplace_back(a, n, m);
+  }
+  // Stage A finds the revisit when it selects a cluster whose cells all lie on it (or next to it).
+  auto on_revisit = [&](const SequentialMatchResult& r, int direction) {
+    if (!r.found) return false;
+    for (const SequentialLoopCell& c : r.cells) {
+      const long offset = static_cast<long>(c.beta_index) - static_cast<long>(band_col(direction, c.alpha_index));
+      if (std::labs(offset) > 2) return false;
+    }
+    return r.best.span_rows() >= 30;
+  };
+  // The paper's rule: no tau_inter finds both (a low one misses the second, a high one floods the first).
+  for (const double tau : {0.05, 0.08, 0.1, 0.2, 0.3, 0.45, 0.6}) {
+    SequentialMatchParams p;
+    p.tau_inter = tau;
+    p.tau_area = 400;
+    int found = 0;
+    for (std::size_t s = 0; s < 2; ++s) {
+      auto r = RunSequentialMatching(sources[s], p);
+      REQUIRE(r.ok());
+      found += on_revisit(*r, scenes[s].direction) ? 1 : 0;
+    }
+    CAPTURE(tau);
+    CHECK(found < 2);
+  }
+  // Neighbour rank 1 after sequence smoothing (w = 4), tau_inter a cap only: both.
+  SequentialMatchParams p;
+  p.tau_inter = 1.5;
+  p.tau_area = 400;
+  p.sequence_half_window = 4;
+  p.neighbour_rank = 1;
+  for (std::size_t s = 0; s < 2; ++s) {
+    auto r = RunSequentialMatching(sources[s], p);
+    REQUIRE(r.ok());
+    CAPTURE(s);
+    CHECK(on_revisit(*r, scenes[s].direction));
+    CHECK(r->best.span_rows() <= 50);
+  }
+  // Noise alone, several seeds: the row and column minima are scattered; sequence smoothing over 2w + 1 = 9
+  // keyframes makes short chance chains (spans up to about (2w + 3)^2 = 121 cells), none reaches 20 x 20.
+  for (std::uint32_t seed = 1; seed <= 5; ++seed) {
+    std::mt19937 noise_rng(seed);
+    std::uniform_real_distribution<float> background(0.3f, 1.2f);
+    std::vector<float> a(n * m);
+    for (float& v : a) v = background(noise_rng);
+    MatrixTileSource src(a, n, m);
+    auto got = RunSequentialMatching(src, p);
+    REQUIRE(got.ok());
+    CAPTURE(seed);
+    CHECK_FALSE(got->found);
+    CHECK(got->largest_span_area < 400);
+  }
+}
+
+TEST_CASE("Neighbour rank: limits and the paths that refuse it") {
+  SequentialMatchParams p;
+  p.neighbour_rank = kMaxNeighbourRank;
+  CHECK(ValidateSequentialMatchParams(p).ok());
+  p.neighbour_rank = kMaxNeighbourRank + 1;
+  const Status s = ValidateSequentialMatchParams(p);
+  CHECK_FALSE(s.ok());
+  CHECK(s.message().find("neighbour_rank") != std::string::npos);
+  p.neighbour_rank = 1;
+  const std::vector<CompactHit> hits = {{0, 0, 0.05f}};
+  CHECK_FALSE(RunSequentialMatchingOnHits(hits, 4, 4, 0.05, p).ok());
 }
 
 }  // namespace

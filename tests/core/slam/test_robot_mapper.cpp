@@ -10,6 +10,7 @@
 #include <memory>
 #include <vector>
 
+#include "core/descriptor/ring_occupancy.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
 #include "core/geometry/angles.hpp"
@@ -151,4 +152,141 @@ TEST_CASE("Robot mapper: loops correcting more than the odometry drift bound are
   bad_deg.loop.max_correction_deg_per_travelled_m = -0.1;
   CHECK(ValidateLoopDetectorParams(bad_deg.loop).message().find("max_correction_deg_per_travelled_m") !=
         std::string::npos);
+}
+
+namespace {
+
+// A place built for the descriptor-input tests: ground at z = -1.7 m in the odometry frame, a ring of low wall
+// at 12 m, poles every 20 deg at 6 m and a tall wall segment at 22 m, around the origin. Heights, ranges and
+// azimuths (odd degrees) stay off the ring descriptor's cell edges (bands 0.3/1/2/4/8 m, rings of 5 m, 6 deg).
+std::vector<Eigen::Vector3d> DescriptorTestPlace() {
+  std::vector<Eigen::Vector3d> place;
+  for (int s = 1; s < 360; s += 2) {
+    const double a = s * kDegToRad;
+    for (double r = 2.5; r < 38.0; r += 1.5) place.emplace_back(r * std::cos(a), r * std::sin(a), -1.7);
+    place.emplace_back(12.0 * std::cos(a), 12.0 * std::sin(a), -1.0);
+    if (s % 20 == 1) {
+      for (double h = -1.1; h < 3.0; h += 0.6) place.emplace_back(6.0 * std::cos(a), 6.0 * std::sin(a), h);
+    }
+    if (s < 90) {
+      for (double h = -1.0; h < 5.0; h += 0.7) place.emplace_back(22.0 * std::cos(a), 22.0 * std::sin(a), h);
+    }
+  }
+  return place;
+}
+
+// The place as a sensor at T_odom_sensor sees it; `half_fov_deg` < 180 keeps a forward cone only.
+std::vector<PointXYZI> SeenFrom(const std::vector<Eigen::Vector3d>& place, const Eigen::Isometry3d& T_odom_sensor,
+                                double half_fov_deg = 180.0) {
+  std::vector<PointXYZI> scan;
+  const Eigen::Isometry3d T_sensor_odom = T_odom_sensor.inverse();
+  for (const Eigen::Vector3d& p : place) {
+    const Eigen::Vector3d q = T_sensor_odom * p;
+    if (std::fabs(std::atan2(q.y(), q.x())) > half_fov_deg * kDegToRad) continue;
+    scan.push_back({static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), 1.0f});
+  }
+  return scan;
+}
+
+struct MapperFixture {
+  RingOccupancyDescriptor ring;
+  std::unique_ptr<ScanStore> store;
+  std::unique_ptr<RobotMapper> mapper;
+  explicit MapperFixture(const DescriptorInputParams& input) {
+    ScanStoreParams store_params;
+    store_params.capacity_bytes = 1 << 20;
+    store_params.max_scans = 100;
+    auto made = ScanStore::Create(store_params);
+    REQUIRE(made.ok());
+    store = std::move(*made);
+    RobotMapperParams params;
+    params.descriptor_input = input;
+    RobotMapperCapacity capacity;
+    capacity.max_keyframes = 50;
+    capacity.max_points_per_raw_scan = 20000;
+    mapper = std::make_unique<RobotMapper>(params, capacity, &ring, store.get());
+  }
+  std::vector<float> Add(const std::vector<PointXYZI>& scan, const Eigen::Isometry3d& T_odom_sensor) {
+    auto step = mapper->AddScan(Span<const PointXYZI>(scan), T_odom_sensor);
+    REQUIRE(step.ok());
+    REQUIRE(step->is_keyframe);
+    const Span<const float> d = mapper->descriptor(step->keyframe);
+    return std::vector<float>(d.begin(), d.end());
+  }
+};
+
+double L2(const std::vector<float>& a, const std::vector<float>& b) {
+  double s = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) s += (static_cast<double>(a[i]) - static_cast<double>(b[i])) * (static_cast<double>(a[i]) - static_cast<double>(b[i]));
+  return std::sqrt(s);
+}
+
+}  // namespace
+
+TEST_CASE("Robot mapper descriptor input: levelling by the odometry's gravity removes the sensor's roll and pitch") {
+  const std::vector<Eigen::Vector3d> place = DescriptorTestPlace();
+  Eigen::Isometry3d T_level = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_tilted = Eigen::Isometry3d::Identity();
+  T_tilted.linear() = (Eigen::AngleAxisd(8.0 * kDegToRad, Eigen::Vector3d::UnitX()) *
+                       Eigen::AngleAxisd(4.0 * kDegToRad, Eigen::Vector3d::UnitY()))
+                          .toRotationMatrix();
+  DescriptorInputParams level;
+  level.level = true;
+  MapperFixture a(level), b(level), raw_a(DescriptorInputParams{}), raw_b(DescriptorInputParams{});
+  const std::vector<float> da = a.Add(SeenFrom(place, T_level), T_level);
+  const std::vector<float> db = b.Add(SeenFrom(place, T_tilted), T_tilted);
+  const std::vector<float> ra = raw_a.Add(SeenFrom(place, T_level), T_level);
+  const std::vector<float> rb = raw_b.Add(SeenFrom(place, T_tilted), T_tilted);
+  MESSAGE("levelled: " << L2(da, db) << ", raw: " << L2(ra, rb));
+  CHECK(L2(da, db) < 0.02);
+  CHECK(L2(ra, rb) > 0.1);  // the tilt does change the raw scan's descriptor (the test can fail)
+  CHECK(L2(da, ra) < 1e-6);  // an untilted sensor: levelling changes nothing
+  // The id tells the inputs apart; with both options off it is the descriptor's own.
+  CHECK(raw_a.mapper->descriptor_parameter_id() == raw_a.ring.parameter_id());
+  CHECK(a.mapper->descriptor_parameter_id() != raw_a.ring.parameter_id());
+}
+
+TEST_CASE("Robot mapper descriptor input: a forward-looking sensor's local map keeps what it passed") {
+  // A 70 deg cone drives 5 m along x in 1 m keyframes past two poles at (8, +-4) m, then sees them at 53 deg,
+  // outside its cone. Ground everywhere, a wall ahead at x = 30 m. With a 5 m local map the last keyframe's
+  // descriptor holds the poles (ring 1: 5-10 m, bands 0.3-4 m above the ground), as the 360 deg view from that
+  // pose does; the cone's own scan does not.
+  std::vector<Eigen::Vector3d> place;
+  for (double x = -10.0; x < 40.0; x += 1.3) {
+    for (double y = -20.0; y < 20.0; y += 1.3) place.emplace_back(x, y, -1.7);
+  }
+  for (double y = -15.0; y < 15.0; y += 0.5) place.emplace_back(30.0, y, 0.0);
+  for (double h = -1.1; h < 2.0; h += 0.6) {
+    place.emplace_back(8.0, 4.0, h);
+    place.emplace_back(8.0, -4.0, h);
+  }
+  DescriptorInputParams windowed;
+  windowed.local_map_window_m = 5.0;
+  MapperFixture local(windowed), single(DescriptorInputParams{}), full(DescriptorInputParams{});
+  std::vector<float> d_local, d_single;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int k = 0; k <= 5; ++k) {
+    T.translation() = Eigen::Vector3d(k, 0.0, 0.0);
+    d_local = local.Add(SeenFrom(place, T, 35.0), T);
+    d_single = single.Add(SeenFrom(place, T, 35.0), T);
+  }
+  const std::vector<float> d_full = full.Add(SeenFrom(place, T), T);
+  for (std::size_t band = 0; band < 3; ++band) {  // 0.3-1, 1-2, 2-4 m above the ground
+    const std::size_t cell = 1 * 5 + band;        // ring 1
+    CAPTURE(band);
+    CHECK(d_full[cell] > 0.0f);
+    CHECK(d_local[cell] > 0.0f);
+    CHECK(d_single[cell] == 0.0f);
+  }
+  // Keyframes that left the window are dropped: at 10 m of path only the keyframes from 5 m on are joined, none
+  // of which saw the poles (now 4.5 m away beside and behind the sensor): rings 0 and 1 hold nothing above the
+  // ground again.
+  for (int k = 6; k <= 10; ++k) {
+    T.translation() = Eigen::Vector3d(k, 0.0, 0.0);
+    d_local = local.Add(SeenFrom(place, T, 35.0), T);
+  }
+  for (std::size_t band = 0; band < 3; ++band) {
+    CHECK(d_local[0 * 5 + band] == 0.0f);
+    CHECK(d_local[1 * 5 + band] == 0.0f);
+  }
 }
