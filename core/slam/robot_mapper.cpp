@@ -54,13 +54,25 @@ RobotMapper::RobotMapper(const RobotMapperParams& params, const RobotMapperCapac
       keyframer_(params.keyframer),
       db_(*descriptor, capacity.max_keyframes),
       graph_(capacity.max_keyframes, 2 * capacity.max_keyframes),  // odometry + at most one loop per keyframe
-      voxel_grid_(capacity.max_points_per_raw_scan),
+      // The descriptor input's joined cloud holds up to two raw scans (the scan and the local map's points).
+      voxel_grid_((params.descriptor_input.local_map_window_m > 0.0 ? 2 : 1) * capacity.max_points_per_raw_scan),
       graph_distance_(capacity.max_keyframes),
       descriptor_scratch_(descriptor->dimension()) {
   voxels_.reserve(capacity.max_points_per_stored_scan);
   match_points_.reserve(capacity.max_points_per_stored_scan);
   T_odom_keyframes_.reserve(capacity.max_keyframes);
   encoded_.resize(EncodedScanBytes(capacity.max_points_per_stored_scan));
+  // The descriptor input, reserved once (never grown by doubling): the levelled copy or joined cloud, the local
+  // map's points (at most one raw scan) and the voxelised copy.
+  const DescriptorInputParams& d = params.descriptor_input;
+  const std::size_t raw = capacity.max_points_per_raw_scan;
+  if (d.local_map_window_m > 0.0) {
+    local_cloud_.reserve(2 * raw);
+    local_points_.reserve(raw);
+    local_scratch_.reserve(2 * raw);
+  } else if (d.level) {
+    local_cloud_.reserve(raw);
+  }
 }
 
 std::size_t RobotMapper::scan_workspace_bytes() const {

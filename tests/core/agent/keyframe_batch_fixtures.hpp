@@ -5,10 +5,14 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -69,6 +73,24 @@ inline std::vector<KeyframeBatch> ShiftedPairBatches(int n, int shift, std::int6
   }
   std::vector<KeyframeBatch> out = {MakeBatch(0, 0, da, pa, 2000), MakeBatch(1, 0, db, pb, 3000)};
   for (KeyframeBatch& b : out) b.session = session > 0 ? session + b.robot_id : 0;
+  return out;
+}
+
+/// The reference widening (WidenPlan's rule): `selected` plus the keyframes of `pool` nearest in index to any of
+/// `selected` (ties: the lower index) until there are `target` of them, by brute force over the pool; sorted.
+inline std::vector<std::uint32_t> BruteForceWiden(const std::vector<std::uint32_t>& selected,
+                                                  const std::vector<std::uint32_t>& pool, std::size_t target) {
+  std::vector<std::pair<long, std::uint32_t>> ranked;
+  for (std::uint32_t k : pool) {
+    if (std::find(selected.begin(), selected.end(), k) != selected.end()) continue;
+    long d = 1L << 40;
+    for (std::uint32_t s : selected) d = std::min(d, std::labs(static_cast<long>(k) - static_cast<long>(s)));
+    ranked.emplace_back(d, k);
+  }
+  std::sort(ranked.begin(), ranked.end());
+  std::vector<std::uint32_t> out = selected;
+  for (std::size_t i = 0; i < ranked.size() && out.size() < target; ++i) out.push_back(ranked[i].second);
+  std::sort(out.begin(), out.end());
   return out;
 }
 

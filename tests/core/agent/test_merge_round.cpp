@@ -27,6 +27,7 @@ using commerge::test::ChunksOf;
 using commerge::test::EncodeForTest;
 using commerge::test::LatticePoints;
 using commerge::test::MakeBatch;
+using commerge::test::BruteForceWiden;
 using commerge::test::RandomDescriptor;
 using commerge::test::ShiftedPairBatches;
 
@@ -56,23 +57,6 @@ void AnswerTiny(MergeServer* server, const std::vector<ScanRequest>& requests) {
   }
 }
 
-// The reference widening (as in test_merge_server.cpp): `selected` plus the keyframes of `pool` nearest in index to
-// any of `selected` (ties: the lower index) until there are `target`, by brute force.
-std::vector<std::uint32_t> BruteForceWiden(const std::vector<std::uint32_t>& selected,
-                                           const std::vector<std::uint32_t>& pool, std::size_t target) {
-  std::vector<std::pair<long, std::uint32_t>> ranked;
-  for (std::uint32_t k : pool) {
-    if (std::find(selected.begin(), selected.end(), k) != selected.end()) continue;
-    long d = 1L << 40;
-    for (std::uint32_t s : selected) d = std::min(d, std::labs(static_cast<long>(k) - static_cast<long>(s)));
-    ranked.emplace_back(d, k);
-  }
-  std::sort(ranked.begin(), ranked.end());
-  std::vector<std::uint32_t> out = selected;
-  for (std::size_t i = 0; i < ranked.size() && out.size() < target; ++i) out.push_back(ranked[i].second);
-  std::sort(out.begin(), out.end());
-  return out;
-}
 
 std::vector<std::uint32_t> Minus(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
   std::vector<std::uint32_t> out;

@@ -27,28 +27,12 @@ using commerge::test::ChunksOf;
 using commerge::test::EncodeForTest;
 using commerge::test::LatticePoints;
 using commerge::test::MakeBatch;
+using commerge::test::BruteForceWiden;
 using commerge::test::RandomDescriptor;
 using commerge::test::ShiftedPairBatches;
 
 namespace {
 
-// The reference widening: `selected` plus the keyframes of `pool` nearest in index to any of `selected` (ties: the
-// lower index) until there are `target` of them, by brute force over the pool.
-std::vector<std::uint32_t> BruteForceWiden(const std::vector<std::uint32_t>& selected,
-                                           const std::vector<std::uint32_t>& pool, std::size_t target) {
-  std::vector<std::pair<long, std::uint32_t>> ranked;
-  for (std::uint32_t k : pool) {
-    if (std::find(selected.begin(), selected.end(), k) != selected.end()) continue;
-    long d = 1L << 40;
-    for (std::uint32_t s : selected) d = std::min(d, std::labs(static_cast<long>(k) - static_cast<long>(s)));
-    ranked.emplace_back(d, k);
-  }
-  std::sort(ranked.begin(), ranked.end());
-  std::vector<std::uint32_t> out = selected;
-  for (std::size_t i = 0; i < ranked.size() && out.size() < target; ++i) out.push_back(ranked[i].second);
-  std::sort(out.begin(), out.end());
-  return out;
-}
 
 // A server (stage A's tau_area 100) holding ShiftedPairBatches(n, shift), its cascades run.
 std::unique_ptr<MergeServer> ShiftedPairServer(int n, int shift) {

@@ -6,12 +6,14 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <vector>
 
 #include "core/descriptor/ring_occupancy.hpp"
 #include "core/descriptor/sensor_presets.hpp"
+#include "core/memory/budget.hpp"
 #include "core/descriptor/solid.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/umeyama.hpp"
@@ -192,7 +194,7 @@ struct MapperFixture {
   RingOccupancyDescriptor ring;
   std::unique_ptr<ScanStore> store;
   std::unique_ptr<RobotMapper> mapper;
-  explicit MapperFixture(const DescriptorInputParams& input) {
+  explicit MapperFixture(const DescriptorInputParams& input, std::size_t max_points_per_raw_scan = 20000) {
     ScanStoreParams store_params;
     store_params.capacity_bytes = 1 << 20;
     store_params.max_scans = 100;
@@ -203,7 +205,8 @@ struct MapperFixture {
     params.descriptor_input = input;
     RobotMapperCapacity capacity;
     capacity.max_keyframes = 50;
-    capacity.max_points_per_raw_scan = 20000;
+    capacity.max_points_per_raw_scan = max_points_per_raw_scan;
+    capacity.max_points_per_stored_scan = std::min(capacity.max_points_per_stored_scan, max_points_per_raw_scan);
     mapper = std::make_unique<RobotMapper>(params, capacity, &ring, store.get());
   }
   std::vector<float> Add(const std::vector<PointXYZI>& scan, const Eigen::Isometry3d& T_odom_sensor) {
@@ -289,4 +292,30 @@ TEST_CASE("Robot mapper descriptor input: a forward-looking sensor's local map k
     CHECK(d_local[0 * 5 + band] == 0.0f);
     CHECK(d_local[1 * 5 + band] == 0.0f);
   }
+}
+
+TEST_CASE("Robot mapper descriptor input: the local map stays within the raw-scan work budget") {
+  // Scans of about 1 250 points against a raw-scan capacity of 1 300: the local map keeps at most one raw scan
+  // of points (older keyframes are dropped first), and the whole scan workspace stays within the budget's
+  // kRawPointWorkBytes per raw point (core/memory/budget.hpp).
+  const std::vector<Eigen::Vector3d> place = DescriptorTestPlace();
+  std::size_t largest = 0;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int k = 0; k <= 10; ++k) {
+    T.translation() = Eigen::Vector3d(0.5 * k, 0.0, 0.0);
+    largest = std::max(largest, SeenFrom(place, T).size());
+  }
+  const std::size_t capacity = largest + 50;
+  DescriptorInputParams windowed;
+  windowed.level = true;
+  windowed.local_map_window_m = 10.0;
+  windowed.voxel_m = 0.05;  // fine voxels: the kept keyframes hold nearly all their points
+  MapperFixture local(windowed, capacity);
+  for (int k = 0; k <= 10; ++k) {
+    T.translation() = Eigen::Vector3d(k, 0.0, 0.0);
+    local.Add(SeenFrom(place, T), T);
+  }
+  const std::size_t budget = capacity * static_cast<std::size_t>(BudgetRecordSizes::kRawPointWorkBytes);
+  MESSAGE("scan workspace " << local.mapper->scan_workspace_bytes() << " B, budget " << budget << " B");
+  CHECK(local.mapper->scan_workspace_bytes() <= budget);
 }
