@@ -2,6 +2,7 @@
 # Usage: profiling/bench_recall.sh [--commerge BUILD/commerge] [--work DIR] [--slice quick|generated|long|real|all]
 #                                  [--seeds "11 12"] [--keyframes 800] [--long-keyframes 3000] [--run-args "ARGS"]
 #                                  [--worlds "urban campus indoor cave"] [--reuse-data] [--shared-data DIR]
+#                                  [--send-all]
 # Merge recall of `commerge run` with its default flags (only --lidar, and the data's own description:
 # keyframe spacing of generated data, odometry and reference files of real data), scenario by scenario:
 #   generated  every world x 2, 3 and 5 robots x complete / moderate / partial overlap x same / alternating
@@ -17,7 +18,10 @@
 # keyframe scan, and the stage that stopped each pair that shares a place and was not merged. Then one summary
 # line: recall, real splits merged, wrong merges, median byte reductions. Exit 0 (it measures; it does not judge)
 # unless a run fails (a crash, an unreadable input; "no pair merged" is a measurement, not a failure).
-# --run-args adds options to every `commerge run` (e.g. the paper's values: "--tau-area 10000 --tau-inter 0.1").
+# --run-args adds options to every `commerge run` (e.g. the paper's stage A: "--neighbour-rank 0
+# --sequence-half-window 0 --tau-area 10000 --tau-inter 0.1 --descriptor solid").
+# --send-all also runs mode send-all (each pair registers the two complete stored maps) and adds its column:
+# robots placed / other robots and the worst e_rmse, what shipping everything buys.
 set -euo pipefail
 bin=build/commerge
 work=${TMPDIR:-/tmp}/commerge-recall
@@ -29,6 +33,7 @@ run_args=""
 worlds="urban campus indoor cave"
 reuse=0
 shared=""
+send_all=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --commerge) bin=$2; shift 2 ;;
@@ -40,8 +45,9 @@ while [ $# -gt 0 ]; do
     --run-args) run_args=$2; shift 2 ;;
     --worlds) worlds=$2; shift 2 ;;
     --reuse-data) reuse=1; shift ;;
+    --send-all) send_all=1; shift ;;
     --shared-data) shared=$2; shift 2 ;;
-    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
     *) echo "bench_recall.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -62,7 +68,9 @@ run_scenario() {
   shift 2
   local out="$work/$name/run"
   set +e
-  "$bin" run "$@" --lidar "$lidar" --modes A+B+C --no-report --no-progress --out "$out" "${opts[@]}" $run_args \
+  local modes=(A+B+C)
+  [ "$send_all" = 1 ] && modes=(send-all A+B+C)
+  "$bin" run "$@" --lidar "$lidar" --modes "${modes[@]}" --no-report --no-progress --out "$out" "${opts[@]}" $run_args \
       > "$work/$name.run.log" 2>&1
   local rc=$?
   set -e
@@ -90,10 +98,13 @@ run_scenario() {
                       END { print s }' "$m")
   local total stored raw
   total=$(get mode.A+B+C.total_bytes "$m"); stored=$(get stored_send_all_bytes "$m"); raw=$(get raw_keyframe_scan_bytes "$m")
-  printf '%s\t%d\t%d\t%d\t%d\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$((robots - 1))" "$reachable" "$merged" "$wrong" \
+  local send_all_col=-
+  if [ "$send_all" = 1 ]; then send_all_col="$(get mode.send-all.robots_merged "$m") ($(get mode.send-all.worst_rmse_m "$m") m)"; fi
+  printf '%s\t%d\t%d\t%d\t%d\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$((robots - 1))" "$reachable" "$merged" "$wrong" \
       "$(printf '%.2f m / %.2f deg' "$worst_m" "$worst_deg")" "$(get mode.A+B+C.worst_rmse_m "$m")" "$total" "$stored" \
       "$(awk -v a="$stored" -v b="$total" 'BEGIN { printf "%.2f", 100 * (1 - b / a) }')" "$raw" \
-      "$(awk -v a="$raw" -v b="$total" 'BEGIN { printf "%.3f", 100 * (1 - b / a) }')" "${stops:--}" | tee -a "$rows"
+      "$(awk -v a="$raw" -v b="$total" 'BEGIN { printf "%.3f", 100 * (1 - b / a) }')" "${stops:--}" "$send_all_col" \
+      | tee -a "$rows"
 }
 
 generated() {  # $1 = keyframes, $2 = seed, $3 = world, $4 = robots, $5 = overlap, $6 = direction, $7 = wobble
@@ -126,7 +137,7 @@ real_splits() {  # $1 = folder under real/, $2 = scans
 }
 
 echo "commerge recall benchmark: slice $slice, seeds $seeds, $keyframes keyframes (long: $long_keyframes)${run_args:+, run options: $run_args}"
-printf 'scenario\tother robots\tsharing robots\tmerged\twrong\tworst transform error\tworst e_rmse [m]\tA+B+C bytes\tstored send-all bytes\treduction %%\traw scan bytes\treduction vs raw %%\tunmerged pairs stopped at\n'
+printf 'scenario\tother robots\tsharing robots\tmerged\twrong\tworst transform error\tworst e_rmse [m]\tA+B+C bytes\tstored send-all bytes\treduction %%\traw scan bytes\treduction vs raw %%\tunmerged pairs stopped at\tsend-all placed (worst e_rmse)\n'
 for seed in $seeds; do
   case "$slice" in
     quick)

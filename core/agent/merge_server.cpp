@@ -475,6 +475,15 @@ Status MergeServer::RunCascades() {
   return Status::Ok();
 }
 
+std::vector<std::uint32_t> MergeServer::StoredKeyframes(int robot) const {
+  std::vector<std::uint32_t> out;
+  const RobotKeyframeDb& db = robots_[static_cast<std::size_t>(robot)];
+  for (std::size_t k = 0; k < db.size(); ++k) {
+    if (db.stored_points[k] > 0 || db.pose_known[k]) out.push_back(static_cast<std::uint32_t>(k));
+  }
+  return out;
+}
+
 Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
   if (!params_status_.ok()) return params_status_;
   ExchangePlan plan;
@@ -487,6 +496,12 @@ Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
     const auto& l_seq = p.cascade.stage_a.cells;
     switch (mode) {
       case ExchangeMode::kSendAll:
+        // The baseline of shipping everything: each pair registers the two robots' complete stored maps
+        // (map-level global registration), whatever stage A found.
+        s.alpha_keyframes = StoredKeyframes(p.alpha);
+        s.beta_keyframes = StoredKeyframes(p.beta);
+        s.loops = l_seq.size();
+        break;
       case ExchangeMode::kStageA:
         s.alpha_keyframes = Endpoints(Span<const SequentialLoopCell>(l_seq), true);
         s.beta_keyframes = Endpoints(Span<const SequentialLoopCell>(l_seq), false);
@@ -523,11 +538,7 @@ Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
     plan.pairs.push_back(std::move(s));
   }
   if (mode == ExchangeMode::kSendAll) {
-    for (std::size_t r = 0; r < robots_.size(); ++r) {
-      for (std::size_t k = 0; k < robots_[r].size(); ++k) {
-        if (robots_[r].stored_points[k] > 0 || robots_[r].pose_known[k]) wanted[r].push_back(static_cast<std::uint32_t>(k));
-      }
-    }
+    for (std::size_t r = 0; r < robots_.size(); ++r) wanted[r] = StoredKeyframes(static_cast<int>(r));
   }
   AddRequests(&wanted, 1, /*skip_held=*/false, &plan);
   return plan;
@@ -623,6 +634,9 @@ std::size_t MergeServer::BuildSubmap(int robot, Span<const std::uint32_t> keyfra
   union_points_.clear();
   std::size_t used = 0;
   *missing = 0;
+  VoxelGridParams v;
+  v.voxel_size_m = voxel_size_m;
+  constexpr std::size_t kUnionPointsPerSubmap = 4;
   const RobotKeyframeDb& db = robots_[static_cast<std::size_t>(robot)];
   for (std::uint32_t k : keyframes) {
     auto it = scans_.find(Key(robot, k));
@@ -642,9 +656,13 @@ std::size_t MergeServer::BuildSubmap(int robot, Span<const std::uint32_t> keyfra
     }
     sensor_origins->push_back(db.T_map_sensor[k].translation());
     ++used;
+    // A large selection (send-all's complete maps) is voxelised as it grows, so the union stays within a few
+    // submaps' worth of points whatever the number of scans.
+    if (union_points_.size() > kUnionPointsPerSubmap * params_.max_submap_points) {
+      if (!voxel_grid_.Downsample(Span<const PointXYZI>(union_points_), v, points).ok()) points->clear();
+      union_points_.assign(points->begin(), points->end());
+    }
   }
-  VoxelGridParams v;
-  v.voxel_size_m = voxel_size_m;
   if (!voxel_grid_.Downsample(Span<const PointXYZI>(union_points_), v, points).ok()) points->clear();
   NoteMemory();
   return used;

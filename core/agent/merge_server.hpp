@@ -228,6 +228,8 @@ class MergeServer {
   std::vector<ModuleMemory> MemoryUse() const;
 
  private:
+  /// The keyframes of `robot` that have a stored scan (or a known pose): what send-all asks for.
+  std::vector<std::uint32_t> StoredKeyframes(int robot) const;
   static constexpr std::size_t kMemoryModules = 6;
   std::array<std::int64_t, kMemoryModules> MeasureMemory() const;
   void NoteMemory() const;

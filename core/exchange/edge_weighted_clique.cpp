@@ -19,9 +19,29 @@ const char* StageCLoopSetName(StageCLoopSet set) noexcept {
   switch (set) {
     case StageCLoopSet::kBothEndpointsSelected: return "both-endpoints-selected";
     case StageCLoopSet::kAnyEndpointSelected: return "any-endpoint-selected";
+    case StageCLoopSet::kBothEndpointsElseAny: return "both-endpoints-else-any";
   }
   return "unknown";
 }
+
+namespace {
+
+// Keeps the `cap` loops of smallest descriptor distance (ties: L_seq order), in L_seq order.
+void KeepNearest(std::size_t cap, std::vector<SequentialLoopCell>* loops) {
+  if (loops->size() <= cap) return;
+  std::vector<std::size_t> order(loops->size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t x, std::size_t y) { return (*loops)[x].distance < (*loops)[y].distance; });
+  order.resize(cap);
+  std::sort(order.begin(), order.end());
+  std::vector<SequentialLoopCell> kept;
+  kept.reserve(cap);
+  for (std::size_t i : order) kept.push_back((*loops)[i]);
+  loops->swap(kept);
+}
+
+}  // namespace
 
 Status ValidateStageCParams(const StageCParams& params) {
   if (!std::isfinite(params.tau_con_m) || params.tau_con_m <= 0.0) {
@@ -35,6 +55,9 @@ Status ValidateStageCParams(const StageCParams& params) {
     return InvalidArgument("stage C: time_limit_s must be > 0 and finite");
   }
   if (params.max_nodes < 1) return InvalidArgument("stage C: max_nodes must be >= 1");
+  if (params.fallback_max_loops < 1) {
+    return InvalidArgument("stage C: fallback_max_loops must be >= 1, got " + std::to_string(params.fallback_max_loops));
+  }
   return Status::Ok();
 }
 
@@ -96,36 +119,33 @@ Result<StageCResult> RunStageC(Span<const SequentialLoopCell> l_seq, Span<const 
   }
   StageCResult result;
   std::vector<SequentialLoopCell> in_set;
-  for (const SequentialLoopCell& l : l_seq) {
-    const bool a = Contains(alpha_selected, l.alpha_index);
-    const bool b = Contains(beta_selected, l.beta_index);
-    const bool keep = params.loop_set == StageCLoopSet::kBothEndpointsSelected ? (a && b) : (a || b);
-    if (keep) in_set.push_back(l);
+  const auto collect = [&](bool both) {
+    for (const SequentialLoopCell& l : l_seq) {
+      const bool a = Contains(alpha_selected, l.alpha_index);
+      const bool b = Contains(beta_selected, l.beta_index);
+      if (both ? (a && b) : (a || b)) in_set.push_back(l);
+    }
+  };
+  const bool any_only = params.loop_set == StageCLoopSet::kAnyEndpointSelected;
+  collect(!any_only);
+  std::size_t cap = static_cast<std::size_t>(params.max_loops);
+  if (in_set.empty() && params.loop_set == StageCLoopSet::kBothEndpointsElseAny) {
+    collect(false);
+    result.any_endpoint_fallback = !in_set.empty();
+    cap = std::min(cap, static_cast<std::size_t>(params.fallback_max_loops));
   }
   result.loops_in_set = in_set.size();
   if (in_set.empty()) {
-    result.no_candidate_reason =
-        l_seq.empty() ? "stage A found no loops"
-                      : "no loop of stage A has " +
-                            std::string(params.loop_set == StageCLoopSet::kBothEndpointsSelected ? "both endpoints"
-                                                                                                : "an endpoint") +
-                            " selected by stage B";
+    result.no_candidate_reason = l_seq.empty() ? "stage A found no loops"
+                                 : any_only    ? "no loop of stage A has an endpoint selected by stage B"
+                                 : params.loop_set == StageCLoopSet::kBothEndpointsSelected
+                                     ? "no loop of stage A has both endpoints selected by stage B"
+                                     : "no loop of stage A has both endpoints, or an endpoint, selected by stage B";
     return result;
   }
-  const std::size_t cap = static_cast<std::size_t>(params.max_loops);
   if (in_set.size() > cap) {
-    // Keep the `cap` loops of smallest descriptor distance (ties: L_seq order), then restore L_seq order.
-    std::vector<std::size_t> order(in_set.size());
-    std::iota(order.begin(), order.end(), std::size_t{0});
-    std::stable_sort(order.begin(), order.end(),
-                     [&](std::size_t x, std::size_t y) { return in_set[x].distance < in_set[y].distance; });
-    order.resize(cap);
-    std::sort(order.begin(), order.end());
-    std::vector<SequentialLoopCell> kept;
-    kept.reserve(cap);
-    for (std::size_t i : order) kept.push_back(in_set[i]);
     result.loops_dropped = in_set.size() - cap;
-    in_set.swap(kept);
+    KeepNearest(cap, &in_set);
   }
   auto graph = BuildCompatibilityGraph(in_set, alpha_positions_m, beta_positions_m, params.tau_con_m);
   if (!graph.ok()) return graph.status();

@@ -31,19 +31,26 @@
 namespace commerge {
 
 enum class StageCLoopSet {
-  kBothEndpointsSelected,  ///< default: both keyframes of the loop selected by stage B
+  kBothEndpointsSelected,  ///< both keyframes of the loop selected by stage B
   kAnyEndpointSelected,    ///< the paper's literal set (equals L_seq for a vertex cover)
+  /// Default: both endpoints; when no loop has both (a thin revisit band, whose minimum cover alternates
+  /// between the robots), the fallback_max_loops loops of the paper's any-endpoint set with the smallest
+  /// descriptor distance (StageCResult::any_endpoint_fallback): a few candidates for registration to verify,
+  /// not the whole band.
+  kBothEndpointsElseAny,
 };
 
 const char* StageCLoopSetName(StageCLoopSet set) noexcept;
 
 struct StageCParams {
-  StageCLoopSet loop_set = StageCLoopSet::kBothEndpointsSelected;
+  StageCLoopSet loop_set = StageCLoopSet::kBothEndpointsElseAny;
   double tau_con_m = 5.0;   ///< feasibility mask: compatible when kappa < tau_con_m (paper: 5 m); > 0
   /// Most loops the compatibility graph takes (dense graph: bitsets + a float weight matrix, about
   /// max_loops^2 x 4.1 bytes: 2048 -> 17 MiB). Beyond it, the loops with the smallest descriptor distance are
   /// kept and the rest are counted in StageCResult::loops_dropped (never silently).
   int max_loops = 2048;
+  /// kBothEndpointsElseAny: most loops the fallback set takes (>= 1).
+  int fallback_max_loops = 10;
   /// Clique search: objective is always the edge weight; time and node limits apply (best-so-far + gap).
   double time_limit_s = 2.0;
   std::int64_t max_nodes = 20'000'000;
@@ -55,6 +62,7 @@ Status ValidateStageCParams(const StageCParams& params);
 struct StageCResult {
   std::vector<SequentialLoopCell> candidate_loops;  ///< vertices of the compatibility graph, in L_seq order
   std::size_t loops_in_set = 0;       ///< size of the chosen loop set before the max_loops cap
+  bool any_endpoint_fallback = false; ///< kBothEndpointsElseAny found no loop with both: the any-endpoint set
   std::size_t loops_dropped = 0;      ///< loops_in_set - candidate_loops.size()
   std::size_t compatible_pairs = 0;   ///< edges of the compatibility graph (mask M)
   std::vector<SequentialLoopCell> selected_loops;  ///< L_K, in L_seq order

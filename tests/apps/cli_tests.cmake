@@ -111,15 +111,16 @@ cm_cli_test(NAME "sim: an aliased indoor world, two robots, 800 keyframes" RC 0 
                     --out "${CM_CLI_OUT}/sim-indoor" --force)
 set_tests_properties("cli: sim: an aliased indoor world, two robots, 800 keyframes"
                      PROPERTIES FIXTURES_SETUP sim_indoor)
-# The loops' median translation error against ground truth stays below 0.1 m: GICP refines each accepted loop
-# (core/README.md "GICP refinement of intra-robot loops"). Measured: 0.067 and 0.082 m; point-to-point ICP alone
+# The paper's configuration (SOLiD, tau_window 100, per-cell stage A): the loops' median translation error against
+# ground truth stays below 0.1 m: GICP refines each accepted loop (core/README.md "GICP refinement of intra-robot
+# loops"). Measured: 0.067 and 0.082 m; point-to-point ICP alone
 # gave 0.114 and 0.206 m (the corridors leave GICP little to fix along their axis; on the campus it is
 # 0.11-0.20 m -> 0.004-0.006 m).
 cm_cli_test(NAME "run: in the aliased indoor world the robots accept no false loop" RC 1 LABELS heavy
             REGEX "robot 0 [^\n]* loops \\(0 false against ground truth, error median 0\\.0[0-9]+ m[^\n]*\n *robot 1 [^\n]* loops \\(0 false against ground truth, error median 0\\.0[0-9]+ m"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-indoor/robot_0" "${CM_CLI_OUT}/sim-indoor/robot_1" --lidar vlp-16
                     --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
-                    --out "${CM_CLI_OUT}/run-indoor")
+                    --tau-window 100 --descriptor solid --neighbour-rank 0 --sequence-half-window 0 --tau-area 10000 --tau-inter 0.1 --out "${CM_CLI_OUT}/run-indoor")
 # Stage A with the sequence-smoothed threshold (--sequence-half-window 8, core/README.md "Sequence-smoothed
 # stage A"): the corridors' single-keyframe jumps above tau_inter no longer cut the revisit's diagonal, and the
 # same pair merges within 1 m of the ground truth.
@@ -127,7 +128,8 @@ cm_cli_test(NAME "run: in the aliased indoor world the sequence-smoothed stage A
             REGEX "robot 1: T_world_map [^\n]*; e_rmse 0\\.[0-9]+ m"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-indoor/robot_0" "${CM_CLI_OUT}/sim-indoor/robot_1" --lidar vlp-16
                     --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
-                    --sequence-half-window 8 --out "${CM_CLI_OUT}/run-indoor-seq")
+                    --descriptor solid --neighbour-rank 0 --tau-area 10000 --tau-inter 0.1 --sequence-half-window 8
+                    --out "${CM_CLI_OUT}/run-indoor-seq")
 set_tests_properties("cli: run: in the aliased indoor world the robots accept no false loop"
                      "cli: run: in the aliased indoor world the sequence-smoothed stage A merges the pair"
                      PROPERTIES FIXTURES_REQUIRED sim_indoor)
@@ -150,15 +152,24 @@ set_tests_properties("cli: sim: a campus world driven both ways with roll and pi
 cm_cli_test(NAME "run: campus with roll and pitch merges once SOLiD leaves the ground out" RC 0 LABELS heavy
             REGEX "robot 1: T_world_map [^\n]*; e_rmse 0\\.[0-9]+ m"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-campus/robot_0" "${CM_CLI_OUT}/sim-campus/robot_1" --lidar vlp-16
-                    --solid-min-z-m -0.5 --tau-inter 0.2 --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C
+                    --descriptor solid --solid-min-z-m -0.5 --tau-inter 0.2 --neighbour-rank 0 --sequence-half-window 0
+                    --tau-area 10000 --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C
                     --no-report --no-progress --out "${CM_CLI_OUT}/run-campus-z")
 cm_cli_test(NAME "run: campus with roll and pitch, SOLiD on every point: stage A finds no cluster" RC 1 LABELS heavy
             REGEX "pair 0-1: not merged: stage A: no cluster with span area >= tau_area"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-campus/robot_0" "${CM_CLI_OUT}/sim-campus/robot_1" --lidar vlp-16
                     --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
-                    --out "${CM_CLI_OUT}/run-campus")
+                    --descriptor solid --neighbour-rank 0 --sequence-half-window 0 --tau-area 10000 --tau-inter 0.1 --out "${CM_CLI_OUT}/run-campus")
+# The same data with the default flags (ring descriptor on the levelled scan, stage A by neighbour rank): placed
+# within 1 m and 3 deg of the truth.
+cm_cli_test(NAME "run: campus with roll and pitch merges with the default flags" RC 0 LABELS heavy
+            REGEX "against ground truth: 1 of 1 robots share a place with robot 0's team, 1 placed right, 0 wrong"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-campus/robot_0" "${CM_CLI_OUT}/sim-campus/robot_1" --lidar vlp-16
+                    --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
+                    --out "${CM_CLI_OUT}/run-campus-default")
 set_tests_properties("cli: run: campus with roll and pitch merges once SOLiD leaves the ground out"
                      "cli: run: campus with roll and pitch, SOLiD on every point: stage A finds no cluster"
+                     "cli: run: campus with roll and pitch merges with the default flags"
                      PROPERTIES FIXTURES_REQUIRED sim_campus)
 cm_cli_test(NAME "run: --solid-min-z-m beyond the preset's range is a usage error naming the flag" RC 2
             REGEX "--solid-min-z-m: SOLiD parameters: min_z_m must be -infinity \\(off\\) or finite within"
@@ -234,7 +245,8 @@ set(CM_KITTI00 "${CM_SHARED_DATA_DIR}/kitti/kitti00_frames0-15")
 if(EXISTS "${CM_KITTI00}/velodyne")
   cm_cli_test(NAME "run: KITTI 00 split into two robots by time merges against ground truth" RC 0 LABELS heavy
               REGEX "robot 1: T_world_map .* e_rmse 0\\.[0-2][0-9]* m"
-              COMMAND ${CM_BIN} run "${CM_KITTI00}:0-10" "${CM_KITTI00}:5-16" --gt-from-poses --tau-area 4 --no-report
+              COMMAND ${CM_BIN} run "${CM_KITTI00}:0-10" "${CM_KITTI00}:5-16" --gt-from-poses --tau-area 4 --descriptor solid --neighbour-rank 0
+                      --sequence-half-window 0 --tau-inter 0.1 --no-report
                       --scan-store-mb 64 --max-keyframes 100 --out "${CM_CLI_OUT}/run-kitti00")
 else()
   message(STATUS "CM-SKIP: ${CM_KITTI00} is absent: the KITTI 00 run test is not registered")

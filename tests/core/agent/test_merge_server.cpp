@@ -337,6 +337,10 @@ TEST_CASE("Merge server plans per exchange mode: stage A's loops equal the brute
   REQUIRE(plan_all->requests.size() == 2);
   CHECK(plan_all->requests[0].keyframes.size() == static_cast<std::size_t>(n));
   CHECK(plan_all->requests[1].keyframes.size() == static_cast<std::size_t>(n));
+  // send-all registers the complete maps: every keyframe of both robots, whatever stage A found.
+  REQUIRE(plan_all->pairs.size() == 1);
+  CHECK(plan_all->pairs[0].alpha_keyframes == plan_all->requests[0].keyframes);
+  CHECK(plan_all->pairs[0].beta_keyframes == plan_all->requests[1].keyframes);
 
   // Stage B's cover and the full cascade select subsets of stage A's keyframes; the full policy is the
   // cascade's.

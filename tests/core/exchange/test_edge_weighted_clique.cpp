@@ -177,6 +177,7 @@ TEST_CASE("Stage C: loop sets - both endpoints (default) vs the paper's literal 
     any += a || b;
   }
   StageCParams params;
+  params.loop_set = StageCLoopSet::kBothEndpointsSelected;
   auto r_both = RunStageC(l_seq, alpha_sel, beta_sel, pa, pb, params);
   REQUIRE(r_both.ok());
   CHECK(r_both->loops_in_set == both);
@@ -196,6 +197,39 @@ TEST_CASE("Stage C: loop sets - both endpoints (default) vs the paper's literal 
   REQUIRE(r_none.ok());
   CHECK(r_none->selected_loops.empty());
   CHECK(r_none->no_candidate_reason.find("both endpoints") != std::string::npos);
+  // The default falls back to the any-endpoint set then: the loops whose alpha keyframe is selected.
+  params.loop_set = StageCLoopSet::kBothEndpointsElseAny;
+  CHECK(StageCParams{}.loop_set == StageCLoopSet::kBothEndpointsElseAny);
+  auto r_fallback = RunStageC(l_seq, alpha_sel, std::vector<int>{}, pa, pb, params);
+  REQUIRE(r_fallback.ok());
+  std::size_t alpha_side = 0;
+  for (const auto& l : l_seq) {
+    alpha_side += std::binary_search(alpha_sel.begin(), alpha_sel.end(), static_cast<int>(l.alpha_index)) ? 1 : 0;
+  }
+  CHECK(r_fallback->any_endpoint_fallback);
+  CHECK(r_fallback->loops_in_set == alpha_side);
+  CHECK_FALSE(r_fallback->selected_loops.empty());
+  // ... bounded: the fallback_max_loops of them with the smallest descriptor distance.
+  REQUIRE(alpha_side > static_cast<std::size_t>(params.fallback_max_loops));
+  REQUIRE(r_fallback->candidate_loops.size() == static_cast<std::size_t>(params.fallback_max_loops));
+  std::vector<float> side_distances;
+  for (const auto& l : l_seq) {
+    if (std::binary_search(alpha_sel.begin(), alpha_sel.end(), static_cast<int>(l.alpha_index))) {
+      side_distances.push_back(l.distance);
+    }
+  }
+  std::sort(side_distances.begin(), side_distances.end());
+  for (const auto& l : r_fallback->candidate_loops) {
+    CHECK(l.distance <= side_distances[static_cast<std::size_t>(params.fallback_max_loops) - 1]);
+  }
+  StageCParams no_fallback = params;
+  no_fallback.fallback_max_loops = 0;
+  CHECK_FALSE(ValidateStageCParams(no_fallback).ok());
+  // With loops of both endpoints available it is the both-endpoint set.
+  auto r_default = RunStageC(l_seq, alpha_sel, beta_sel, pa, pb, params);
+  REQUIRE(r_default.ok());
+  CHECK_FALSE(r_default->any_endpoint_fallback);
+  CHECK(r_default->loops_in_set == both);
   auto r_empty = RunStageC(std::vector<SequentialLoopCell>{}, alpha_sel, beta_sel, pa, pb, params);
   REQUIRE(r_empty.ok());
   CHECK(r_empty->no_candidate_reason == "stage A found no loops");
