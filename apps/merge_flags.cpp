@@ -33,6 +33,10 @@ const MergeFlag kMergeFlags[] = {
      "stage A keeps a cell only when it is among the k nearest keyframes of its row or of its column (after the "
      "sequence smoothing); --tau-inter is then a cap; 0 = the paper's absolute threshold alone",
      T::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.neighbour_rank; }},
+    {"--tau-area-fraction", "cascade.stage_a.tau_area_fraction", "", 0.0, 1.0, "ours",
+     "stage A asks short missions for less: the span area becomes at most (this x the shorter robot's keyframes)^2, "
+     "never below 100 cells; 0 = --tau-area as given (the paper)",
+     T::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.tau_area_fraction; }},
     {"--tau-con-m", "cascade.stage_c.tau_con_m", "m", 1e-3, 1e4, "tau_con",
      "stage C: two loops are compatible when their positional inconsistency is below this", T::kDouble,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_c.tau_con_m; }},

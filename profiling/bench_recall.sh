@@ -19,7 +19,7 @@
 # line: recall, real splits merged, wrong merges, median byte reductions. Exit 0 (it measures; it does not judge)
 # unless a run fails (a crash, an unreadable input; "no pair merged" is a measurement, not a failure).
 # --run-args adds options to every `commerge run` (e.g. the paper's stage A: "--neighbour-rank 0
-# --sequence-half-window 0 --tau-area 10000 --tau-inter 0.1 --descriptor solid").
+# --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1 --descriptor solid").
 # --send-all also runs mode send-all (each pair registers the two complete stored maps) and adds its column:
 # robots placed / other robots and the worst e_rmse, what shipping everything buys.
 set -euo pipefail

@@ -18,6 +18,8 @@ SequentialMatchParams ServerStageADefaults() {
   p.neighbour_rank = 1;
   p.sequence_half_window = 4;
   p.tau_area = 400;
+  p.tau_area_fraction = 0.3;
+  p.min_tau_area = 100;
   p.tau_inter = 0.5;
   return p;
 }

@@ -45,9 +45,10 @@ Result<ExchangeMode> ExchangeModeFromName(const std::string& name);
 /// The server's stage A (ours; measured by profiling/bench_recall.sh, profiling/RESULTS.md "Merge recall"):
 /// neighbour rank 1 (a cell is a candidate when it is the nearest keyframe of its row or column,
 /// neighbour_rank.hpp) on the sequence-smoothed matrix (half window 4), tau_area 400 cells (20 x 20 keyframes:
-/// about 20 m of shared path; chance chains in a matrix of noise stay below 200), tau_inter 0.5 as a loose cap.
+/// about 20 m of shared path; chance chains in a matrix of noise stay below 200), scaled down for short missions
+/// to (0.3 x the shorter robot's keyframes)^2 but not below 100 cells, tau_inter 0.5 as a loose cap.
 /// The paper's stage A is SequentialMatchParams{} (--neighbour-rank 0 --sequence-half-window 0 --tau-area 10000
-/// --tau-inter 0.1).
+/// --tau-area-fraction 0 --tau-inter 0.1).
 SequentialMatchParams ServerStageADefaults();
 ExchangeCascadeParams ServerCascadeDefaults();
 

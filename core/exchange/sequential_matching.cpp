@@ -474,6 +474,10 @@ Status ValidateSequentialMatchParams(const SequentialMatchParams& p) {
     return InvalidArgument("sequential matching: sequence_half_window must be <= " +
                            std::to_string(kMaxSequenceHalfWindow) + ", got " + std::to_string(p.sequence_half_window));
   }
+  if (!std::isfinite(p.tau_area_fraction) || p.tau_area_fraction < 0.0) {
+    return InvalidArgument("sequential matching: tau_area_fraction must be finite and >= 0, got " +
+                           FormatNumber(p.tau_area_fraction));
+  }
   if (p.neighbour_rank > kMaxNeighbourRank) {
     return InvalidArgument("sequential matching: neighbour_rank must be <= " + std::to_string(kMaxNeighbourRank) +
                            ", got " + std::to_string(p.neighbour_rank));
@@ -547,9 +551,19 @@ Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const Sequen
 
 }  // namespace
 
-Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, const SequentialMatchParams& p) {
-  Status s = ValidateSequentialMatchParams(p);
+std::uint64_t EffectiveTauArea(const SequentialMatchParams& p, std::size_t n, std::size_t m) noexcept {
+  if (!(p.tau_area_fraction > 0.0)) return p.tau_area;
+  const double side = p.tau_area_fraction * static_cast<double>(std::min(n, m));
+  const double scaled = std::ceil(side * side);
+  const std::uint64_t area = scaled >= static_cast<double>(p.tau_area) ? p.tau_area : static_cast<std::uint64_t>(scaled);
+  return std::min(p.tau_area, std::max(p.min_tau_area, area));
+}
+
+Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, const SequentialMatchParams& params) {
+  Status s = ValidateSequentialMatchParams(params);
   if (!s.ok()) return s;
+  SequentialMatchParams p = params;
+  p.tau_area = EffectiveTauArea(params, source.num_rows(), source.num_cols());
   AffinityTileSource* served = &source;
   std::optional<SequenceSmoothedTileSource> smoothed;
   if (p.sequence_half_window > 0) {

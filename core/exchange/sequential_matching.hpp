@@ -37,10 +37,19 @@ struct SequentialMatchParams {
   /// cells among the k smallest of their row or of their column (after the smoothing above) can be candidates,
   /// tau_inter becomes a cap (neighbour_rank.hpp). Not supported by the incremental matcher.
   std::size_t neighbour_rank = 0;
+  /// 0 = tau_area as given (the paper). f > 0 (ours): the span area asked of a cluster scales with the shorter
+  /// mission, EffectiveTauArea: robots of a few dozen keyframes cannot share a 20 x 20 span.
+  double tau_area_fraction = 0.0;
+  /// With tau_area_fraction: the scaled area never drops below this many cells.
+  std::uint64_t min_tau_area = 100;
 };
 
+/// The span area stage A asks for on an n x m matrix: tau_area, or with tau_area_fraction f > 0
+/// min(tau_area, max(min_tau_area, ceil((f * min(n, m))^2))).
+std::uint64_t EffectiveTauArea(const SequentialMatchParams& params, std::size_t n, std::size_t m) noexcept;
+
 /// Errors (invalid argument): tau_inter negative or not finite, a zero tile size, sequence_half_window above
-/// kMaxSequenceHalfWindow, neighbour_rank above kMaxNeighbourRank.
+/// kMaxSequenceHalfWindow, neighbour_rank above kMaxNeighbourRank, tau_area_fraction negative or not finite.
 Status ValidateSequentialMatchParams(const SequentialMatchParams& params);
 
 /// One 8-connected cluster S_l of B. Span bounds are INCLUSIVE indices: the cluster's cells lie in rows

@@ -977,5 +977,47 @@ TEST_CASE("Neighbour rank: limits and the paths that refuse it") {
   CHECK_FALSE(RunSequentialMatchingOnHits(hits, 4, 4, 0.05, p).ok());
 }
 
+TEST_CASE("Stage A's span area scales with the shorter mission when tau_area_fraction is set") {
+  SequentialMatchParams p;
+  p.tau_area = 400;
+  CHECK(EffectiveTauArea(p, 50, 800) == 400);  // off: the paper's fixed value
+  p.tau_area_fraction = 0.3;
+  p.min_tau_area = 100;
+  CHECK(EffectiveTauArea(p, 800, 900) == 400);          // (0.3 * 800)^2 = 57 600 -> capped at tau_area
+  CHECK(EffectiveTauArea(p, 49, 58) == 217);            // ceil((0.3 * 49)^2) = ceil(216.09)
+  CHECK(EffectiveTauArea(p, 20, 300) == 100);           // 36 -> the floor
+  p.tau_area = 4;
+  CHECK(EffectiveTauArea(p, 20, 300) == 4);             // never above tau_area
+  p.tau_area_fraction = -0.1;
+  CHECK_FALSE(ValidateSequentialMatchParams(p).ok());
+
+  // A 60 x 60 matrix whose robots share 16 keyframes (span 256): refused at tau_area 400, found when it scales
+  // ((0.3 * 60)^2 = 324 > 256: found only with a fraction small enough, here 0.25 -> 225).
+  const std::size_t n = 60, m = 60;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> background(0.4f, 1.2f), revisit(0.02f, 0.08f);
+  std::vector<float> a(n * m);
+  for (float& v : a) v = background(rng);
+  for (std::size_t i = 30; i < 46; ++i) a[i * m + i - 20] = revisit(rng);
+  MatrixTileSource src(a, n, m);
+  SequentialMatchParams q;
+  q.tau_area = 400;
+  auto fixed = RunSequentialMatching(src, q);
+  REQUIRE(fixed.ok());
+  CHECK_FALSE(fixed->found);
+  CHECK(fixed->no_candidate_reason.find("tau_area = 400") != std::string::npos);
+  q.tau_area_fraction = 0.3;
+  auto scaled_high = RunSequentialMatching(src, q);
+  REQUIRE(scaled_high.ok());
+  CHECK_FALSE(scaled_high->found);
+  CHECK(scaled_high->no_candidate_reason.find("tau_area = 324") != std::string::npos);
+  q.tau_area_fraction = 0.25;
+  auto scaled = RunSequentialMatching(src, q);
+  REQUIRE(scaled.ok());
+  REQUIRE(scaled->found);
+  CHECK(scaled->best.span_rows() == 16);
+  CHECK(scaled->best.span_cols() == 16);
+}
+
 }  // namespace
 }  // namespace commerge
