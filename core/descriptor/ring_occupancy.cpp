@@ -95,7 +95,7 @@ Result<DescriptorInfo> RingOccupancyDescriptor::Compute(Span<const PointXYZI> sc
   ground_z_.clear();
   for (const PointXYZI& p : scan) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
-    const double x = p.x, y = p.y;
+    const double x = static_cast<double>(p.x), y = static_cast<double>(p.y);
     const double r2 = x * x + y * y;
     if (r2 >= gmin2 && r2 < gmax2) ground_z_.push_back(p.z);
   }
@@ -125,7 +125,7 @@ Result<DescriptorInfo> RingOccupancyDescriptor::Compute(Span<const PointXYZI> sc
       ++info.num_nonfinite;
       continue;
     }
-    const double x = p.x, y = p.y;
+    const double x = static_cast<double>(p.x), y = static_cast<double>(p.y);
     const double r2 = x * x + y * y;
     if (r2 >= max2) {
       ++info.num_out_of_range;
