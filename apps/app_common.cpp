@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <optional>
 
@@ -15,6 +16,20 @@
 #include "platform/memory/peak_rss.hpp"
 
 namespace commerge::app {
+
+namespace {
+volatile std::sig_atomic_t g_stop_signals = 0;
+void CountStopSignal(int) {
+  if (g_stop_signals < 1000) g_stop_signals = g_stop_signals + 1;
+}
+}  // namespace
+
+void InstallStopSignalHandlers() {
+  std::signal(SIGINT, CountStopSignal);
+  std::signal(SIGTERM, CountStopSignal);
+}
+
+int StopSignalCount() { return static_cast<int>(g_stop_signals); }
 
 std::vector<ModuleMemory> StatusModules(const BudgetTable& table, const std::vector<ModuleMemory>& measured) {
   std::vector<ModuleMemory> out;

@@ -18,6 +18,11 @@
 
 namespace commerge::app {
 
+/// SIGINT and SIGTERM counted instead of killing the process, so daemons finish their summary and outputs.
+void InstallStopSignalHandlers();
+/// How many SIGINT/SIGTERM arrived since InstallStopSignalHandlers() (0: keep running).
+int StopSignalCount();
+
 /// Exit codes of the commerge executable.
 enum ExitCode : int {
   kExitOk = 0,

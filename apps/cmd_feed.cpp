@@ -11,7 +11,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <csignal>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -32,8 +31,6 @@ namespace commerge::app {
 
 namespace {
 
-volatile std::sig_atomic_t g_stop = 0;
-void OnSignal(int) { g_stop = 1; }
 
 struct FeedOptions {
   std::string data;
@@ -131,8 +128,7 @@ int RunFeed(const FeedOptions& o) {
     std::fprintf(stderr, "%s: %s\n", tag, bus.status().message().c_str());
     return kExitFailure;
   }
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
+  InstallStopSignalHandlers();
   if (!o.quiet) {
     std::fprintf(stderr, "%s: %zu scans from %s at %.2f Hz (%s), odometry at %.2f Hz, on %s and %s via %s%s\n", tag,
                  data->scan_files.size(), o.data.c_str(), o.rate_hz,
@@ -146,7 +142,7 @@ int RunFeed(const FeedOptions& o) {
   auto wait_until = [&](double at_s) {
     const std::int64_t due = start_mono_us + static_cast<std::int64_t>(std::llround(at_s * 1e6));
     for (;;) {
-      if (g_stop) return false;
+      if (StopSignalCount() > 0) return false;
       const std::int64_t left = due - platform::MonotonicUs();
       if (left <= 0) return true;
       std::this_thread::sleep_for(std::chrono::microseconds(left < 50000 ? left : 50000));
@@ -173,10 +169,10 @@ int RunFeed(const FeedOptions& o) {
     return true;
   };
 
-  for (std::uint64_t pass = 0; !g_stop; ++pass) {
+  for (std::uint64_t pass = 0; StopSignalCount() == 0; ++pass) {
     const double offset_s = static_cast<double>(pass) * pass_s;
     std::size_t k = 0, j = 0;
-    while (!g_stop && (k < times.size() || j < odometry_times.size())) {
+    while (StopSignalCount() == 0 && (k < times.size() || j < odometry_times.size())) {
       // Time order; a scan before the odometry sample of the same time (a LiDAR odometry stack publishes a
       // scan's pose after the scan).
       const bool next_is_scan = k < times.size() && (j >= odometry_times.size() || times[k] <= odometry_times[j]);
@@ -213,7 +209,7 @@ int RunFeed(const FeedOptions& o) {
     }
     if (!o.loop) break;
     T_odom_passodom = T_odom_passodom * T_pass_step;
-    if (!o.quiet && !g_stop) {
+    if (!o.quiet && StopSignalCount() == 0) {
       std::fprintf(stderr, "%s: pass %llu done, %llu scans so far\n", tag, static_cast<unsigned long long>(pass + 1),
                    static_cast<unsigned long long>(scans));
     }
@@ -223,7 +219,7 @@ int RunFeed(const FeedOptions& o) {
               "%.1f s, %llu bytes; %s / %s on %s%s\n",
               static_cast<unsigned long long>(scans), static_cast<unsigned long long>(points), largest,
               static_cast<unsigned long long>(samples), elapsed_s, static_cast<unsigned long long>(bytes),
-              o.scan_channel.c_str(), o.odometry_channel.c_str(), o.lcm_url.c_str(), g_stop ? " (interrupted)" : "");
+              o.scan_channel.c_str(), o.odometry_channel.c_str(), o.lcm_url.c_str(), StopSignalCount() > 0 ? " (interrupted)" : "");
   return kExitOk;
 }
 

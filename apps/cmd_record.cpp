@@ -4,7 +4,6 @@
 // numbers (platform/lcm/lcm_recorder).
 #include <CLI/CLI.hpp>
 
-#include <csignal>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -18,8 +17,6 @@ namespace commerge::app {
 
 namespace {
 
-volatile std::sig_atomic_t g_stop = 0;
-void OnSignal(int) { g_stop = 1; }
 
 struct RecordOptions {
   platform::LcmRecorderParams params;
@@ -60,8 +57,7 @@ int RunRecord(const RecordOptions& o) {
     std::fprintf(stderr, "%s: %s\n", tag, rec.status().message().c_str());
     return kExitFailure;
   }
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
+  InstallStopSignalHandlers();
   if (!o.quiet) {
     std::fprintf(stderr, "%s: writing channels %s on %s to %s; stop with Ctrl-C\n", tag, o.params.channels.c_str(),
                  o.params.url.empty() ? "the default LCM URL" : o.params.url.c_str(), o.params.out_path.c_str());
@@ -69,7 +65,7 @@ int RunRecord(const RecordOptions& o) {
   const std::int64_t start_us = platform::MonotonicUs();
   std::int64_t next_progress_us = start_us + 10000000;
   int exit_code = kExitOk;
-  while (!g_stop) {
+  while (StopSignalCount() == 0) {
     if (Status st = (*rec)->Poll(100); !st.ok()) {
       std::fprintf(stderr, "%s: %s\n", tag, st.message().c_str());
       exit_code = kExitFailure;

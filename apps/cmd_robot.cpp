@@ -10,7 +10,6 @@
 // passed after the last scan. With --exit-when-merged 0 it runs until SIGINT / SIGTERM.
 #include <CLI/CLI.hpp>
 
-#include <csignal>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -37,8 +36,6 @@ namespace commerge::app {
 
 namespace {
 
-volatile std::sig_atomic_t g_stop = 0;  // counts signals: live input ends at the first, the process at the second
-void OnSignal(int) { g_stop = g_stop + 1; }
 
 struct RobotOptions {
   int id = 0;
@@ -326,7 +323,7 @@ bool RobotProcess::LiveInput(std::int64_t now) {
   }
   // The input is over after --idle-finish-s without a scan, or at the first signal.
   const bool idle = last_scan_us_ >= 0 && static_cast<double>(now - last_scan_us_) > o_.idle_finish_s * 1e6;
-  if (data_end_us_ >= 0 || !(idle || g_stop == 1)) return true;
+  if (data_end_us_ >= 0 || !(idle || StopSignalCount() == 1)) return true;
   sync_->DropWaiting();
   while (sync_->PopReady(&ready)) {
     if (!MapScan(ready.points, ready.T_odom_sensor, "from the odometry stack")) return false;
@@ -448,13 +445,12 @@ void RobotProcess::PublishStatus(std::int64_t wall, bool done) {
 
 int RobotProcess::Run() {
   if (int rc = OpenBuses(); rc != kExitOk) return rc;
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
+  InstallStopSignalHandlers();
   SayStart();
   next_scan_us_ = platform::MonotonicUs();
   std::int64_t next_status_us = next_scan_us_;
   bool merged = false;
-  while (g_stop == 0 || (o_.live && g_stop == 1)) {  // live: the first signal ends the input, the second the robot
+  while (StopSignalCount() == 0 || (o_.live && StopSignalCount() == 1)) {  // live: the first signal ends the input, the second the robot
     const std::int64_t now = platform::MonotonicUs();
     const std::int64_t wall = platform::WallTimeUs();
     if (!(o_.live ? LiveInput(now) : ReplayInput(now))) return kExitFailure;

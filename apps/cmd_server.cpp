@@ -12,7 +12,6 @@
 // accepted without this server's own request (the recording server made the requests).
 #include <CLI/CLI.hpp>
 
-#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -40,8 +39,6 @@ namespace commerge::app {
 
 namespace {
 
-volatile std::sig_atomic_t g_stop = 0;
-void OnSignal(int) { g_stop = 1; }
 
 struct ServerOptions {
   std::string out_dir = "commerge-server-out";
@@ -338,8 +335,7 @@ int ServerProcess::Run() {
     return kExitFailure;
   }
   bus_ = std::move(*bus);
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
+  InstallStopSignalHandlers();
   if (!o_.quiet) {
     std::fprintf(stderr, "%s: session %lld, robots 0..%d, mode %s, writing to %s%s\n", kTag,
                  static_cast<long long>(session_), robots_ - 1, ExchangeModeName(mode_), o_.out_dir.c_str(),
@@ -356,7 +352,7 @@ int ServerProcess::Run() {
   std::int64_t lingering_since_us = -1, next_result_us = 0;
   std::vector<ServerOutgoing> out;
   platform::BusMessage message;
-  while (!g_stop) {
+  while (StopSignalCount() == 0) {
     if (Status st = bus_->Poll(10); !st.ok()) {
       std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
       return kExitFailure;

@@ -12,43 +12,43 @@ namespace commerge::app {
 
 namespace {
 
-using T = MergeFlag::Type;
+using FlagType = MergeFlag::Type;
 
 const MergeFlag kMergeFlags[] = {
     {"--tau-inter", "cascade.stage_a.tau_inter", "", 0.0, 2.0, "tau_inter",
      "stage A: a keyframe pair is a candidate when its descriptor distance (unit vectors, L2) is at most this; "
-     "with --neighbour-rank a cap on the nearest neighbours", T::kDouble,
+     "with --neighbour-rank a cap on the nearest neighbours", FlagType::kDouble,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.tau_inter; }},
     {"--tau-area", "cascade.stage_a.tau_area", "cells", 0.0, 1e12, "tau_area",
-     "stage A: smallest span area (rows x columns of the bounding box) of an accepted cluster", T::kUint64,
+     "stage A: smallest span area (rows x columns of the bounding box) of an accepted cluster", FlagType::kUint64,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.tau_area; }},
     {"--sequence-half-window", "cascade.stage_a.sequence_half_window", "keyframes", 0.0,
      static_cast<double>(kMaxSequenceHalfWindow), "ours",
      "stage A thresholds the mean descriptor distance along 2w+1 keyframes of the diagonal or anti-diagonal "
      "through each cell instead of the cell alone (sequence matching as in SeqSLAM); bridges single keyframes "
      "that jump above --tau-inter in corridors; 0 = the paper's per-cell threshold",
-     T::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.sequence_half_window; }},
+     FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.sequence_half_window; }},
     {"--neighbour-rank", "cascade.stage_a.neighbour_rank", "keyframes", 0.0, static_cast<double>(kMaxNeighbourRank),
      "ours",
      "stage A keeps a cell only when it is among the k nearest keyframes of its row or of its column (after the "
      "sequence smoothing); --tau-inter is then a cap; 0 = the paper's absolute threshold alone",
-     T::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.neighbour_rank; }},
+     FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.neighbour_rank; }},
     {"--tau-area-fraction", "cascade.stage_a.tau_area_fraction", "", 0.0, 1.0, "ours",
      "stage A asks short missions for less: the span area becomes at most (this x the shorter robot's keyframes)^2, "
      "never below 100 cells; 0 = --tau-area as given (the paper)",
-     T::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.tau_area_fraction; }},
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.tau_area_fraction; }},
     {"--tau-con-m", "cascade.stage_c.tau_con_m", "m", 1e-3, 1e4, "tau_con",
-     "stage C: two loops are compatible when their positional inconsistency is below this", T::kDouble,
+     "stage C: two loops are compatible when their positional inconsistency is below this", FlagType::kDouble,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_c.tau_con_m; }},
     {"--min-submap-scans", "cascade.policy.min_scans_per_robot", "scans", 0.0,
      static_cast<double>(kMaxMinScansPerRobot), "ours",
      "fewest scans asked of each robot per pair: L_K's keyframes plus the nearest other keyframes of stage A's "
      "loops (0 = exactly L_K's, the paper's policy)",
-     T::kUint32, [](MergeServerParams* p) -> void* { return &p->cascade.policy.min_scans_per_robot; }},
+     FlagType::kUint32, [](MergeServerParams* p) -> void* { return &p->cascade.policy.min_scans_per_robot; }},
     {"--max-widen-steps", "max_widen_steps", "steps", 0.0, 8.0, "ours",
      "when registration refuses a pair, ask again for up to twice its scans (more of stage A's keyframes) and "
      "register again, at most this many times per round (0 = the paper's single exchange)",
-     T::kInt, [](MergeServerParams* p) -> void* { return &p->max_widen_steps; }},
+     FlagType::kInt, [](MergeServerParams* p) -> void* { return &p->max_widen_steps; }},
 };
 
 template <typename V>
@@ -64,11 +64,11 @@ std::string MergeFlagValue(const MergeFlag& f, MergeServerParams* params) {
   std::ostringstream text;
   void* field = f.bind(params);
   switch (f.type) {
-    case T::kDouble: text << *static_cast<double*>(field); break;
-    case T::kUint64: text << *static_cast<std::uint64_t*>(field); break;
-    case T::kSize: text << *static_cast<std::size_t*>(field); break;
-    case T::kUint32: text << *static_cast<std::uint32_t*>(field); break;
-    case T::kInt: text << *static_cast<int*>(field); break;
+    case FlagType::kDouble: text << *static_cast<double*>(field); break;
+    case FlagType::kUint64: text << *static_cast<std::uint64_t*>(field); break;
+    case FlagType::kSize: text << *static_cast<std::size_t*>(field); break;
+    case FlagType::kUint32: text << *static_cast<std::uint32_t*>(field); break;
+    case FlagType::kInt: text << *static_cast<int*>(field); break;
   }
   return text.str();
 }
@@ -83,11 +83,11 @@ void AddMergeFlags(CLI::App* cmd, MergeServerParams* params) {
     void* field = f.bind(params);
     CLI::Option* o = nullptr;
     switch (f.type) {
-      case T::kDouble: o = AddTyped<double>(cmd, f.flag, field, help); break;
-      case T::kUint64: o = AddTyped<std::uint64_t>(cmd, f.flag, field, help); break;
-      case T::kSize: o = AddTyped<std::size_t>(cmd, f.flag, field, help); break;
-      case T::kUint32: o = AddTyped<std::uint32_t>(cmd, f.flag, field, help); break;
-      case T::kInt: o = AddTyped<int>(cmd, f.flag, field, help); break;
+      case FlagType::kDouble: o = AddTyped<double>(cmd, f.flag, field, help); break;
+      case FlagType::kUint64: o = AddTyped<std::uint64_t>(cmd, f.flag, field, help); break;
+      case FlagType::kSize: o = AddTyped<std::size_t>(cmd, f.flag, field, help); break;
+      case FlagType::kUint32: o = AddTyped<std::uint32_t>(cmd, f.flag, field, help); break;
+      case FlagType::kInt: o = AddTyped<int>(cmd, f.flag, field, help); break;
     }
     o->check(CLI::Range(f.min_value, f.max_value))->capture_default_str();
   }

@@ -62,10 +62,10 @@ std::uint64_t RunJob::raw_keyframe_bytes() const {
 
 namespace {
 
-// Progress on stderr: rewritten in place on a terminal, one line every 10 s otherwise.
-class Progress {
+// RunProgress on stderr: rewritten in place on a terminal, one line every 10 s otherwise.
+class RunProgress {
  public:
-  explicit Progress(bool enabled) : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0) {}
+  explicit RunProgress(bool enabled) : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0) {}
   void Update(const std::string& line) {
     if (!enabled_) return;
     const auto now = RunClock::now();
@@ -272,7 +272,7 @@ std::string RobotsProgressLine(const RunJob& job, const std::vector<std::atomic<
 
 // Each robot in its own thread (they share nothing); at most --threads at once. Then the streams reach the
 // server, each in its robot's order.
-int MapRobots(RunJob* job, Progress* progress) {
+int MapRobots(RunJob* job, RunProgress* progress) {
   const int n = job->num_robots();
   std::vector<std::vector<OutboxEntry>> outboxes(static_cast<std::size_t>(n));
   std::vector<Status> robot_status(static_cast<std::size_t>(n));
@@ -515,14 +515,14 @@ void EvaluateMode(const RunJob& job, ModeOutcome* out) {
 
 class ProgressObserver : public MergeRoundObserver {
  public:
-  ProgressObserver(Progress* progress, ExchangeMode mode) : progress_(progress), mode_(mode) {}
+  ProgressObserver(RunProgress* progress, ExchangeMode mode) : progress_(progress), mode_(mode) {}
   void OnPairRegistered(const PairMergeResult& r) override {
     progress_->Update("mode " + std::string(ExchangeModeName(mode_)) + ": merged pair " + std::to_string(r.alpha) +
                       "-" + std::to_string(r.beta));
   }
 
  private:
-  Progress* progress_;
+  RunProgress* progress_;
   ExchangeMode mode_;
 };
 
@@ -541,7 +541,7 @@ int CountSendAllBytes(RunJob* job) {
 
 // One merge round of `mode` on a server without scans; exchange_s is the time the messages took, merge_s the
 // round's own work.
-int RunMode(RunJob* job, ExchangeMode mode, Progress* progress) {
+int RunMode(RunJob* job, ExchangeMode mode, RunProgress* progress) {
   ModeOutcome out;
   out.mode = mode;
   out.ledger = std::make_unique<ByteLedger>(job->ledger_params);
@@ -607,7 +607,7 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
 
 int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
   RunJob job(o);
-  Progress progress(o.progress);
+  RunProgress progress(o.progress);
   if (int rc = ReadInputs(&job); rc != kExitOk) return rc;
   if (int rc = SetUpRun(&job); rc != kExitOk) return rc;
   if (int rc = CreateRobots(&job); rc != kExitOk) return rc;

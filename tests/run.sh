@@ -10,6 +10,8 @@
 #            (not `heavy`)
 #   ipc      x86-64 -march=skylake (IPC-6000) build; its tests run when this CPU has AVX2/FMA (not `heavy`);
 #            not in the default set (CI time): run `tests/run.sh ipc`
+# Every configuration compiles in unity batches (CM_UNITY_BUILD=ON; CM_UNITY_BUILD=OFF in the environment compiles
+# file by file) with Ninja when it is installed.
 # Debug info is line tables only (CM_DEBUG_INFO=lines: backtraces and sanitizer reports keep file:line, the
 # builds take far less time); CM_DEBUG_INFO=full in the environment builds with full debug info instead.
 # Idempotent: build trees (build-<config>/) are reused; with ccache installed every compile goes through it, with
@@ -53,6 +55,10 @@ if command -v ccache >/dev/null 2>&1; then
 fi
 
 debug_info=${CM_DEBUG_INFO:-lines}
+# Unity builds (CM_UNITY_BUILD, CMakeLists.txt): each target compiles its sources in batches, which parses the
+# headers (Eigen above all) once per batch instead of once per file. CM_UNITY_BUILD=OFF in the environment
+# compiles file by file, as a developer's incremental build does.
+unity=${CM_UNITY_BUILD:-ON}
 
 summary=()
 failed_configs=()
@@ -91,7 +97,11 @@ run_config() {
   local t0=$SECONDS t_configure t_build t_ctest
   echo "=== [$name] configure + build ($dir) ==="
   mkdir -p "$dir"
-  if ! cmake -S . -B "$dir" "${launcher[@]}" -DCM_DEBUG_INFO="$debug_info" "$@" >"$dir/configure.log" 2>&1; then
+  # Ninja for a new build tree (a tree configured earlier keeps its generator; CMake refuses to switch).
+  local generator=()
+  if [ ! -f "$dir/CMakeCache.txt" ] && command -v ninja >/dev/null 2>&1; then generator=(-G Ninja); fi
+  if ! cmake -S . -B "$dir" "${generator[@]}" "${launcher[@]}" -DCM_DEBUG_INFO="$debug_info" -DCM_UNITY_BUILD="$unity" \
+       "$@" >"$dir/configure.log" 2>&1; then
     cat "$dir/configure.log"
     summary+=("$name: FAILED at configure ($((SECONDS - t0)) s; log $dir/configure.log)")
     return 1

@@ -29,9 +29,10 @@ apt_install() { $SUDO apt-get install -y --no-install-recommends "$@"; }
 # libsodium: the message MACs (platform/lcm/message_auth). patchelf: the field bundle (`--target bundle`).
 # systemd: `systemd-analyze verify` of the units in apps/deploy.
 # ccache: tests/run.sh compiles through it (cache outside the clone, so a later CI run or build tree reuses it).
+# ninja-build: tests/run.sh builds with Ninja (its scheduling keeps both cores busy through the link steps).
 # clang (14): the fuzz configuration (CM_FUZZ). libclang-rt-14-dev holds libFuzzer and clang's sanitizer runtimes
 # (-fsanitize=fuzzer,address,undefined); clang only reaches it through a Recommends, which apt_install skips.
-host_pkgs=(cmake make g++ pkg-config ca-certificates ccache
+host_pkgs=(cmake make ninja-build g++ pkg-config ca-certificates ccache
            liblcm-dev liblcm-bin liblcm-java default-jdk-headless
            libeigen3-dev libglpk-dev doctest-dev libmimalloc-dev libnanoflann-dev
            libcli11-dev zlib1g-dev libsodium-dev time

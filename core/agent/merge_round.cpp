@@ -9,7 +9,7 @@ namespace commerge {
 
 namespace {
 
-double SecondsSince(std::chrono::steady_clock::time_point start) {
+double RoundSecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
@@ -106,7 +106,7 @@ Status MergeRound::Register(const std::vector<PairSelection>& selections) {
     const auto t0 = std::chrono::steady_clock::now();
     auto merged = server_->MergePair(sel);
     if (!merged.ok()) return merged.status();
-    const double seconds = SecondsSince(t0);
+    const double seconds = RoundSecondsSince(t0);
     std::size_t i = 0;
     while (i < current_.pairs.size() && !(current_.pairs[i].alpha == sel.alpha && current_.pairs[i].beta == sel.beta)) {
       ++i;

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Scan codec: int16 centimetres, little-endian, header with count and CRC-32 (layout in the header file).
 #include "core/cloud/scan_codec.hpp"
+#include "core/common/little_endian.hpp"
 
 #include <array>
 #include <cmath>
@@ -45,18 +46,6 @@ inline float DequantizeCm(std::int16_t q) noexcept {
   return static_cast<float>(static_cast<double>(q) / 100.0);  // nearest float to q / 100 (up to double rounding)
 }
 
-inline void PutU16(std::uint8_t* p, std::uint16_t v) noexcept {
-  p[0] = static_cast<std::uint8_t>(v & 0xFFu);
-  p[1] = static_cast<std::uint8_t>(v >> 8);
-}
-inline void PutU32(std::uint8_t* p, std::uint32_t v) noexcept {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>((v >> (8 * i)) & 0xFFu);
-}
-inline std::uint16_t GetU16(const std::uint8_t* p) noexcept { return static_cast<std::uint16_t>(p[0] | (p[1] << 8)); }
-inline std::uint32_t GetU32(const std::uint8_t* p) noexcept {
-  return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) |
-         (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24);
-}
 inline std::int16_t ToInt16(std::uint16_t u) noexcept {
   // Two's complement without implementation-defined conversion.
   return u < 0x8000u ? static_cast<std::int16_t>(u) : static_cast<std::int16_t>(static_cast<std::int32_t>(u) - 65536);
@@ -131,7 +120,7 @@ Result<ScanEncodeInfo> EncodeScan(Span<const PointXYZI> points, Span<std::uint8_
     switch (Classify(p, q)) {
       case PointClass::kKept:
         for (int k = 0; k < 3; ++k, w += 2)
-          PutU16(w, static_cast<std::uint16_t>(q[k]));  // modulo 2^16: two's complement
+          PutU16Le(w, static_cast<std::uint16_t>(q[k]));  // modulo 2^16: two's complement
         ++info.num_encoded;
         break;
       case PointClass::kNonFinite:
@@ -147,8 +136,8 @@ Result<ScanEncodeInfo> EncodeScan(Span<const PointXYZI> points, Span<std::uint8_
   dst[1] = kScanCodecMagic1;
   dst[2] = kScanCodecVersion;
   dst[3] = 0;  // flags
-  PutU32(dst + 4, static_cast<std::uint32_t>(info.num_encoded));
-  PutU32(dst + 8, HeaderAndPayloadCrc(Span<const std::uint8_t>(dst, need)));
+  PutU32Le(dst + 4, static_cast<std::uint32_t>(info.num_encoded));
+  PutU32Le(dst + 8, HeaderAndPayloadCrc(Span<const std::uint8_t>(dst, need)));
   info.bytes_written = need;
   return info;
 }
@@ -168,8 +157,8 @@ Result<ScanHeader> ParseScanHeader(Span<const std::uint8_t> encoded) {
   ScanHeader h;
   h.version = p[2];
   h.flags = p[3];
-  h.num_points = GetU32(p + 4);
-  h.crc32 = GetU32(p + 8);
+  h.num_points = GetU32Le(p + 4);
+  h.crc32 = GetU32Le(p + 8);
   if (h.version != kScanCodecVersion) {
     return Unimplemented("encoded scan version " + std::to_string(h.version) + " is not supported (this build reads " +
                          "version " + std::to_string(kScanCodecVersion) + ")");
@@ -217,9 +206,9 @@ Result<std::size_t> DecodeScan(Span<const std::uint8_t> encoded, std::vector<Poi
   const std::uint8_t* r = encoded.data() + kEncodedScanHeaderBytes;
   for (std::size_t i = 0; i < n; ++i, r += kEncodedPointBytes) {
     PointXYZI& p = (*points)[i];
-    p.x = DequantizeCm(ToInt16(GetU16(r)));
-    p.y = DequantizeCm(ToInt16(GetU16(r + 2)));
-    p.z = DequantizeCm(ToInt16(GetU16(r + 4)));
+    p.x = DequantizeCm(ToInt16(GetU16Le(r)));
+    p.y = DequantizeCm(ToInt16(GetU16Le(r + 2)));
+    p.z = DequantizeCm(ToInt16(GetU16Le(r + 4)));
     p.intensity = 0.0f;
   }
   return n;

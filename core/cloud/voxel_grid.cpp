@@ -3,6 +3,7 @@
 // cloud's minimum voxel, LSD radix sort of (key, input index) pairs (stable, so each voxel's points keep
 // input order), then one centroid per run of equal keys.
 #include "core/cloud/voxel_grid.hpp"
+#include "core/common/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -17,13 +18,6 @@ namespace {
 constexpr char kAxisNames[3] = {'x', 'y', 'z'};
 // Voxel indices beyond this magnitude cannot be converted to int64 safely.
 constexpr double kMaxAbsVoxelIndex = 4611686018427387904.0;  // 2^62
-
-std::string Num(double value) {
-  std::ostringstream os;
-  os.precision(12);
-  os << value;
-  return os.str();
-}
 
 int BitWidth(std::uint64_t value) {
   int bits = 0;
@@ -56,7 +50,7 @@ Result<VoxelGridStats> VoxelGrid::Downsample(Span<const PointXYZI> in, const Vox
   out->clear();
   const double voxel_size_m = params.voxel_size_m;
   if (!(std::isfinite(voxel_size_m) && voxel_size_m > 0.0)) {
-    return InvalidArgument("voxel grid: voxel_size_m must be finite and > 0, got " + Num(voxel_size_m));
+    return InvalidArgument("voxel grid: voxel_size_m must be finite and > 0, got " + FormatNumber(voxel_size_m, 12));
   }
   if (in.size() > std::numeric_limits<std::uint32_t>::max()) {
     return InvalidArgument("voxel grid: " + std::to_string(in.size()) +
@@ -90,9 +84,9 @@ Result<VoxelGridStats> VoxelGrid::Downsample(Span<const PointXYZI> in, const Vox
     const double span = last - first + 1.0;  // inf or NaN when c / v overflowed
     if (!(span <= static_cast<double>(kMaxVoxelsPerAxis)) || !(std::fabs(first) <= kMaxAbsVoxelIndex) ||
         !(std::fabs(last) <= kMaxAbsVoxelIndex)) {
-      return InvalidArgument(std::string("voxel grid: the cloud spans ") + Num(span) + " voxels along " +
-                             kAxisNames[a] + " (" + Num(static_cast<double>(lo[a])) + " .. " +
-                             Num(static_cast<double>(hi[a])) + " m at voxel_size_m = " + Num(voxel_size_m) +
+      return InvalidArgument(std::string("voxel grid: the cloud spans ") + FormatNumber(span, 12) + " voxels along " +
+                             kAxisNames[a] + " (" + FormatNumber(static_cast<double>(lo[a]), 12) + " .. " +
+                             FormatNumber(static_cast<double>(hi[a]), 12) + " m at voxel_size_m = " + FormatNumber(voxel_size_m, 12) +
                              "), more than the " + std::to_string(kMaxVoxelsPerAxis) +
                              " per axis that fit the sort key; use a larger voxel_size_m or crop the cloud");
     }

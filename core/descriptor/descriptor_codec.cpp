@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/descriptor/descriptor_codec.hpp"
+#include "core/common/little_endian.hpp"
+#include "core/common/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -21,13 +23,6 @@ static_assert(kDescriptorOffset + kDescriptorBytes == kKeyframeRecordBytes, "rec
 constexpr int kQuatComponentBits = 15;
 constexpr double kSqrt2 = 1.4142135623730951;
 
-std::string Num(double value) {
-  std::ostringstream os;
-  os.precision(9);
-  os << value;
-  return os.str();
-}
-
 std::uint32_t FloatBits(float f) noexcept {
   std::uint32_t u = 0;
   static_assert(sizeof(u) == sizeof(f), "IEEE-754 binary32 expected");
@@ -41,15 +36,6 @@ float BitsToFloat(std::uint32_t u) noexcept {
   return f;
 }
 
-void PutU32(std::uint8_t* p, std::uint32_t v) noexcept {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-
-std::uint32_t GetU32(const std::uint8_t* p) noexcept {
-  std::uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= static_cast<std::uint32_t>(p[i]) << (8 * i);
-  return v;
-}
 
 // LSB-first bit field writer / reader over a zero-initialised byte range.
 void PutBits(std::uint8_t* base, std::size_t bit_offset, int bits, std::uint32_t value) noexcept {
@@ -87,7 +73,7 @@ Status EncodeKeyframeRecord(const KeyframeRecord& record, Span<std::uint8_t> out
   for (std::size_t i = 0; i < kKeyframeDescriptorDim; ++i) {
     const double v = static_cast<double>(record.descriptor[i]);
     if (!std::isfinite(v) || v < 0.0) {
-      return InvalidArgument(who() + "descriptor value " + std::to_string(i) + " is " + Num(v) +
+      return InvalidArgument(who() + "descriptor value " + std::to_string(i) + " is " + FormatNumber(v, 9) +
                              " (R-SOLiD is finite and >= 0)");
     }
     norm2 += v * v;
@@ -95,7 +81,7 @@ Status EncodeKeyframeRecord(const KeyframeRecord& record, Span<std::uint8_t> out
   }
   const double norm = std::sqrt(norm2);
   if (!(std::fabs(norm - 1.0) <= 1e-3)) {
-    return InvalidArgument(who() + "descriptor norm is " + Num(norm) +
+    return InvalidArgument(who() + "descriptor norm is " + FormatNumber(norm, 9) +
                            ", expected 1 (send the unit-normalised R-SOLiD; an all-zero descriptor is invalid)");
   }
 
@@ -105,22 +91,22 @@ Status EncodeKeyframeRecord(const KeyframeRecord& record, Span<std::uint8_t> out
   const Eigen::Matrix3d R = record.T_map_sensor.linear();
   const double ortho_error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (!(ortho_error <= 1e-3) || !(R.determinant() > 0.0)) {
-    return InvalidArgument(who() + "pose rotation is not a rotation matrix (max |R^T R - I| = " + Num(ortho_error) +
-                           ", det = " + Num(R.determinant()) + ")");
+    return InvalidArgument(who() + "pose rotation is not a rotation matrix (max |R^T R - I| = " + FormatNumber(ortho_error, 9) +
+                           ", det = " + FormatNumber(R.determinant(), 9) + ")");
   }
   const Eigen::Vector3d t = record.T_map_sensor.translation();
   float tf[3];
   for (int i = 0; i < 3; ++i) {
     tf[i] = static_cast<float>(t[i]);
     if (!std::isfinite(tf[i])) {
-      return InvalidArgument(who() + "translation " + Num(t[i]) + " m is beyond the float32 range");
+      return InvalidArgument(who() + "translation " + FormatNumber(t[i], 9) + " m is beyond the float32 range");
     }
   }
 
   std::fill(out.begin(), out.end(), std::uint8_t{0});
   std::uint8_t* const p = out.data();
-  PutU32(p, record.keyframe_index);
-  for (int i = 0; i < 3; ++i) PutU32(p + kTranslationOffset + 4 * i, FloatBits(tf[i]));
+  PutU32Le(p, record.keyframe_index);
+  for (int i = 0; i < 3; ++i) PutU32Le(p + kTranslationOffset + 4 * i, FloatBits(tf[i]));
 
   // Smallest three: components in the order w, x, y, z.
   Eigen::Quaterniond q(R);
@@ -163,12 +149,12 @@ Result<KeyframeRecord> DecodeKeyframeRecord(Span<const std::uint8_t> bytes) {
   }
   const std::uint8_t* const p = bytes.data();
   KeyframeRecord rec;
-  rec.keyframe_index = GetU32(p);
+  rec.keyframe_index = GetU32Le(p);
   const auto who = [&rec] { return RecordName(rec.keyframe_index); };  // built only on error
 
   Eigen::Vector3d t;
   for (int i = 0; i < 3; ++i) {
-    const float f = BitsToFloat(GetU32(p + kTranslationOffset + 4 * i));
+    const float f = BitsToFloat(GetU32Le(p + kTranslationOffset + 4 * i));
     if (!std::isfinite(f)) return DataLoss(who() + "translation component " + std::to_string(i) + " is not finite");
     t[i] = static_cast<double>(f);
   }
@@ -194,11 +180,11 @@ Result<KeyframeRecord> DecodeKeyframeRecord(Span<const std::uint8_t> bytes) {
   // (slack: quantisation moves each component by <= 2.2e-5).
   constexpr double kSlack = 1e-3;
   if (sum_sq > 0.75 + kSlack) {
-    return DataLoss(who() + "rotation is not a smallest-three quaternion (sum of squares " + Num(sum_sq) + " > 3/4)");
+    return DataLoss(who() + "rotation is not a smallest-three quaternion (sum of squares " + FormatNumber(sum_sq, 9) + " > 3/4)");
   }
   c[largest] = std::sqrt(std::max(0.0, 1.0 - sum_sq));
   if (max_kept > c[largest] + kSlack) {
-    return DataLoss(who() + "rotation is not a smallest-three quaternion (dropped component " + Num(c[largest]) +
+    return DataLoss(who() + "rotation is not a smallest-three quaternion (dropped component " + FormatNumber(c[largest], 9) +
                     " is not the largest)");
   }
   Eigen::Quaterniond q(c[0], c[1], c[2], c[3]);
@@ -279,7 +265,7 @@ Status EncodeFloat16(Span<const float> values, Span<std::uint8_t> out) {
   for (std::size_t i = 0; i < values.size(); ++i) {
     const std::uint16_t h = FloatToHalf(values[i]);
     if ((h & 0x7c00u) == 0x7c00u) {
-      return InvalidArgument("float16: value " + std::to_string(i) + " (" + Num(static_cast<double>(values[i])) +
+      return InvalidArgument("float16: value " + std::to_string(i) + " (" + FormatNumber(static_cast<double>(values[i]), 9) +
                              ") is not finite or beyond the half range (|v| < 65520)");
     }
     out[2 * i] = static_cast<std::uint8_t>(h & 0xffu);

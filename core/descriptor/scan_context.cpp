@@ -9,16 +9,10 @@
 
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/geometry/angles.hpp"
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
-
-std::string Num(double value) {
-  std::ostringstream os;
-  os.precision(12);
-  os << value;
-  return os.str();
-}
 
 bool GridOk(std::size_t size, int num_rings, int num_sectors) noexcept {
   return num_rings >= 1 && num_rings <= kScanContextMaxRings && num_sectors >= 1 &&
@@ -38,10 +32,10 @@ Status ValidateScanContextParams(const ScanContextParams& p) {
                            std::to_string(p.num_sectors));
   }
   if (!(std::isfinite(p.max_range_m) && p.max_range_m > 0.0)) {
-    return InvalidArgument("Scan Context parameters: max_range_m must be finite and > 0, got " + Num(p.max_range_m));
+    return InvalidArgument("Scan Context parameters: max_range_m must be finite and > 0, got " + FormatNumber(p.max_range_m, 12));
   }
   if (!std::isfinite(p.lidar_height_m)) {
-    return InvalidArgument("Scan Context parameters: lidar_height_m must be finite, got " + Num(p.lidar_height_m));
+    return InvalidArgument("Scan Context parameters: lidar_height_m must be finite, got " + FormatNumber(p.lidar_height_m, 12));
   }
   return Status::Ok();
 }

@@ -12,18 +12,12 @@
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
 
-std::string Num(double value) {
-  std::ostringstream os;
-  os.precision(6);
-  os << value;
-  return os.str();
-}
-
-bool IsFinitePose(const Eigen::Isometry3d& T) { return T.matrix().topRows<3>().allFinite(); }
+bool IsFiniteRigidPart(const Eigen::Isometry3d& T) { return T.matrix().topRows<3>().allFinite(); }
 
 Status CheckPoses(Span<const Eigen::Isometry3d> poses, const char* name) {
   if (poses.size() < 3) {
@@ -31,7 +25,7 @@ Status CheckPoses(Span<const Eigen::Isometry3d> poses, const char* name) {
                            " poses, at least 3 are needed");
   }
   for (std::size_t i = 0; i < poses.size(); ++i) {
-    if (!IsFinitePose(poses[i])) {
+    if (!IsFiniteRigidPart(poses[i])) {
       return InvalidArgument(std::string("inter-robot alignment: ") + name + " pose " + std::to_string(i) +
                              " has a non-finite entry");
     }
@@ -68,7 +62,7 @@ std::vector<Eigen::Vector3d> AlignmentPoints(Span<const Eigen::Isometry3d> poses
 
 TransformError ComputeTransformError(const Eigen::Isometry3d& T_estimate, const Eigen::Isometry3d& T_reference) {
   TransformError e;
-  if (!IsFinitePose(T_estimate) || !IsFinitePose(T_reference)) {
+  if (!IsFiniteRigidPart(T_estimate) || !IsFiniteRigidPart(T_reference)) {
     e.translation_m = std::numeric_limits<double>::quiet_NaN();
     e.rotation_deg = std::numeric_limits<double>::quiet_NaN();
     return e;
@@ -81,11 +75,11 @@ TransformError ComputeTransformError(const Eigen::Isometry3d& T_estimate, const 
 Status ValidateInterRobotAlignmentParams(const InterRobotAlignmentParams& params) {
   if (!(params.collinear_ratio >= 0.0 && params.collinear_ratio < 1.0)) {
     return InvalidArgument("inter-robot alignment: collinear_ratio must be in [0, 1), got " +
-                           Num(params.collinear_ratio));
+                           FormatNumber(params.collinear_ratio, 6));
   }
   if (!(params.axis_offset_m > 0.0 && std::isfinite(params.axis_offset_m))) {
     return InvalidArgument("inter-robot alignment: axis_offset_m must be finite and > 0, got " +
-                           Num(params.axis_offset_m));
+                           FormatNumber(params.axis_offset_m, 6));
   }
   return Status::Ok();
 }
@@ -103,7 +97,7 @@ Result<InterRobotAlignment> InterRobotAlignmentRmse(Span<const Eigen::Isometry3d
   if (Status s = CheckPair(beta_estimated, beta_ground_truth, "beta_estimated", "beta_ground_truth"); !s.ok()) {
     return s;
   }
-  if (!IsFinitePose(T_alpha_beta)) {
+  if (!IsFiniteRigidPart(T_alpha_beta)) {
     return InvalidArgument("inter-robot alignment: T_alpha_beta has a non-finite entry");
   }
 

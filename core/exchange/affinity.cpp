@@ -14,11 +14,11 @@
 #endif
 
 #include "core/descriptor/solid.hpp"
+#include "core/common/float_limits.hpp"
 
 namespace commerge {
 namespace {
 
-constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr std::size_t kMr = 6;  // alpha rows per micro block (6 x 8: 12 accumulators + 3 in 16 registers)
 constexpr std::size_t kNr = 8;  // beta columns per panel (two 4-float vectors)
 constexpr std::size_t kChunkBytes = 16384;  // packed beta swept by all row blocks of a tile, L1 resident
@@ -70,7 +70,7 @@ inline V4 Sqrt4(V4 a) noexcept {
 // value, a squared norm that rounds to 0 or exceeds kMaxDescriptorNorm2. Appends rows [begin, end).
 void AppendEffectiveNorms2(const DescriptorSetView& set, std::size_t begin, std::size_t end, std::vector<float>* out) {
   for (std::size_t i = begin; i < end; ++i) {
-    float norm2 = kInf;
+    float norm2 = kFloatInf;
     if (set.valid.empty() || set.valid[i] != 0) {
       const float* row = set.values.data() + i * set.dim;
       double s = 0.0;
@@ -166,7 +166,7 @@ Status AffinityTileKernel::Extend(const DescriptorSetView& alpha, const Descript
 void AffinityTileKernel::PackBetaFrom(std::size_t first_col) {
   const std::size_t panels = NumPanels(beta_count_);
   beta_pack_.resize(panels * kNr * dim_, 0.0f);      // new panels: every column zero
-  beta_norm_pack_.resize(panels * kNr, kInf);        // new panels: every column padding
+  beta_norm_pack_.resize(panels * kNr, kFloatInf);        // new panels: every column padding
   for (std::size_t j = first_col; j < beta_count_; ++j) {
     const std::size_t p = j / kNr, lane = j % kNr;
     float* dst = beta_pack_.data() + p * kNr * dim_ + lane;
@@ -189,8 +189,8 @@ Status AffinityTileKernel::ComputeTile(std::size_t row_begin, std::size_t col_be
   if (tile_.size() < rows * cols) tile_.resize(rows * cols);  // grows to at most one full tile, once
   const std::size_t dim = dim_, col_end = col_begin + cols;
   const std::size_t p_begin = col_begin / kNr, p_end = NumPanels(col_end);
-  V4 vmin = Splat4(kInf);
-  float smin = kInf;
+  V4 vmin = Splat4(kFloatInf);
+  float smin = kFloatInf;
   float block[kMr * kNr];
   float* const apack = alpha_pack_.data();
   // Column chunks of packed beta small enough to stay in L1 (~16 KiB) while every row block sweeps them.
@@ -204,7 +204,7 @@ Status AffinityTileKernel::ComputeTile(std::size_t row_begin, std::size_t col_be
       float na[kMr];
       for (std::size_t r = 0; r < kMr; ++r) {
         const std::size_t i = row_begin + rb + r;
-        na[r] = r < live ? alpha_norm2_[i] : kInf;
+        na[r] = r < live ? alpha_norm2_[i] : kFloatInf;
         const float* src = r < live && na[r] <= kMaxDescriptorNorm2 ? alpha_ + i * dim : nullptr;
         for (std::size_t k = 0; k < dim; ++k) Store4(apack + (k * kMr + r) * 4, Splat4(src ? src[k] : 0.0f));
       }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/exchange/neighbour_rank.hpp"
+#include "core/common/float_limits.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +11,6 @@ namespace commerge {
 
 namespace {
 
-constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // Inserts v into the ascending list [list, list + k) of the k smallest values so far.
 void KeepSmallest(float v, float* list, std::size_t k) {
@@ -43,8 +43,8 @@ Result<NeighbourRankTileSource> NeighbourRankTileSource::Create(AffinityTileSour
 
 Status NeighbourRankTileSource::Prepare() {
   const std::size_t n = inner_->num_rows(), m = inner_->num_cols();
-  row_kth_.assign(n * k_, kInf);
-  col_kth_.assign(m * k_, kInf);
+  row_kth_.assign(n * k_, kFloatInf);
+  col_kth_.assign(m * k_, kFloatInf);
   prepared_ = false;
   if (n == 0 || m == 0) {
     prepared_ = true;
@@ -78,13 +78,13 @@ Status NeighbourRankTileSource::ComputeTile(std::size_t row_begin, std::size_t c
   Status s = inner_->ComputeTile(row_begin, col_begin, rows, cols, &in);
   if (!s.ok()) return s;
   out_.resize(rows * cols);
-  float lowest = kInf;
+  float lowest = kFloatInf;
   for (std::size_t r = 0; r < rows; ++r) {
     const float row_thr = row_threshold(row_begin + r);
     for (std::size_t c = 0; c < cols; ++c) {
       const float v = in.at(r, c);
       const bool kept = std::isfinite(v) && (v <= row_thr || v <= col_threshold(col_begin + c));
-      const float o = kept ? v : kInf;
+      const float o = kept ? v : kFloatInf;
       out_[r * cols + c] = o;
       lowest = std::min(lowest, o);
     }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/exchange/sequence_smoothing.hpp"
+#include "core/common/float_limits.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +10,6 @@
 namespace commerge {
 namespace {
 
-constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // S of cell (i, j) (global indices) from a block holding rows [r0, r1) x cols [c0, c1) of the matrix, where
 // the block covers every in-matrix cell of the window (the caller's halo). at(ii, jj) reads global indices.
@@ -17,7 +17,7 @@ template <class At>
 float SmoothCell(At&& at, std::size_t r0, std::size_t r1, std::size_t c0, std::size_t c1, std::size_t i,
                  std::size_t j, std::size_t w) {
   const float center = at(i, j);
-  if (!std::isfinite(center)) return kInf;
+  if (!std::isfinite(center)) return kFloatInf;
   double sum_diag = 0.0, sum_anti = 0.0;
   std::size_t n_diag = 0, n_anti = 0;
   // k = -w .. w with unsigned arithmetic: row ii = i + k runs over [i - w, i + w] clipped to [r0, r1).
@@ -139,13 +139,13 @@ Status SequenceSmoothedTileSource::ComputeTile(std::size_t row_begin, std::size_
     for (; t + kBlock <= j_hi; t += kBlock) SweepBlock<kBlock>(rows_k, in.stride, t, w_, c0, count, s_row + (t - e_c0));
     for (; t < j_hi; ++t) SweepBlock<1>(rows_k, in.stride, t, w_, c0, count, s_row + (t - e_c0));
   }
-  float min_value = kInf;
+  float min_value = kFloatInf;
   for (std::size_t r = 0; r < rows; ++r) {
     const std::size_t i = row_begin + r;
     float* out_row = out_.data() + r * cols;
     for (std::size_t c = 0; c < cols; ++c) {
       const std::size_t j = col_begin + c;
-      float v = kInf;
+      float v = kFloatInf;
       if (std::isfinite(at(i, j))) {  // an invalid pair never matches, whatever its neighbours
         for (std::size_t ii = (i > e_r0 ? i - 1 : i); ii <= i + 1 && ii < e_r1; ++ii) {
           const float* s_row = smoothed_.data() + (ii - e_r0) * e_cols;

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/exchange/sequential_matching.hpp"
+#include "core/common/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -292,13 +293,6 @@ class StreamingLabeler {
   double min_distance_ = 0.0;
 };
 
-std::string FormatNumber(double v) {
-  std::ostringstream os;
-  os.precision(4);
-  os << v;
-  return os.str();
-}
-
 std::string EmptySetReason(std::size_t n, std::size_t m) {
   return std::string("no keyframes: robot ") + (n == 0 ? "alpha" : "beta") +
          " has an empty descriptor set (N = " + std::to_string(n) + ", M = " + std::to_string(m) + ")";
@@ -308,8 +302,8 @@ std::string EmptySetReason(std::size_t n, std::size_t m) {
 bool ExplainCandidate(const SequentialMatchParams& p, bool has_best, SequentialMatchResult* result) {
   if (result->num_cells_below_threshold == 0) {
     result->no_candidate_reason =
-        "no cell below tau_inter = " + FormatNumber(p.tau_inter) +
-        (std::isfinite(result->min_distance) ? " (smallest distance " + FormatNumber(result->min_distance) + ")"
+        "no cell below tau_inter = " + FormatNumber(p.tau_inter, 4) +
+        (std::isfinite(result->min_distance) ? " (smallest distance " + FormatNumber(result->min_distance, 4) + ")"
                                              : std::string(" (no valid descriptor pair)"));
     return false;
   }
@@ -467,7 +461,7 @@ class SparseLabeler {
 
 Status ValidateSequentialMatchParams(const SequentialMatchParams& p) {
   if (!std::isfinite(p.tau_inter) || p.tau_inter < 0.0) {
-    return InvalidArgument("sequential matching: tau_inter must be finite and >= 0, got " + FormatNumber(p.tau_inter));
+    return InvalidArgument("sequential matching: tau_inter must be finite and >= 0, got " + FormatNumber(p.tau_inter, 4));
   }
   if (p.tile_rows == 0 || p.tile_cols == 0) return InvalidArgument("sequential matching: tile size must be >= 1 x 1");
   if (p.sequence_half_window > kMaxSequenceHalfWindow) {
@@ -476,7 +470,7 @@ Status ValidateSequentialMatchParams(const SequentialMatchParams& p) {
   }
   if (!std::isfinite(p.tau_area_fraction) || p.tau_area_fraction < 0.0) {
     return InvalidArgument("sequential matching: tau_area_fraction must be finite and >= 0, got " +
-                           FormatNumber(p.tau_area_fraction));
+                           FormatNumber(p.tau_area_fraction, 4));
   }
   if (p.neighbour_rank > kMaxNeighbourRank) {
     return InvalidArgument("sequential matching: neighbour_rank must be <= " + std::to_string(kMaxNeighbourRank) +
@@ -615,7 +609,7 @@ Result<SequentialMatchResult> RunSequentialMatchingOnHits(Span<const CompactHit>
                          (hits[k - 1].alpha_index == h.alpha_index && hits[k - 1].beta_index < h.beta_index);
     if (h.alpha_index >= n || h.beta_index >= m || !(h.distance <= tau) || !ordered) {
       return InvalidArgument("sequential matching: hit " + std::to_string(k) + " (" + std::to_string(h.alpha_index) +
-                             ", " + std::to_string(h.beta_index) + ", " + FormatNumber(static_cast<double>(h.distance)) +
+                             ", " + std::to_string(h.beta_index) + ", " + FormatNumber(static_cast<double>(h.distance), 4) +
                              ") is outside the " + std::to_string(n) + " x " + std::to_string(m) +
                              " matrix, above tau_inter or out of row-major order");
     }

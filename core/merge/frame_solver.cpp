@@ -14,18 +14,12 @@
 
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
 
 constexpr int kMaxRobots = kFrameSolverMaxRobots;
-
-std::string Num(double value) {
-  std::ostringstream os;
-  os.precision(6);
-  os << value;
-  return os.str();
-}
 
 /// Rigid transform as rotation + translation (cheaper to compose than a 4x4 matrix).
 struct Pose {
@@ -354,10 +348,10 @@ Status ValidateMeasurements(int num_robots, Span<const FrameMeasurement> measure
     }
     if (!IsValidRigidTransform(m.T_a_b, kRigidTolerance)) {
       return InvalidArgument(what + "T_a_b is not a rigid transform (rotation not orthonormal with det +1 within " +
-                             Num(kRigidTolerance) + ")");
+                             FormatNumber(kRigidTolerance, 6) + ")");
     }
     if (!(m.weight > 0.0 && std::isfinite(m.weight))) {
-      return InvalidArgument(what + "weight = " + Num(m.weight) + " must be finite and > 0");
+      return InvalidArgument(what + "weight = " + FormatNumber(m.weight, 6) + " must be finite and > 0");
     }
   }
   return Status::Ok();
@@ -555,10 +549,10 @@ const char* MeasurementVerdictName(MeasurementVerdict verdict) noexcept {
 Status ValidateFrameSolverParams(const FrameSolverParams& params) {
   if (!(params.max_translation_m > 0.0 && std::isfinite(params.max_translation_m))) {
     return InvalidArgument("frame solver: max_translation_m must be finite and > 0, got " +
-                           Num(params.max_translation_m));
+                           FormatNumber(params.max_translation_m, 6));
   }
   if (!(params.max_rotation_deg > 0.0 && params.max_rotation_deg <= 180.0)) {
-    return InvalidArgument("frame solver: max_rotation_deg must be in (0, 180], got " + Num(params.max_rotation_deg));
+    return InvalidArgument("frame solver: max_rotation_deg must be in (0, 180], got " + FormatNumber(params.max_rotation_deg, 6));
   }
   if (params.refine_iterations < 0 || params.refine_iterations > 100) {
     return InvalidArgument("frame solver: refine_iterations must be in [0, 100], got " +

@@ -12,7 +12,7 @@
 namespace commerge {
 namespace {
 
-inline Eigen::Vector3d Pos(const PointXYZI& p) {
+inline Eigen::Vector3d PositionD(const PointXYZI& p) {
   return {static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z)};
 }
 
@@ -98,7 +98,7 @@ GicpResult Gicp::Align(const SubmapFeatures& source, const SubmapFeatures& targe
     double e = 0.0;
     const Eigen::Matrix3d R = T.linear();
     for (std::size_t i = 0; i < src.size(); i += stride) {
-      const Eigen::Vector3d p = Pos(src[i]);
+      const Eigen::Vector3d p = PositionD(src[i]);
       const Eigen::Vector3d q = T * p;
       std::uint32_t j = 0;
       float d2 = 0.0f;
@@ -115,7 +115,7 @@ GicpResult Gicp::Align(const SubmapFeatures& source, const SubmapFeatures& targe
       } else {
         M = (cov_t[j] + R * cov_s[i] * R.transpose()).inverse();
       }
-      const Eigen::Vector3d r = Pos(tgt[j]) - q;
+      const Eigen::Vector3d r = PositionD(tgt[j]) - q;
       Eigen::Matrix<double, 3, 6> J;  // d(T [ExpSO3(omega), v] p)/d[v; omega] = [R, -R [p]x], negated for r
       J.leftCols<3>() = -R;
       J.rightCols<3>() = R * Skew(p);
@@ -130,7 +130,7 @@ GicpResult Gicp::Align(const SubmapFeatures& source, const SubmapFeatures& targe
   auto evaluate = [&](const Eigen::Isometry3d& T) {
     double e = 0.0;
     for (const Factor& f : factors_) {
-      const Eigen::Vector3d r = Pos(tgt[f.target]) - T * Pos(src[f.source]);
+      const Eigen::Vector3d r = PositionD(tgt[f.target]) - T * PositionD(src[f.source]);
       e += 0.5 * r.dot(f.M * r);
     }
     return e;
@@ -206,7 +206,7 @@ GicpResult Gicp::Align(const SubmapFeatures& source, const SubmapFeatures& targe
   const double plane_d = params.inlier_plane_distance_m;
   const Eigen::Matrix3d R = T.linear();
   for (const Factor& f : factors_) {
-    const Eigen::Vector3d r = Pos(tgt[f.target]) - T * Pos(src[f.source]);
+    const Eigen::Vector3d r = PositionD(tgt[f.target]) - T * PositionD(src[f.source]);
     const double d2 = r.squaredNorm();
     bool inlier = d2 <= in_d2;
     if (inlier && normal_t_valid[f.target]) {

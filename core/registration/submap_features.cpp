@@ -23,7 +23,7 @@
 namespace commerge {
 namespace {
 
-inline Eigen::Vector3f Pos(const PointXYZI& p) { return {p.x, p.y, p.z}; }
+inline Eigen::Vector3f PositionF(const PointXYZI& p) { return {p.x, p.y, p.z}; }
 
 // SPFH rows are padded to a multiple of 4 floats so that the weighted sums vectorise without a remainder.
 constexpr int kSpfhStride = 36;
@@ -359,7 +359,7 @@ void SubmapFeatures::ComputeDescriptors(const SubmapFeatureParams& /*params*/) {
       soa[3 * lanes + m] = nj.x(), soa[4 * lanes + m] = nj.y(), soa[5 * lanes + m] = nj.z();
       ++m;
     }
-    const Eigen::Vector3f pi = Pos(points_[i]);
+    const Eigen::Vector3f pi = PositionF(points_[i]);
     const Eigen::Vector3f& ni = normals_[i];
     for (std::size_t base = 0; base < m; base += kPairLanes) {
       V4i b1, b2, b3, defined;

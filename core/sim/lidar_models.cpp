@@ -21,7 +21,7 @@ std::vector<float> UniformTable(int beams, double lo_deg, double hi_deg) {
   return t;
 }
 
-std::string Canonical(const std::string& name) {
+std::string CanonicalModelName(const std::string& name) {
   std::string out;
   for (char c : name) {
     if (c == '-' || c == '_' || c == ' ') continue;
@@ -115,7 +115,7 @@ const char* LidarKindName(LidarKind kind) noexcept {
 }
 
 Result<LidarKind> LidarKindFromName(const std::string& name) {
-  const std::string c = Canonical(name);
+  const std::string c = CanonicalModelName(name);
   if (c == "vlp16" || c == "velodynevlp16") return LidarKind::kVlp16;
   if (c == "hdl64" || c == "hdl64e" || c == "velodynehdl64e" || c == "kitti") return LidarKind::kHdl64e;
   if (c == "os128" || c == "os1128" || c == "ousteros1128") return LidarKind::kOs1_128;

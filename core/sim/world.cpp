@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/sim/world.hpp"
+#include "core/common/float_limits.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +11,6 @@ namespace commerge {
 
 namespace {
 
-constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr std::uint32_t kKindBox = 0, kKindCylinder = 1, kKindSphere = 2;
 constexpr std::uint32_t kIndexMask = (1u << 30) - 1;
 /// Hits closer than this to the ray origin are ignored (self-intersection guard) [m].
@@ -26,7 +26,7 @@ bool HitBox(const OrientedBox& b, const float o[3], const float d[3], float t_mi
   const float ld[3] = {c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]};
   const float mn[3] = {-b.half_x_m, -b.half_y_m, b.z_min_m};
   const float mx[3] = {b.half_x_m, b.half_y_m, b.z_max_m};
-  float t_near = -kInf, t_far = *best;
+  float t_near = -kFloatInf, t_far = *best;
   int axis = -1;
   for (int a = 0; a < 3; ++a) {
     if (std::fabs(ld[a]) < 1e-12f) {
@@ -221,7 +221,7 @@ Status World::Build(float cell_size_m) {
     return InvalidArgument("world: tunnel noise needs amplitude >= 0 and wavelength > 0");
   }
 
-  float min_x = kInf, min_y = kInf, max_x = -kInf, max_y = -kInf;
+  float min_x = kFloatInf, min_y = kFloatInf, max_x = -kFloatInf, max_y = -kFloatInf;
   max_z_ = ground_z_m_;
   for (const auto* list : {&bounds, &tunnel_bounds}) {
     for (const Bounds& b : *list) {
@@ -276,7 +276,7 @@ Status World::Build(float cell_size_m) {
       }
     }
   };
-  cell_max_z_.assign(cells, -kInf);
+  cell_max_z_.assign(cells, -kFloatInf);
   const std::uint32_t n_boxes = static_cast<std::uint32_t>(boxes_.size());
   const std::uint32_t n_cyl = static_cast<std::uint32_t>(cylinders_.size());
   fill(bounds, &cell_begin_, &refs_,
@@ -317,9 +317,9 @@ WorldStats World::stats() const {
 
 float World::TunnelField(const float p[3], int cell_i, int cell_j, int* nearest) const {
   // s0 = min over the cell's capsules of (distance to the axis segment - radius): 1-Lipschitz.
-  float s0 = kInf;
+  float s0 = kFloatInf;
   *nearest = -1;
-  if (cell_i < 0 || cell_j < 0 || cell_i >= nx_ || cell_j >= ny_) return kInf;
+  if (cell_i < 0 || cell_j < 0 || cell_i >= nx_ || cell_j >= ny_) return kFloatInf;
   const std::size_t c = static_cast<std::size_t>(cell_j) * nx_ + cell_i;
   for (std::uint32_t k = tunnel_begin_[c]; k < tunnel_begin_[c + 1]; ++k) {
     const TunnelPre& t = tunnel_pre_[k];
@@ -339,12 +339,12 @@ float World::TunnelField(const float p[3], int cell_i, int cell_j, int* nearest)
 }
 
 float World::TunnelSignedDistance(const float p[3]) const {
-  if (tunnels_.empty() || !built_) return kInf;
+  if (tunnels_.empty() || !built_) return kFloatInf;
   const int i = static_cast<int>(std::floor((p[0] - origin_x_) * inv_cell_));
   const int j = static_cast<int>(std::floor((p[1] - origin_y_) * inv_cell_));
   int nearest = -1;
   const float s0 = TunnelField(p, i, j, &nearest);
-  if (!std::isfinite(s0)) return kInf;
+  if (!std::isfinite(s0)) return kFloatInf;
   const float a = tunnel_noise_.amplitude_m;
   if (a <= 0.0f) return s0;
   const float inv_w = 1.0f / tunnel_noise_.wavelength_m;
@@ -476,14 +476,14 @@ bool World::CastRay(const float o[3], const float d[3], float min_range_m, float
   int i = std::clamp(static_cast<int>(std::floor((sx - gx0) * inv_cell_)), 0, nx_ - 1);
   int j = std::clamp(static_cast<int>(std::floor((sy - gy0) * inv_cell_)), 0, ny_ - 1);
   const int step_i = d[0] > 0 ? 1 : -1, step_j = d[1] > 0 ? 1 : -1;
-  const float dt_x = std::fabs(d[0]) > 1e-12f ? cell_m_ / std::fabs(d[0]) : kInf;
-  const float dt_y = std::fabs(d[1]) > 1e-12f ? cell_m_ / std::fabs(d[1]) : kInf;
+  const float dt_x = std::fabs(d[0]) > 1e-12f ? cell_m_ / std::fabs(d[0]) : kFloatInf;
+  const float dt_y = std::fabs(d[1]) > 1e-12f ? cell_m_ / std::fabs(d[1]) : kFloatInf;
   float t_next_x = std::fabs(d[0]) > 1e-12f
                        ? (gx0 + static_cast<float>(i + (d[0] > 0 ? 1 : 0)) * cell_m_ - o[0]) / d[0]
-                       : kInf;
+                       : kFloatInf;
   float t_next_y = std::fabs(d[1]) > 1e-12f
                        ? (gy0 + static_cast<float>(j + (d[1] > 0 ? 1 : 0)) * cell_m_ - o[1]) / d[1]
-                       : kInf;
+                       : kFloatInf;
   float t_cell_enter = t_enter;
   while (true) {
     const float t_cell_exit = std::min({t_next_x, t_next_y, t_exit});

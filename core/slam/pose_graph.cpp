@@ -9,6 +9,7 @@
 // in place and refactorises numerically; because the matrix is already permuted, Eigen factorises it without
 // copying it.
 #include "core/slam/pose_graph.hpp"
+#include "core/common/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -22,7 +23,9 @@
 #include <Eigen/Sparse>
 
 namespace commerge {
-namespace {
+// Types held by PoseGraph::Workspace: a named namespace, because a class member may not use a type of an
+// anonymous namespace when this file is compiled inside a unity batch.
+namespace pose_graph_detail {
 
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
@@ -39,16 +42,24 @@ class PreorderedLdlt : public Eigen::SimplicialLDLT<SparseMatrix, Eigen::Upper, 
   }
 };
 
+// A 6x6 block of H: entry (i, j) lives at values[outer[column + j] + offset + i]. Diagonal blocks store only
+// their upper triangle (i <= j).
+struct BlockSlot {
+  int column = -1;  // first scalar column of the block, -1: no block
+  int offset = 0;   // 6 * (position of the block among its column's blocks)
+};
+
+}  // namespace pose_graph_detail
+
+namespace {
+
+using pose_graph_detail::BlockSlot;
+using pose_graph_detail::PreorderedLdlt;
+using pose_graph_detail::SparseMatrix;
+
 constexpr double kMaxLambda = 1e12;
 constexpr double kMinLambda = 1e-12;
 constexpr double kMinDiagonal = 1e-12;  // damping floor for an information-free direction
-
-std::string Num(double value) {
-  std::ostringstream os;
-  os.precision(6);
-  os << value;
-  return os.str();
-}
 
 std::string EdgeName(std::size_t index, const PoseGraphEdge& e) {
   return "pose graph: edge " + std::to_string(index) + " (" + std::to_string(e.from) + " -> " +
@@ -74,13 +85,6 @@ double KernelWeight(RobustKernel kernel, double k, double s) {
   return 1.0;
 }
 
-// A 6x6 block of H: entry (i, j) lives at values[outer[column + j] + offset + i]. Diagonal blocks store only
-// their upper triangle (i <= j).
-struct BlockSlot {
-  int column = -1;  // first scalar column of the block, -1: no block
-  int offset = 0;   // 6 * (position of the block among its column's blocks)
-};
-
 template <bool kUpperOnly>
 void AddBlock(double* values, const int* outer, BlockSlot slot, const Matrix6d& block) {
   for (int j = 0; j < 6; ++j) {
@@ -96,7 +100,7 @@ std::uint32_t FindRoot(std::vector<std::uint32_t>& parent, std::uint32_t i) {
 
 Status ValidateParams(const PoseGraphParams& p) {
   const auto bad = [](const char* name, double value, const char* range) {
-    return InvalidArgument(std::string("pose graph: ") + name + " must be " + range + ", got " + Num(value));
+    return InvalidArgument(std::string("pose graph: ") + name + " must be " + range + ", got " + FormatNumber(value, 6));
   };
   if (p.max_iterations < 0) return bad("max_iterations", p.max_iterations, ">= 0");
   if (!(p.convergence_step >= 0.0) || !std::isfinite(p.convergence_step)) {
@@ -205,7 +209,7 @@ Status PoseGraph::AddEdge(const PoseGraphEdge& e) {
       Eigen::SelfAdjointEigenSolver<Matrix6d>(omega, Eigen::EigenvaluesOnly).eigenvalues()(0);
   if (min_eigenvalue < -1e-9 * scale) {
     return InvalidArgument(EdgeName(index, e) + ": information matrix is not positive semi-definite (eigenvalue " +
-                           Num(min_eigenvalue) + ")");
+                           FormatNumber(min_eigenvalue, 6) + ")");
   }
   edges_.push_back(e);
   if (e.kind == EdgeKind::kLoop) ++num_loop_edges_;

@@ -10,17 +10,11 @@
 #include <utility>
 
 #include "core/common/bytes.hpp"
+#include "core/common/little_endian.hpp"
 
 namespace commerge {
 namespace {
 
-inline void PutU32(std::uint8_t* p, std::uint32_t v) noexcept {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>((v >> (8 * i)) & 0xFFu);
-}
-inline std::uint32_t GetU32(const std::uint8_t* p) noexcept {
-  return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) |
-         (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24);
-}
 
 std::string Bytes(std::size_t n) {
   return std::to_string(n) + " B" + (n >= 1024 ? " (" + FormatBytes(static_cast<std::int64_t>(n)) + ")" : "");
@@ -186,8 +180,8 @@ Result<ScanPutInfo> ScanStore::Put(std::uint32_t keyframe_index, Span<const std:
   }
 
   std::uint8_t* dst = block_.get() + offset;
-  PutU32(dst, keyframe_index);
-  PutU32(dst + 4, static_cast<std::uint32_t>(encoded.size()));
+  PutU32Le(dst, keyframe_index);
+  PutU32Le(dst + 4, static_cast<std::uint32_t>(encoded.size()));
   if (!encoded.empty()) std::memcpy(dst + kRecordHeaderBytes, encoded.data(), encoded.size());
   entries_[(first_ + count_) % max_scans_] = Entry{keyframe_index, static_cast<std::uint32_t>(encoded.size()), offset};
   ++count_;
@@ -237,7 +231,7 @@ Result<Span<const std::uint8_t>> ScanStore::View(std::uint32_t keyframe_index) c
   if (i == count_) return NotResident(keyframe_index);
   const Entry& e = At(i);
   const std::uint8_t* rec = block_.get() + e.offset;
-  if (GetU32(rec) != e.keyframe_index || GetU32(rec + 4) != e.encoded_bytes) {
+  if (GetU32Le(rec) != e.keyframe_index || GetU32Le(rec + 4) != e.encoded_bytes) {
     return Status(StatusCode::kInternal, "scan store corrupt: the record of " + Kf(keyframe_index) + " at offset " +
                                              std::to_string(e.offset) + " does not match its index entry");
   }

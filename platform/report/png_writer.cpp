@@ -22,7 +22,7 @@ namespace {
 constexpr std::size_t kMaxIdatBytes = std::size_t{1} << 16;
 constexpr int kBytesPerPixel = 3;
 
-void PutU32(std::vector<std::uint8_t>* out, std::uint32_t v) {
+void PutU32Be(std::vector<std::uint8_t>* out, std::uint32_t v) {
   out->push_back(static_cast<std::uint8_t>(v >> 24));
   out->push_back(static_cast<std::uint8_t>(v >> 16));
   out->push_back(static_cast<std::uint8_t>(v >> 8));
@@ -31,12 +31,12 @@ void PutU32(std::vector<std::uint8_t>* out, std::uint32_t v) {
 
 /// Appends one chunk: length, type, data, CRC-32 of type and data.
 void PutChunk(std::vector<std::uint8_t>* out, const char type[4], const std::uint8_t* data, std::size_t size) {
-  PutU32(out, static_cast<std::uint32_t>(size));
+  PutU32Be(out, static_cast<std::uint32_t>(size));
   const std::size_t type_at = out->size();
   out->insert(out->end(), type, type + 4);
   out->insert(out->end(), data, data + size);
   const uLong crc = crc32(crc32(0L, Z_NULL, 0), out->data() + type_at, static_cast<uInt>(size + 4));
-  PutU32(out, static_cast<std::uint32_t>(crc));
+  PutU32Be(out, static_cast<std::uint32_t>(crc));
 }
 
 std::uint8_t Paeth(int a, int b, int c) {
@@ -112,8 +112,8 @@ Result<std::vector<std::uint8_t>> EncodePng(const std::string& path, const RgbIm
   std::vector<std::uint8_t> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
   png.reserve(png.size() + packed.size() + 64 + 12 * (packed.size() / kMaxIdatBytes + 1));
   std::vector<std::uint8_t> ihdr;
-  PutU32(&ihdr, static_cast<std::uint32_t>(image.width()));
-  PutU32(&ihdr, static_cast<std::uint32_t>(image.height()));
+  PutU32Be(&ihdr, static_cast<std::uint32_t>(image.width()));
+  PutU32Be(&ihdr, static_cast<std::uint32_t>(image.height()));
   ihdr.insert(ihdr.end(), {8, 2, 0, 0, 0});  // bit depth 8, RGB, deflate, adaptive filtering, no interlace
   PutChunk(&png, "IHDR", ihdr.data(), ihdr.size());
   for (std::size_t at = 0; at < packed.size(); at += kMaxIdatBytes) {

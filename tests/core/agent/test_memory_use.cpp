@@ -45,7 +45,7 @@ struct Rig {
   RobotMapperCapacity capacity;
 };
 
-Rig MakeRig(std::size_t store_bytes, const RobotAgentParams& params = RobotAgentParams{}) {
+Rig MakeMemoryRig(std::size_t store_bytes, const RobotAgentParams& params = RobotAgentParams{}) {
   Rig rig;
   auto solid = SolidDescriptor::Create(SolidPreset(LidarSensor::kVelodyneVlp16));
   REQUIRE(solid.ok());
@@ -118,7 +118,7 @@ std::int64_t Held(const V& v) {
 }  // namespace
 
 TEST_CASE("Robot agent memory: the robot budget modules, each counted from its own pool") {
-  Rig rig = MakeRig(4u << 20);
+  Rig rig = MakeMemoryRig(4u << 20);
   std::vector<std::string> names;
   for (const ModuleMemory& m : rig.agent->MemoryUse()) names.push_back(m.name);
   CHECK(names == BudgetModules(AppKind::kRobot, {"runtime"}));
@@ -169,7 +169,7 @@ TEST_CASE("Robot agent memory: the robot budget modules, each counted from its o
 TEST_CASE("Robot agent memory: loop closure adds the k-d tree, edges and the pose-graph solver workspace") {
   RobotAgentParams params;
   params.mapper.loop.window_keyframes = 50;
-  Rig rig = MakeRig(4u << 20, params);
+  Rig rig = MakeMemoryRig(4u << 20, params);
   const std::int64_t loop_before = Module(rig.agent->MemoryUse(), "loop_closure").used_bytes;
   std::int64_t max_pose_graph = 0;
   const double perimeter = 2.0 * (test::kWidth + test::kHeight);
@@ -192,7 +192,7 @@ TEST_CASE("Robot agent memory: loop closure adds the k-d tree, edges and the pos
 }
 
 TEST_CASE("Robot agent memory: the scan store high-water mark stays when it evicts old scans") {
-  Rig rig = MakeRig(64u << 10);  // a few VLP-16 scans
+  Rig rig = MakeMemoryRig(64u << 10);  // a few VLP-16 scans
   std::int64_t max_seen = 0;
   DriveBlock(rig.agent.get(), 40.0, [&](const RobotAgent& agent) {
     max_seen = std::max(max_seen, static_cast<std::int64_t>(agent.store().stats().used_bytes));

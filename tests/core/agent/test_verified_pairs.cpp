@@ -33,7 +33,7 @@ PairMergeResult Success(int alpha, int beta, double x_m) {
   return Registered(alpha, beta, RegistrationVerdict::kSuccess, x_m);
 }
 
-PairMergeResult Refused(int alpha, int beta, std::size_t missing) {
+PairMergeResult RefusedWithMissing(int alpha, int beta, std::size_t missing) {
   return Registered(alpha, beta, RegistrationVerdict::kTooFewPoints, 0.0, missing);
 }
 
@@ -61,7 +61,7 @@ TEST_CASE("KeepVerifiedPairs: a round without the scans keeps the verified resul
   const Span<const std::int64_t> s(sessions);
 
   // Round 1 verifies 0-1 and 0-2; 1-2 is refused with every selected scan present.
-  std::vector<PairMergeResult> round1 = {Success(0, 1, 1.5), Success(0, 2, 2.5), Refused(1, 2, 0)};
+  std::vector<PairMergeResult> round1 = {Success(0, 1, 1.5), Success(0, 2, 2.5), RefusedWithMissing(1, 2, 0)};
   KeepVerifiedPairs(1, s, &verified, &round1);
   REQUIRE(verified.size() == 2);
   CHECK(round1[0].kept_from_round == 0);
@@ -70,7 +70,7 @@ TEST_CASE("KeepVerifiedPairs: a round without the scans keeps the verified resul
 
   // Round 2: 0-1 lacks scans (not attempted), 0-2 was refused with 2 selected scans missing, 1-2 lacks scans
   // but was never verified.
-  std::vector<PairMergeResult> round2 = {NotAttempted(0, 1, 14, 0), Refused(0, 2, 2), NotAttempted(1, 2, 0, 3)};
+  std::vector<PairMergeResult> round2 = {NotAttempted(0, 1, 14, 0), RefusedWithMissing(0, 2, 2), NotAttempted(1, 2, 0, 3)};
   KeepVerifiedPairs(2, s, &verified, &round2);
   CHECK(IsKept(round2[0], 1, 1.5));
   CHECK(round2[0].reason.find("no selected scan was received") != std::string::npos);
@@ -81,7 +81,7 @@ TEST_CASE("KeepVerifiedPairs: a round without the scans keeps the verified resul
   CHECK(verified.size() == 2);  // a kept result is not verified again
 
   // Round 3: nothing selected for 0-1 (no scan missing) and a refusal with all scans of 0-2: both stand.
-  std::vector<PairMergeResult> round3 = {NotAttempted(0, 1, 0, 0), Refused(0, 2, 0)};
+  std::vector<PairMergeResult> round3 = {NotAttempted(0, 1, 0, 0), RefusedWithMissing(0, 2, 0)};
   KeepVerifiedPairs(3, s, &verified, &round3);
   CHECK(round3[0].kept_from_round == 0);
   CHECK_FALSE(round3[0].attempted);
@@ -114,7 +114,7 @@ TEST_CASE("KeepVerifiedPairs: the kept reason fits merge_result_t's 255-byte tex
   const std::vector<std::int64_t> sessions = {1, 2};
   std::vector<PairMergeResult> round1 = {Success(0, 1, 0.5)};
   KeepVerifiedPairs(1, Span<const std::int64_t>(sessions), &verified, &round1);
-  std::vector<PairMergeResult> round2 = {Refused(0, 1, 1)};
+  std::vector<PairMergeResult> round2 = {RefusedWithMissing(0, 1, 1)};
   round2[0].reason = std::string(400, 'x');
   KeepVerifiedPairs(2, Span<const std::int64_t>(sessions), &verified, &round2);
   CHECK(round2[0].kept_from_round == 1);

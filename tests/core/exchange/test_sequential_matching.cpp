@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/common/float_limits.hpp"
 #include "core/exchange/affinity.hpp"
 #include "core/exchange/neighbour_rank.hpp"
 #include "core/exchange/sequence_smoothing.hpp"
@@ -22,7 +23,6 @@
 namespace commerge {
 namespace {
 
-constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // A stored matrix served as tiles (deterministic by construction).
 class MatrixTileSource final : public AffinityTileSource {
@@ -159,7 +159,7 @@ std::vector<float> RandomMatrixWithBands(std::size_t n, std::size_t m, double no
       }
     }
   }
-  if (!a.empty() && u(rng) < 0.5) a[a.size() / 2] = kInf;  // an invalid pair somewhere
+  if (!a.empty() && u(rng) < 0.5) a[a.size() / 2] = kFloatInf;  // an invalid pair somewhere
   return a;
 }
 
@@ -553,7 +553,7 @@ std::vector<float> DenseSmoothed(const std::vector<float>& a, std::size_t n, std
   for (long i = 0; i < ln; ++i) {
     for (long j = 0; j < lm; ++j) {
       if (!std::isfinite(a[static_cast<std::size_t>(i * lm + j)])) {
-        s[static_cast<std::size_t>(i * lm + j)] = kInf;
+        s[static_cast<std::size_t>(i * lm + j)] = kFloatInf;
         continue;
       }
       double sum[2] = {0.0, 0.0};
@@ -580,7 +580,7 @@ std::vector<float> DenseSmoothed(const std::vector<float>& a, std::size_t n, std
 // V, what stage A thresholds: the lowest S among the (up to) 3 x 3 cells around each cell, +inf where A is.
 std::vector<float> DenseServed(const std::vector<float>& a, std::size_t n, std::size_t m, std::size_t w) {
   const std::vector<float> s = DenseSmoothed(a, n, m, w);
-  std::vector<float> v(n * m, kInf);
+  std::vector<float> v(n * m, kFloatInf);
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t j = 0; j < m; ++j) {
       if (!std::isfinite(a[i * m + j])) continue;
@@ -598,7 +598,7 @@ std::vector<float> DenseServed(const std::vector<float>& a, std::size_t n, std::
 std::vector<float> RandomMatrixWithHoles(std::size_t n, std::size_t m, std::uint32_t seed) {
   std::vector<float> a = RandomMatrixWithBands(n, m, 0.05, 3, seed);
   std::mt19937 rng(seed + 1000);
-  for (std::size_t k = 0; k < a.size() / 50; ++k) a[rng() % a.size()] = kInf;
+  for (std::size_t k = 0; k < a.size() / 50; ++k) a[rng() % a.size()] = kFloatInf;
   return a;
 }
 
@@ -638,7 +638,7 @@ TEST_CASE("Sequence smoothing: tiles grown by the halo equal the dense definitio
           REQUIRE(src->num_cols() == m);
           std::size_t cells = 0;
           REQUIRE(ForEachAffinityTile(*src, tile.first, tile.second, [&](const AffinityTile& t) {
-                    float tile_min = kInf;
+                    float tile_min = kFloatInf;
                     for (std::size_t r = 0; r < t.rows; ++r) {
                       for (std::size_t c = 0; c < t.cols; ++c) {
                         const float want = ref[(t.row_begin + r) * m + t.col_begin + c];
@@ -800,7 +800,7 @@ std::vector<float> DenseRanked(const std::vector<float>& a, std::size_t n, std::
   auto kth = [&](std::vector<float> line) {
     line.erase(std::remove_if(line.begin(), line.end(), [](float v) { return !std::isfinite(v); }), line.end());
     std::sort(line.begin(), line.end());
-    return line.size() < k ? kInf : line[k - 1];
+    return line.size() < k ? kFloatInf : line[k - 1];
   };
   std::vector<float> row_kth(n), col_kth(m);
   for (std::size_t i = 0; i < n; ++i) row_kth[i] = kth(std::vector<float>(a.begin() + i * m, a.begin() + (i + 1) * m));
@@ -809,7 +809,7 @@ std::vector<float> DenseRanked(const std::vector<float>& a, std::size_t n, std::
     for (std::size_t i = 0; i < n; ++i) col[i] = a[i * m + j];
     col_kth[j] = kth(col);
   }
-  std::vector<float> out(n * m, kInf);
+  std::vector<float> out(n * m, kFloatInf);
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t j = 0; j < m; ++j) {
       const float v = a[i * m + j];
@@ -840,7 +840,7 @@ TEST_CASE("Neighbour rank: served tiles equal the dense definition for every gri
           for (std::size_t c0 = 0; c0 < m; c0 += tile.second) {
             const std::size_t rows = std::min(tile.first, n - r0), cols = std::min(tile.second, m - c0);
             REQUIRE(ranked->ComputeTile(r0, c0, rows, cols, &t).ok());
-            float lowest = kInf;
+            float lowest = kFloatInf;
             for (std::size_t r = 0; r < rows; ++r) {
               for (std::size_t c = 0; c < cols; ++c) {
                 const float want = ref[(r0 + r) * m + c0 + c];

@@ -16,12 +16,12 @@
 namespace commerge {
 namespace {
 
-double D(float v) { return static_cast<double>(v); }
+double ToDouble(float v) { return static_cast<double>(v); }
 
 TEST_CASE("lidar models: VLP-16 elevations are -15..+15 deg in 2 deg steps (VLP-16 user manual)") {
   const LidarModel m = MakeLidarModel(LidarKind::kVlp16);
   REQUIRE(m.elevation_deg.size() == 16);
-  for (int b = 0; b < 16; ++b) CHECK(D(m.elevation_deg[static_cast<std::size_t>(b)]) == doctest::Approx(-15.0 + 2.0 * b));
+  for (int b = 0; b < 16; ++b) CHECK(ToDouble(m.elevation_deg[static_cast<std::size_t>(b)]) == doctest::Approx(-15.0 + 2.0 * b));
   CHECK(m.azimuth_steps == 1800);  // 0.2 deg at 10 Hz
   CHECK(ValidateLidarModel(m).ok());
 }
@@ -29,16 +29,16 @@ TEST_CASE("lidar models: VLP-16 elevations are -15..+15 deg in 2 deg steps (VLP-
 TEST_CASE("lidar models: HDL-64E blocks: upper +2.0..-8.33 in 1/3 deg, lower -8.83..-24.33 in 1/2 deg (S2/S3 manual)") {
   const LidarModel m = MakeLidarModel(LidarKind::kHdl64e);
   REQUIRE(m.elevation_deg.size() == 64);
-  CHECK(D(m.elevation_deg.back()) == doctest::Approx(2.0));
-  CHECK(D(m.elevation_deg.front()) == doctest::Approx(-24.33));
+  CHECK(ToDouble(m.elevation_deg.back()) == doctest::Approx(2.0));
+  CHECK(ToDouble(m.elevation_deg.front()) == doctest::Approx(-24.33));
   for (int b = 1; b < 32; ++b) {  // lower block, ascending
-    CHECK(D(m.elevation_deg[static_cast<std::size_t>(b)] - m.elevation_deg[static_cast<std::size_t>(b - 1)]) ==
+    CHECK(ToDouble(m.elevation_deg[static_cast<std::size_t>(b)] - m.elevation_deg[static_cast<std::size_t>(b - 1)]) ==
           doctest::Approx(0.5).epsilon(1e-4));
   }
-  CHECK(D(m.elevation_deg[31]) == doctest::Approx(-8.83));
-  CHECK(D(m.elevation_deg[32]) == doctest::Approx(2.0 - 31.0 / 3.0));
+  CHECK(ToDouble(m.elevation_deg[31]) == doctest::Approx(-8.83));
+  CHECK(ToDouble(m.elevation_deg[32]) == doctest::Approx(2.0 - 31.0 / 3.0));
   for (int b = 33; b < 64; ++b) {
-    CHECK(D(m.elevation_deg[static_cast<std::size_t>(b)] - m.elevation_deg[static_cast<std::size_t>(b - 1)]) ==
+    CHECK(ToDouble(m.elevation_deg[static_cast<std::size_t>(b)] - m.elevation_deg[static_cast<std::size_t>(b - 1)]) ==
           doctest::Approx(1.0 / 3.0).epsilon(1e-4));
   }
   CHECK(ValidateLidarModel(m).ok());
@@ -48,10 +48,10 @@ TEST_CASE("lidar models: OS1-128 spans +-22.5 deg and OS2-128 +-11.25 deg unifor
   for (auto [kind, half] : {std::pair{LidarKind::kOs1_128, 22.5}, std::pair{LidarKind::kOs2_128, 11.25}}) {
     const LidarModel m = MakeLidarModel(kind);
     REQUIRE(m.elevation_deg.size() == 128);
-    CHECK(D(m.elevation_deg.front()) == doctest::Approx(-half));
-    CHECK(D(m.elevation_deg.back()) == doctest::Approx(half));
+    CHECK(ToDouble(m.elevation_deg.front()) == doctest::Approx(-half));
+    CHECK(ToDouble(m.elevation_deg.back()) == doctest::Approx(half));
     for (std::size_t b = 1; b < 128; ++b) {
-      CHECK(D(m.elevation_deg[b] - m.elevation_deg[b - 1]) == doctest::Approx(2.0 * half / 127.0).epsilon(1e-3));
+      CHECK(ToDouble(m.elevation_deg[b] - m.elevation_deg[b - 1]) == doctest::Approx(2.0 * half / 127.0).epsilon(1e-3));
     }
   }
 }
@@ -65,9 +65,9 @@ TEST_CASE("lidar models: spinning ray directions are unit vectors at the table's
   for (int c = 0; c < 36; ++c) {
     for (int b = 0; b < 16; ++b) {
       const float* d = &dirs[3 * static_cast<std::size_t>(c * 16 + b)];
-      CHECK(std::hypot(D(d[0]), D(d[1]), D(d[2])) == doctest::Approx(1.0).epsilon(1e-6));
-      CHECK(std::asin(D(d[2])) * 180.0 / kPi == doctest::Approx(-15.0 + 2.0 * b).epsilon(1e-4));
-      double az = std::atan2(D(d[1]), D(d[0])) * 180.0 / kPi;
+      CHECK(std::hypot(ToDouble(d[0]), ToDouble(d[1]), ToDouble(d[2])) == doctest::Approx(1.0).epsilon(1e-6));
+      CHECK(std::asin(ToDouble(d[2])) * 180.0 / kPi == doctest::Approx(-15.0 + 2.0 * b).epsilon(1e-4));
+      double az = std::atan2(ToDouble(d[1]), ToDouble(d[0])) * 180.0 / kPi;
       if (az < -1e-3) az += 360.0;
       CHECK(az == doctest::Approx(10.0 * c).epsilon(1e-4));
     }
@@ -88,11 +88,11 @@ TEST_CASE("lidar models: the Livox rosette stays in its 70.4 deg cone and does n
     if (f == 0) frame0 = dirs;
     if (f == 1) frame1 = dirs;
     for (std::size_t i = 0; i < dirs.size(); i += 3) {
-      const double angle_deg = std::acos(std::min(1.0, D(dirs[i]))) * 180.0 / kPi;
+      const double angle_deg = std::acos(std::min(1.0, ToDouble(dirs[i]))) * 180.0 / kPi;
       max_angle_deg = std::max(max_angle_deg, angle_deg);
       // 1 x 1 deg cells of (azimuth, elevation) to measure coverage
-      const int cell = static_cast<int>(std::floor(std::atan2(D(dirs[i + 1]), D(dirs[i])) * 180 / kPi)) * 1000 +
-                       static_cast<int>(std::floor(std::asin(D(dirs[i + 2])) * 180 / kPi));
+      const int cell = static_cast<int>(std::floor(std::atan2(ToDouble(dirs[i + 1]), ToDouble(dirs[i])) * 180 / kPi)) * 1000 +
+                       static_cast<int>(std::floor(std::asin(ToDouble(dirs[i + 2])) * 180 / kPi));
       covered_ten.insert(cell);
       if (f == 0) covered_one.insert(cell);
     }
@@ -130,8 +130,8 @@ TEST_CASE("lidar models: range noise has the configured standard deviation and n
   double sum = 0, sum2 = 0;
   for (const PointXYZI& p : pts) {
     CHECK(p.x > 0.0f);  // only the wall in front is hit
-    const double r = std::hypot(D(p.x), D(p.y), D(p.z));
-    const double true_r = 10.0 * r / D(p.x);  // the ray's direction is p / |p|: the plane x = 10 along it
+    const double r = std::hypot(ToDouble(p.x), ToDouble(p.y), ToDouble(p.z));
+    const double true_r = 10.0 * r / ToDouble(p.x);  // the ray's direction is p / |p|: the plane x = 10 along it
     sum += r - true_r;
     sum2 += (r - true_r) * (r - true_r);
   }
@@ -149,7 +149,7 @@ TEST_CASE("lidar models: returns beyond max range or inside min range are droppe
   REQUIRE(SimulateLidarScan(WallWorld(150.0f), m, Eigen::Isometry3d::Identity(), 1, 0, &ws, &pts).ok());
   CHECK(pts.empty());  // 150 m > 100 m
   REQUIRE(SimulateLidarScan(WallWorld(0.3f), m, Eigen::Isometry3d::Identity(), 1, 0, &ws, &pts).ok());
-  for (const PointXYZI& p : pts) CHECK(std::hypot(D(p.x), D(p.y), D(p.z)) >= D(m.min_range_m));
+  for (const PointXYZI& p : pts) CHECK(std::hypot(ToDouble(p.x), ToDouble(p.y), ToDouble(p.z)) >= ToDouble(m.min_range_m));
 }
 
 TEST_CASE("lidar models: points are in the sensor frame and the same seed gives the same scan") {
@@ -166,7 +166,7 @@ TEST_CASE("lidar models: points are in the sensor frame and the same seed gives 
   std::vector<PointXYZI> pts;
   REQUIRE(SimulateLidarScan(w, m, T, 3, 0, &ws, &pts).ok());
   REQUIRE(!pts.empty());
-  for (const PointXYZI& p : pts) CHECK(D(p.y) == doctest::Approx(-8.0).epsilon(1e-4));
+  for (const PointXYZI& p : pts) CHECK(ToDouble(p.y) == doctest::Approx(-8.0).epsilon(1e-4));
 
   LidarModel noisy = MakeLidarModel(LidarKind::kVlp16);
   noisy.azimuth_steps = 180;
@@ -194,11 +194,11 @@ TEST_CASE("lidar models: one workspace serves models with the same ray count (OS
   std::vector<PointXYZI> pts;
   double max_elev_deg = 0.0;
   REQUIRE(SimulateLidarScan(w, os1, Eigen::Isometry3d::Identity(), 1, 0, &ws, &pts).ok());
-  for (const PointXYZI& p : pts) max_elev_deg = std::max(max_elev_deg, std::atan2(D(p.z), std::hypot(D(p.x), D(p.y))) * 180 / kPi);
+  for (const PointXYZI& p : pts) max_elev_deg = std::max(max_elev_deg, std::atan2(ToDouble(p.z), std::hypot(ToDouble(p.x), ToDouble(p.y))) * 180 / kPi);
   CHECK(max_elev_deg == doctest::Approx(22.5).epsilon(0.01));
   max_elev_deg = 0.0;
   REQUIRE(SimulateLidarScan(w, os2, Eigen::Isometry3d::Identity(), 1, 0, &ws, &pts).ok());
-  for (const PointXYZI& p : pts) max_elev_deg = std::max(max_elev_deg, std::atan2(D(p.z), std::hypot(D(p.x), D(p.y))) * 180 / kPi);
+  for (const PointXYZI& p : pts) max_elev_deg = std::max(max_elev_deg, std::atan2(ToDouble(p.z), std::hypot(ToDouble(p.x), ToDouble(p.y))) * 180 / kPi);
   CHECK(max_elev_deg == doctest::Approx(11.25).epsilon(0.01));
 }
 
@@ -220,7 +220,7 @@ TEST_CASE("lidar models: the detection limit drops far grazing ground returns by
   auto beams_of = [](const std::vector<PointXYZI>& pts) {
     std::set<int> beams;
     for (const PointXYZI& p : pts) {
-      beams.insert(static_cast<int>(std::lround(std::atan2(D(p.z), std::hypot(D(p.x), D(p.y))) * 180 / kPi)));
+      beams.insert(static_cast<int>(std::lround(std::atan2(ToDouble(p.z), std::hypot(ToDouble(p.x), ToDouble(p.y))) * 180 / kPi)));
     }
     return beams;
   };

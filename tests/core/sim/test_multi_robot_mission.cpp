@@ -16,7 +16,7 @@
 namespace commerge {
 namespace {
 
-MissionPlan Plan(WorldKind world, OverlapMode overlap, int robots, int keyframes, std::uint64_t seed = 3,
+MissionPlan PlanFleet(WorldKind world, OverlapMode overlap, int robots, int keyframes, std::uint64_t seed = 3,
                  double drift = 1.0) {
   MissionParams p;
   p.world = world;
@@ -34,7 +34,7 @@ TEST_CASE("sim mission: keyframes 1 m apart, gt and odometry start at identity, 
   for (WorldKind world : {WorldKind::kUrban, WorldKind::kCampus, WorldKind::kIndoor, WorldKind::kCave}) {
     const std::string world_name = WorldKindName(world);
     CAPTURE(world_name);
-    const MissionPlan plan = Plan(world, OverlapMode::kModerate, 3, 600);
+    const MissionPlan plan = PlanFleet(world, OverlapMode::kModerate, 3, 600);
     REQUIRE(plan.robots.size() == 3);
     for (const RobotMission& r : plan.robots) {
       REQUIRE(r.gt.size() == 600);
@@ -73,12 +73,12 @@ TEST_CASE("sim mission: routes overlap as configured, measured from the ground t
       const std::string world_name = WorldKindName(world);
       CAPTURE(world_name);
       CAPTURE(robots);
-      const MissionPlan complete = Plan(world, OverlapMode::kComplete, robots, 1200);
+      const MissionPlan complete = PlanFleet(world, OverlapMode::kComplete, robots, 1200);
       const OverlapReport c = MeasureOverlap(complete, 6.0);
       for (int i = 0; i < robots; ++i)
         for (int j = 0; j < robots; ++j) CHECK(c.fraction[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] >= 0.9);
 
-      const MissionPlan moderate = Plan(world, OverlapMode::kModerate, robots, 1200);
+      const MissionPlan moderate = PlanFleet(world, OverlapMode::kModerate, robots, 1200);
       const OverlapReport m = MeasureOverlap(moderate, 6.0);
       for (int i = 0; i < robots; ++i) {
         CHECK(m.any[static_cast<std::size_t>(i)] >= 0.3);
@@ -86,7 +86,7 @@ TEST_CASE("sim mission: routes overlap as configured, measured from the ground t
         for (int j = 0; j < robots; ++j) CHECK(m.fraction[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] >= 0.3);
       }
 
-      const MissionPlan partial = Plan(world, OverlapMode::kPartial, robots, 1200);
+      const MissionPlan partial = PlanFleet(world, OverlapMode::kPartial, robots, 1200);
       const OverlapReport p = MeasureOverlap(partial, 6.0);
       for (int i = 0; i < robots; ++i) {
         CHECK(p.any[static_cast<std::size_t>(i)] >= 0.05);
@@ -104,7 +104,7 @@ TEST_CASE("sim mission: routes overlap as configured, measured from the ground t
 }
 
 TEST_CASE("sim mission: shared places are revisited by another robot in the opposite direction") {
-  const MissionPlan plan = Plan(WorldKind::kUrban, OverlapMode::kComplete, 2, 800);
+  const MissionPlan plan = PlanFleet(WorldKind::kUrban, OverlapMode::kComplete, 2, 800);
   std::size_t same = 0, opposite = 0;
   const RobotMission &a = plan.robots[0], &b = plan.robots[1];
   for (std::size_t i = 0; i < a.gt.size(); i += 5) {
@@ -123,7 +123,7 @@ TEST_CASE("sim mission: shared places are revisited by another robot in the oppo
 }
 
 TEST_CASE("sim mission: odometry deviates from the ground truth exactly by the configured drift model") {
-  const MissionPlan plan = Plan(WorldKind::kCampus, OverlapMode::kModerate, 2, 3000, 11);
+  const MissionPlan plan = PlanFleet(WorldKind::kCampus, OverlapMode::kModerate, 2, 3000, 11);
   const DriftParams d = plan.params.drift;
   for (const RobotMission& r : plan.robots) {
     double num = 0, den = 0;
@@ -172,11 +172,11 @@ TEST_CASE("sim mission: odometry deviates from the ground truth exactly by the c
 }
 
 TEST_CASE("sim mission: drift scale 0 gives perfect odometry, scale 2 about twice the end error of scale 1") {
-  const MissionPlan perfect = Plan(WorldKind::kUrban, OverlapMode::kPartial, 2, 1500, 5, 0.0);
+  const MissionPlan perfect = PlanFleet(WorldKind::kUrban, OverlapMode::kPartial, 2, 1500, 5, 0.0);
   for (const RobotMission& r : perfect.robots)
     for (std::size_t k = 0; k < r.gt.size(); ++k) REQUIRE(r.odometry[k].isApprox(r.gt[k], 1e-9));
-  const MissionPlan one = Plan(WorldKind::kUrban, OverlapMode::kPartial, 2, 1500, 5, 1.0);
-  const MissionPlan two = Plan(WorldKind::kUrban, OverlapMode::kPartial, 2, 1500, 5, 2.0);
+  const MissionPlan one = PlanFleet(WorldKind::kUrban, OverlapMode::kPartial, 2, 1500, 5, 1.0);
+  const MissionPlan two = PlanFleet(WorldKind::kUrban, OverlapMode::kPartial, 2, 1500, 5, 2.0);
   for (std::size_t r = 0; r < 2; ++r) {
     const double e1 = (one.robots[r].odometry.back().translation() - one.robots[r].gt.back().translation()).norm();
     const double e2 = (two.robots[r].odometry.back().translation() - two.robots[r].gt.back().translation()).norm();
@@ -187,9 +187,9 @@ TEST_CASE("sim mission: drift scale 0 gives perfect odometry, scale 2 about twic
 }
 
 TEST_CASE("sim mission: deterministic in the seed") {
-  const MissionPlan a = Plan(WorldKind::kCave, OverlapMode::kModerate, 3, 500, 21);
-  const MissionPlan b = Plan(WorldKind::kCave, OverlapMode::kModerate, 3, 500, 21);
-  const MissionPlan c = Plan(WorldKind::kCave, OverlapMode::kModerate, 3, 500, 22);
+  const MissionPlan a = PlanFleet(WorldKind::kCave, OverlapMode::kModerate, 3, 500, 21);
+  const MissionPlan b = PlanFleet(WorldKind::kCave, OverlapMode::kModerate, 3, 500, 21);
+  const MissionPlan c = PlanFleet(WorldKind::kCave, OverlapMode::kModerate, 3, 500, 22);
   for (std::size_t r = 0; r < 3; ++r) {
     CHECK(a.robots[r].route_nodes == b.robots[r].route_nodes);
     for (std::size_t k = 0; k < 500; ++k) {

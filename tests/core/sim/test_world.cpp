@@ -117,17 +117,17 @@ TEST_CASE("sim world: vertical cylinder and sphere at the analytic chord distanc
 }
 
 /// Independent reference: every primitive tested, no grid.
-double D(float v) { return static_cast<double>(v); }
+double AsDouble(float v) { return static_cast<double>(v); }
 
 double BruteForce(const World& w, const Ray& r, double max_range) {
   double best = max_range;
-  const double o[3] = {D(r.o[0]), D(r.o[1]), D(r.o[2])}, d[3] = {D(r.d[0]), D(r.d[1]), D(r.d[2])};
-  if (d[2] < 0) best = std::min(best, (D(w.ground_z_m()) - o[2]) / d[2]);
+  const double o[3] = {AsDouble(r.o[0]), AsDouble(r.o[1]), AsDouble(r.o[2])}, d[3] = {AsDouble(r.d[0]), AsDouble(r.d[1]), AsDouble(r.d[2])};
+  if (d[2] < 0) best = std::min(best, (AsDouble(w.ground_z_m()) - o[2]) / d[2]);
   for (const OrientedBox& b : w.boxes()) {
-    const double c = std::cos(D(b.yaw_rad)), s = std::sin(D(b.yaw_rad));
-    const double lo[3] = {c * (o[0] - D(b.cx_m)) + s * (o[1] - D(b.cy_m)), -s * (o[0] - D(b.cx_m)) + c * (o[1] - D(b.cy_m)), o[2]};
+    const double c = std::cos(AsDouble(b.yaw_rad)), s = std::sin(AsDouble(b.yaw_rad));
+    const double lo[3] = {c * (o[0] - AsDouble(b.cx_m)) + s * (o[1] - AsDouble(b.cy_m)), -s * (o[0] - AsDouble(b.cx_m)) + c * (o[1] - AsDouble(b.cy_m)), o[2]};
     const double ld[3] = {c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]};
-    const double mn[3] = {-D(b.half_x_m), -D(b.half_y_m), D(b.z_min_m)}, mx[3] = {D(b.half_x_m), D(b.half_y_m), D(b.z_max_m)};
+    const double mn[3] = {-AsDouble(b.half_x_m), -AsDouble(b.half_y_m), AsDouble(b.z_min_m)}, mx[3] = {AsDouble(b.half_x_m), AsDouble(b.half_y_m), AsDouble(b.z_max_m)};
     double t0 = -1e30, t1 = 1e30;
     for (int a = 0; a < 3; ++a) {
       if (std::fabs(ld[a]) < 1e-15) {
@@ -141,24 +141,24 @@ double BruteForce(const World& w, const Ray& r, double max_range) {
     if (t0 <= t1 && t0 > 1e-3) best = std::min(best, t0);
   }
   for (const VerticalCylinder& cy : w.cylinders()) {
-    const double px = o[0] - D(cy.cx_m), py = o[1] - D(cy.cy_m);
+    const double px = o[0] - AsDouble(cy.cx_m), py = o[1] - AsDouble(cy.cy_m);
     const double a = d[0] * d[0] + d[1] * d[1], bq = px * d[0] + py * d[1];
-    const double cq = px * px + py * py - D(cy.radius_m) * D(cy.radius_m);
+    const double cq = px * px + py * py - AsDouble(cy.radius_m) * AsDouble(cy.radius_m);
     if (a > 1e-15 && bq * bq - a * cq >= 0) {
       const double t = (-bq - std::sqrt(bq * bq - a * cq)) / a;
       const double z = o[2] + t * d[2];
-      if (t > 1e-3 && z >= D(cy.z_min_m) && z <= D(cy.z_max_m)) best = std::min(best, t);
+      if (t > 1e-3 && z >= AsDouble(cy.z_min_m) && z <= AsDouble(cy.z_max_m)) best = std::min(best, t);
     }
     if (std::fabs(d[2]) > 1e-15) {
-      const double t = ((d[2] < 0 ? D(cy.z_max_m) : D(cy.z_min_m)) - o[2]) / d[2];
+      const double t = ((d[2] < 0 ? AsDouble(cy.z_max_m) : AsDouble(cy.z_min_m)) - o[2]) / d[2];
       const double qx = px + t * d[0], qy = py + t * d[1];
-      if (t > 1e-3 && qx * qx + qy * qy <= D(cy.radius_m) * D(cy.radius_m)) best = std::min(best, t);
+      if (t > 1e-3 && qx * qx + qy * qy <= AsDouble(cy.radius_m) * AsDouble(cy.radius_m)) best = std::min(best, t);
     }
   }
   for (const Sphere& s : w.spheres()) {
-    const double px = o[0] - D(s.cx_m), py = o[1] - D(s.cy_m), pz = o[2] - D(s.cz_m);
+    const double px = o[0] - AsDouble(s.cx_m), py = o[1] - AsDouble(s.cy_m), pz = o[2] - AsDouble(s.cz_m);
     const double bq = px * d[0] + py * d[1] + pz * d[2];
-    const double disc = bq * bq - (px * px + py * py + pz * pz - D(s.radius_m) * D(s.radius_m));
+    const double disc = bq * bq - (px * px + py * py + pz * pz - AsDouble(s.radius_m) * AsDouble(s.radius_m));
     if (disc >= 0) {
       const double t = -bq - std::sqrt(disc);
       if (t > 1e-3) best = std::min(best, t);

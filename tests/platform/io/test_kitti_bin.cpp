@@ -35,7 +35,7 @@ std::vector<float> RandomFloats(std::size_t n, unsigned seed) {
   return values;
 }
 
-bool SameBits(const PointXYZI& p, const float* raw) { return std::memcmp(&p, raw, sizeof(PointXYZI)) == 0; }
+bool SameBitsAsRecord(const PointXYZI& p, const float* raw) { return std::memcmp(&p, raw, sizeof(PointXYZI)) == 0; }
 
 /// Reads record `index` of a KITTI file with fseek/fread.
 std::vector<float> RawRecord(const std::string& path, long index) {
@@ -59,7 +59,7 @@ TEST_CASE("kitti_bin: ReadKittiBin returns exactly the float32 records written b
   CHECK(cloud->records_in_file == 1000);
   CHECK(cloud->dropped_nonfinite == 0);
   CHECK(cloud->robot_ids.empty());
-  for (std::size_t i = 0; i < 1000; ++i) REQUIRE(SameBits(cloud->points[i], &raw[4 * i]));
+  for (std::size_t i = 0; i < 1000; ++i) REQUIRE(SameBitsAsRecord(cloud->points[i], &raw[4 * i]));
 }
 
 TEST_CASE("kitti_bin: WriteKittiBin writes the points as raw 16-byte records") {
@@ -111,10 +111,10 @@ TEST_CASE("kitti_bin: NaN and inf points are dropped and counted, the others kee
   CHECK(cloud->records_in_file == 7);
   CHECK(cloud->dropped_nonfinite == 3);
   REQUIRE(cloud->points.size() == 4);
-  CHECK(SameBits(cloud->points[0], &raw[0]));
-  CHECK(SameBits(cloud->points[1], &raw[8]));
-  CHECK(SameBits(cloud->points[2], &raw[20]));  // NaN intensity is kept: only x, y, z are checked
-  CHECK(SameBits(cloud->points[3], &raw[24]));
+  CHECK(SameBitsAsRecord(cloud->points[0], &raw[0]));
+  CHECK(SameBitsAsRecord(cloud->points[1], &raw[8]));
+  CHECK(SameBitsAsRecord(cloud->points[2], &raw[20]));  // NaN intensity is kept: only x, y, z are checked
+  CHECK(SameBitsAsRecord(cloud->points[3], &raw[24]));
 }
 
 TEST_CASE("kitti_bin: an empty file is a valid scan with no points") {
@@ -141,8 +141,8 @@ TEST_CASE("kitti_bin: every KITTI 00 scan reads back with size/16 points equal t
     CHECK(cloud->records_in_file == bytes / 16);
     CHECK(cloud->dropped_nonfinite == 0);
     const long last = static_cast<long>(bytes / 16) - 1;
-    CHECK(SameBits(cloud->points.front(), RawRecord(path, 0).data()));
-    CHECK(SameBits(cloud->points.back(), RawRecord(path, last).data()));
+    CHECK(SameBitsAsRecord(cloud->points.front(), RawRecord(path, 0).data()));
+    CHECK(SameBitsAsRecord(cloud->points.back(), RawRecord(path, last).data()));
     ++scans;
   }
   CHECK(scans == 16);

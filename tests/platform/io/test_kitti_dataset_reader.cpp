@@ -137,7 +137,7 @@ void CheckPose(const Eigen::Isometry3d& got, const Eigen::Isometry3d& expected) 
   CHECK((got.matrix() - expected.matrix()).cwiseAbs().maxCoeff() < 1e-9);
 }
 
-void CheckError(const Status& status, StatusCode code, const std::vector<std::string>& parts) {
+void CheckErrorMentions(const Status& status, StatusCode code, const std::vector<std::string>& parts) {
   CHECK(status.code() == code);
   for (const std::string& part : parts) {
     INFO("message: ", status.message(), " expected to contain: ", part);
@@ -182,7 +182,7 @@ TEST_CASE("dataset spec: empty, reversed and malformed ranges are refused naming
     INFO("argument: '", c.argument, "'");
     auto spec = ParseRobotDatasetSpec(c.argument);
     REQUIRE_FALSE(spec.ok());
-    CheckError(spec.status(), StatusCode::kInvalidArgument, {"'" + std::string(c.argument) + "'", c.part});
+    CheckErrorMentions(spec.status(), StatusCode::kInvalidArgument, {"'" + std::string(c.argument) + "'", c.part});
   }
 }
 
@@ -336,7 +336,7 @@ TEST_CASE("dataset reader: missing pieces and mismatched counts are refused nami
     const std::string root = test::ScratchDir() + "/kdr_does_not_exist";
     auto d = OpenRobotDataset(Spec(root), false);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kNotFound, {root, "velodyne/"});
+    CheckErrorMentions(d.status(), StatusCode::kNotFound, {root, "velodyne/"});
   }
   SUBCASE("no velodyne/") {
     const std::string root = test::ScratchDir() + "/kdr_no_velodyne";
@@ -344,56 +344,56 @@ TEST_CASE("dataset reader: missing pieces and mismatched counts are refused nami
     WriteText(root + "/poses.txt", PosesText(2, &Estimated));
     auto d = OpenRobotDataset(Spec(root), false);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kNotFound, {root, "no velodyne/"});
+    CheckErrorMentions(d.status(), StatusCode::kNotFound, {root, "no velodyne/"});
   }
   SUBCASE("velodyne/ without a .bin") {
     const std::string root = MakeScans("no_bin", 0);
     WriteText(root + "/poses.txt", PosesText(2, &Estimated));
     auto d = OpenRobotDataset(Spec(root), false);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kNotFound, {root, "velodyne/", "no .bin"});
+    CheckErrorMentions(d.status(), StatusCode::kNotFound, {root, "velodyne/", "no .bin"});
   }
   SUBCASE("no poses file") {
     const std::string root = MakeScans("no_poses", kScans);
     WriteText(root + "/poses_gt.txt", PosesText(kScans, &Truth));
     auto d = OpenRobotDataset(Spec(root), true);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kNotFound, {root, "poses.txt", "poses_lidar.txt"});
+    CheckErrorMentions(d.status(), StatusCode::kNotFound, {root, "poses.txt", "poses_lidar.txt"});
   }
   SUBCASE("fewer poses than scans") {
     const std::string root = MakeScans("few_poses", kScans);
     WriteText(root + "/poses.txt", PosesText(kScans - 1, &Estimated));
     auto d = OpenRobotDataset(Spec(root), false);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kInvalidArgument, {fs::path(root + "/poses.txt").string(), "5 poses", "6 scans"});
+    CheckErrorMentions(d.status(), StatusCode::kInvalidArgument, {fs::path(root + "/poses.txt").string(), "5 poses", "6 scans"});
   }
   SUBCASE("more poses than scans, in poses_lidar.txt") {
     const std::string root = MakeScans("many_poses", kScans);
     WriteText(root + "/poses_lidar.txt", PosesText(kScans + 2, &Estimated));
     auto d = OpenRobotDataset(Spec(root), false);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kInvalidArgument, {"poses_lidar.txt", "8 poses", "6 scans"});
+    CheckErrorMentions(d.status(), StatusCode::kInvalidArgument, {"poses_lidar.txt", "8 poses", "6 scans"});
   }
   SUBCASE("poses_gt.txt count differs") {
     const std::string root = MakeFullDataset("few_gt");
     WriteText(root + "/poses_gt.txt", PosesText(kScans - 2, &Truth));
     auto d = OpenRobotDataset(Spec(root), false);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kInvalidArgument, {"poses_gt.txt", "4 poses", "6 scans"});
+    CheckErrorMentions(d.status(), StatusCode::kInvalidArgument, {"poses_gt.txt", "4 poses", "6 scans"});
   }
   SUBCASE("T_gt_robotstart.txt with two poses") {
     const std::string root = MakeFullDataset("two_starts");
     WriteText(root + "/T_gt_robotstart.txt", std::string(kStartLine) + kStartLine);
     auto d = OpenRobotDataset(Spec(root), false);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kInvalidArgument, {"T_gt_robotstart.txt", "exactly one", "found 2"});
+    CheckErrorMentions(d.status(), StatusCode::kInvalidArgument, {"T_gt_robotstart.txt", "exactly one", "found 2"});
   }
   SUBCASE("a malformed poses file") {
     const std::string root = MakeScans("bad_poses", 2);
     WriteText(root + "/poses.txt", PoseLine(Estimated(0)) + "1 0 0 0 0 1 0 0 0 0 1\n");
     auto d = OpenRobotDataset(Spec(root), false);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kDataLoss, {"poses.txt", "line 2"});
+    CheckErrorMentions(d.status(), StatusCode::kDataLoss, {"poses.txt", "line 2"});
   }
 }
 
@@ -404,7 +404,7 @@ TEST_CASE("dataset reader: a range beyond the scans is refused naming the argume
     INFO("argument ", argument);
     auto d = OpenRobotDataset(Spec(argument), false);
     REQUIRE_FALSE(d.ok());
-    CheckError(d.status(), StatusCode::kInvalidArgument, {argument, "range exceeds", "6 scans"});
+    CheckErrorMentions(d.status(), StatusCode::kInvalidArgument, {argument, "range exceeds", "6 scans"});
   }
 }
 

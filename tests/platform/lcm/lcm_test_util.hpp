@@ -11,9 +11,12 @@
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
+
+#include <lcm/lcm-cpp.hpp>
 
 #include <commerge/robot_status_t.hpp>
 
@@ -25,6 +28,13 @@
 namespace commerge::platform {
 
 using Buffer = std::vector<std::uint8_t>;
+
+// Raw LCM subscription callback: keeps the bytes LCM delivered, with their channel.
+inline void KeepBytes(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
+                      std::vector<std::pair<std::string, Buffer>>* got) {
+  const auto* p = static_cast<const std::uint8_t*>(rbuf->data);
+  got->emplace_back(channel, Buffer(p, p + rbuf->data_size));
+}
 
 // ---- independent byte helpers (LCM is big-endian) ----
 

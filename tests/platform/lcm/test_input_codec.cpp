@@ -19,6 +19,7 @@
 #include <commerge/odometry_t.hpp>
 #include <commerge/robot_status_t.hpp>
 
+#include "core/common/float_limits.hpp"
 #include "core/agent/live_input.hpp"
 #include "core/agent/messages.hpp"
 #include "core/agent/scan_odometry_sync.hpp"
@@ -30,8 +31,6 @@
 namespace commerge::platform {
 namespace {
 
-const float kNaN = std::numeric_limits<float>::quiet_NaN();
-const float kInf = std::numeric_limits<float>::infinity();
 const double kNaNd = std::numeric_limits<double>::quiet_NaN();
 const double kInfd = std::numeric_limits<double>::infinity();
 
@@ -50,7 +49,7 @@ LidarScan MakeScan(std::size_t n) {
   }
   if (n >= 4) {  // float corner values survive bit for bit
     m.points[1] = {-0.0f, 1e-40f, std::numeric_limits<float>::max(), -1.0f};
-    m.points[2] = {std::numeric_limits<float>::lowest(), std::numeric_limits<float>::min(), 123456.789f, kNaN};
+    m.points[2] = {std::numeric_limits<float>::lowest(), std::numeric_limits<float>::min(), 123456.789f, kFloatNaN};
   }
   return m;
 }
@@ -216,10 +215,10 @@ TEST_CASE("input codec: non-finite points are dropped and counted, the scan is k
   m.points[2].intensity = 0.5f;
   std::vector<PointXYZI> finite;
   for (std::size_t i = 0; i < m.points.size(); ++i) {
-    if (i == 3) m.points[i].x = kNaN;
-    if (i == 5) m.points[i].y = kInf;
-    if (i == 6) m.points[i].z = -kInf;
-    if (i == 8) m.points[i].intensity = kNaN;  // intensity is not a coordinate: kept
+    if (i == 3) m.points[i].x = kFloatNaN;
+    if (i == 5) m.points[i].y = kFloatInf;
+    if (i == 6) m.points[i].z = -kFloatInf;
+    if (i == 8) m.points[i].intensity = kFloatNaN;  // intensity is not a coordinate: kept
     if (i != 3 && i != 5 && i != 6) finite.push_back(m.points[i]);
   }
   auto d = DecodeLidarScan(S(Encoded(m)));
@@ -230,7 +229,7 @@ TEST_CASE("input codec: non-finite points are dropped and counted, the scan is k
 
   // Every point NaN: an empty scan, still a scan.
   LidarScan all = MakeScan(5);
-  for (PointXYZI& p : all.points) p = {kNaN, kNaN, kNaN, 0.0f};
+  for (PointXYZI& p : all.points) p = {kFloatNaN, kFloatNaN, kFloatNaN, 0.0f};
   auto da = DecodeLidarScan(S(Encoded(all)));
   REQUIRE(da.ok());
   CHECK(da->points.empty());
@@ -445,7 +444,7 @@ TEST_CASE("input codec: a Velodyne-size scan and odometry travel through LcmBus 
   // 120 000 points (an HDL-64E scan, 1.9 MB: many UDP datagrams on a real bus) between two odometry samples.
   LidarScan scan = MakeScan(120000);
   scan.points[1] = {1.0f, 2.0f, 3.0f, 0.0f};
-  scan.points[2] = {kNaN, 0.0f, 0.0f, 0.0f};  // dropped by the decoder
+  scan.points[2] = {kFloatNaN, 0.0f, 0.0f, 0.0f};  // dropped by the decoder
   scan.utime_us = 1763800000050000;
   OdometrySample a, b;
   a.utime_us = 1763800000000000;

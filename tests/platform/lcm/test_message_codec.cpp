@@ -409,12 +409,6 @@ TEST_CASE("message codec: scan chunk round trip keeps the payload bytes identica
   CHECK(de->chunk_index == 0);
 }
 
-// Raw subscription: keeps the bytes LCM delivered.
-void KeepBytes(const lcm::ReceiveBuffer* rbuf, const std::string& channel, std::vector<std::pair<std::string, Buffer>>* got) {
-  const auto* p = static_cast<const std::uint8_t*>(rbuf->data);
-  got->emplace_back(channel, Buffer(p, p + rbuf->data_size));
-}
-
 TEST_CASE("message codec: the encoded bytes are exactly what lcm publish of the generated type delivers") {
   lcm::LCM lcm("memq://");
   REQUIRE(lcm.good());

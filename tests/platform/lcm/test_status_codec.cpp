@@ -21,6 +21,7 @@
 #include <commerge/server_status_t.hpp>
 #include <commerge/transfer_status_t.hpp>
 
+#include "core/common/float_limits.hpp"
 #include "core/agent/messages.hpp"
 #include "platform/lcm/message_codec.hpp"
 #include "platform/lcm/status_codec.hpp"
@@ -31,8 +32,6 @@ namespace {
 
 constexpr std::int32_t kInt32Max = std::numeric_limits<std::int32_t>::max();
 constexpr std::uint32_t kBeyondInt32 = 0x80000000u;
-const float kNaN = std::numeric_limits<float>::quiet_NaN();
-const float kInf = std::numeric_limits<float>::infinity();
 
 std::string Text(std::size_t n, char c = 'a') { return std::string(n, c); }
 
@@ -774,7 +773,7 @@ TEST_CASE("status codec: merge result encoder refuses what the message cannot sa
   m.pairs[3].T_alpha_beta.linear()(2, 2) = std::numeric_limits<double>::infinity();
   refuse(m, {"pairs[3].T_alpha_beta", "not finite"});
   m = MakeMergeResult();
-  m.pairs[0].overlap = kNaN;
+  m.pairs[0].overlap = kFloatNaN;
   refuse(m, {"pairs[0].overlap", "not finite"});
   m = MakeMergeResult();
   m.pairs[1].loops_stage_c = kBeyondInt32;
@@ -821,16 +820,16 @@ TEST_CASE("status codec: merge result decoder refuses ids, flags, poses and coun
   msg.quaternion[2] = {0.0f, 0.0f, 0.0f, 0.0f};
   CheckDataLoss(decode(msg), {"T_world_map[2]", "not unit"});
   msg = good;
-  msg.translation_m[1][1] = kInf;
+  msg.translation_m[1][1] = kFloatInf;
   CheckDataLoss(decode(msg), {"T_world_map[1]", "non-finite"});
   msg = good;
-  msg.pair_quaternion[1] = {kNaN, 0.0f, 0.0f, 1.0f};
+  msg.pair_quaternion[1] = {kFloatNaN, 0.0f, 0.0f, 1.0f};
   CheckDataLoss(decode(msg), {"pairs[1].T_alpha_beta", "non-finite"});
   msg = good;
   msg.pair_quaternion[0] = {0.5f, 0.5f, 0.5f, 0.4f};
   CheckDataLoss(decode(msg), {"pairs[0].T_alpha_beta", "not unit"});
   msg = good;
-  msg.overlap[1] = kNaN;
+  msg.overlap[1] = kFloatNaN;
   CheckDataLoss(decode(msg), {"pairs[1].overlap", "not finite"});
   msg = good;
   msg.inliers[1] = -1;
@@ -1187,13 +1186,6 @@ TEST_CASE("status codec: every decoder refuses a foreign message type by its fin
     bad[byte] ^= 0x10;
     CheckDataLoss(DecodeRobotStatus(S(bad)), {"robot_status_t", "fingerprint"});
   }
-}
-
-// Raw subscription: keeps the bytes LCM delivered.
-void KeepBytes(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
-               std::vector<std::pair<std::string, Buffer>>* got) {
-  const auto* p = static_cast<const std::uint8_t*>(rbuf->data);
-  got->emplace_back(channel, Buffer(p, p + rbuf->data_size));
 }
 
 TEST_CASE("status codec: the encoded bytes are exactly what lcm publish of the generated types delivers") {

@@ -11,12 +11,12 @@
 #include <string>
 #include <vector>
 
+#include "core/common/float_limits.hpp"
 #include "platform/report/report_charts.hpp"
 
 namespace commerge::platform {
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 struct Box {
   int x0 = std::numeric_limits<int>::max();
@@ -54,7 +54,7 @@ TEST_CASE("ColourMap runs from dark purple to yellow with rising brightness") {
   CHECK(ColourMap(1.0f) == Rgb{253, 231, 37});
   CHECK(ColourMap(-3.0f) == ColourMap(0.0f));
   CHECK(ColourMap(7.0f) == ColourMap(1.0f));
-  CHECK(ColourMap(kNaN) == kNoValueColour);
+  CHECK(ColourMap(kFloatNaN) == kNoValueColour);
   double previous = -1.0;
   for (int i = 0; i <= 100; ++i) {
     const Rgb c = ColourMap(static_cast<float>(i) / 100.0f);
@@ -93,7 +93,7 @@ TEST_CASE("heatmap cells show the colour map, vmin the first colour, NaN the no-
   in.values = {2.0f, 3.0f, 4.0f,  //
                5.0f, 6.0f, 9.0f,  //
                1.0f, 2.5f, -7.0f,  //
-               kNaN, 4.0f, 5.5f};
+               kFloatNaN, 4.0f, 5.5f};
   in.title = "similarity";
   in.row_label = "robot beta keyframe";
   in.col_label = "robot alpha keyframe";
@@ -182,8 +182,8 @@ void CheckPooling(int rows, int cols, int max_px, unsigned seed) {
   in.vmin = 1.0f;
   in.vmax = 9.0f;
   in.values.resize(static_cast<std::size_t>(rows * cols));
-  for (float& v : in.values) v = rng() % 7 == 0 ? kNaN : value(rng);
-  for (int c = 0; c < cols; ++c) in.values[static_cast<std::size_t>(3 * cols + c)] = kNaN;  // a NaN row
+  for (float& v : in.values) v = rng() % 7 == 0 ? kFloatNaN : value(rng);
+  for (int c = 0; c < cols; ++c) in.values[static_cast<std::size_t>(3 * cols + c)] = kFloatNaN;  // a NaN row
   const auto layout = LayoutHeatmap(in);
   REQUIRE(layout.ok());
   const auto image = RenderHeatmap(in);
@@ -225,7 +225,7 @@ TEST_CASE("heatmap picks the value range itself when vmax is not above vmin") {
   in.rows = 1;
   in.cols = 3;
   in.max_grid_px = 30;
-  in.values = {-4.0f, kNaN, 12.0f};
+  in.values = {-4.0f, kFloatNaN, 12.0f};
   in.vmin = in.vmax = 0.0f;
   const auto layout = LayoutHeatmap(in);
   REQUIRE(layout.ok());
@@ -305,7 +305,7 @@ TEST_CASE("top view bounds override drops points outside and skips non-finite po
   const std::vector<PointXYZI> points = {{5.0f, 5.0f, 0.0f, 0.0f},
                                          {50.0f, 50.0f, 0.0f, 0.0f},
                                          {-0.5f, 3.0f, 0.0f, 0.0f},
-                                         {kNaN, 1.0f, 0.0f, 0.0f},
+                                         {kFloatNaN, 1.0f, 0.0f, 0.0f},
                                          {1.0f, std::numeric_limits<float>::infinity(), 0.0f, 0.0f}};
   const std::vector<std::uint16_t> ids = {2, 5, 5, 6, 6};
   TopViewInput in;

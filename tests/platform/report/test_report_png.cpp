@@ -18,6 +18,7 @@
 #include <unistd.h>
 #include <vector>
 
+#include "core/common/float_limits.hpp"
 #include "platform/report/png_writer.hpp"
 #include "platform/report/raster_image.hpp"
 #include "tests/support/test_data.hpp"
@@ -25,8 +26,6 @@
 namespace commerge::platform {
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr Rgb kWhite{255, 255, 255};
 constexpr Rgb kRed{255, 0, 0};
 
@@ -315,16 +314,16 @@ TEST_CASE("RgbImage drawing entirely outside or with non-finite coordinates chan
     image.DrawLine(-1e30f, -1e30f, -1e30f, 1e30f, kRed, t);
     image.DrawLine(-5.0f, -5.0f, 100.0f, -5.0f, kRed, t);
     image.DrawLine(45.0f, -3.0f, 45.0f, 100.0f, kRed, t);
-    image.DrawLine(kNaN, 5.0f, 10.0f, 10.0f, kRed, t);
-    image.DrawLine(5.0f, 5.0f, kInf, 10.0f, kRed, t);
-    image.DrawLine(-kInf, -kInf, kInf, kInf, kRed, t);
+    image.DrawLine(kFloatNaN, 5.0f, 10.0f, 10.0f, kRed, t);
+    image.DrawLine(5.0f, 5.0f, kFloatInf, 10.0f, kRed, t);
+    image.DrawLine(-kFloatInf, -kFloatInf, kFloatInf, kFloatInf, kRed, t);
     image.DrawLine(-100.0f, 200.0f, 200.0f, -100.0f, kRed, t);  // passes the corner at distance > 20 px
   }
   image.FillDisc(-1000.0f, 15.0f, 10.0f, kRed);
-  image.FillDisc(20.0f, 15.0f, kNaN, kRed);
-  image.FillDisc(kNaN, 15.0f, 5.0f, kRed);
-  image.FillDisc(20.0f, kInf, 5.0f, kRed);
-  image.FillDisc(20.0f, 15.0f, kInf, kRed);
+  image.FillDisc(20.0f, 15.0f, kFloatNaN, kRed);
+  image.FillDisc(kFloatNaN, 15.0f, 5.0f, kRed);
+  image.FillDisc(20.0f, kFloatInf, 5.0f, kRed);
+  image.FillDisc(20.0f, 15.0f, kFloatInf, kRed);
   image.FillDisc(20.0f, 15.0f, -1.0f, kRed);
   image.FillDisc(-1e31f, 0.0f, 1e30f, kRed);
   image.DrawText(INT_MIN, INT_MIN, "text", kRed, 3);
