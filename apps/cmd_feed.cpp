@@ -31,7 +31,6 @@ namespace commerge::app {
 
 namespace {
 
-
 struct FeedOptions {
   std::string data;
   double rate_hz = 10.0;
@@ -219,7 +218,8 @@ int RunFeed(const FeedOptions& o) {
               "%.1f s, %llu bytes; %s / %s on %s%s\n",
               static_cast<unsigned long long>(scans), static_cast<unsigned long long>(points), largest,
               static_cast<unsigned long long>(samples), elapsed_s, static_cast<unsigned long long>(bytes),
-              o.scan_channel.c_str(), o.odometry_channel.c_str(), o.lcm_url.c_str(), StopSignalCount() > 0 ? " (interrupted)" : "");
+              o.scan_channel.c_str(), o.odometry_channel.c_str(), o.lcm_url.c_str(),
+              StopSignalCount() > 0 ? " (interrupted)" : "");
   return kExitOk;
 }
 

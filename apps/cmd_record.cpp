@@ -17,7 +17,6 @@ namespace commerge::app {
 
 namespace {
 
-
 struct RecordOptions {
   platform::LcmRecorderParams params;
   double max_runtime_s = 0.0;

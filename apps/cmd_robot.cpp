@@ -17,10 +17,10 @@
 
 #include "apps/app_common.hpp"
 #include "apps/commands.hpp"
-#include "core/common/bytes.hpp"
 #include "core/agent/delivery_digest.hpp"
 #include "core/agent/robot_link.hpp"
 #include "core/agent/scan_odometry_sync.hpp"
+#include "core/common/bytes.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
 #include "core/slam/scan_store.hpp"
@@ -35,7 +35,6 @@
 namespace commerge::app {
 
 namespace {
-
 
 struct RobotOptions {
   int id = 0;
@@ -450,7 +449,8 @@ int RobotProcess::Run() {
   next_scan_us_ = platform::MonotonicUs();
   std::int64_t next_status_us = next_scan_us_;
   bool merged = false;
-  while (StopSignalCount() == 0 || (o_.live && StopSignalCount() == 1)) {  // live: the first signal ends the input, the second the robot
+  while (StopSignalCount() == 0 ||
+         (o_.live && StopSignalCount() == 1)) {  // live: the first signal ends the input, the second the robot
     const std::int64_t now = platform::MonotonicUs();
     const std::int64_t wall = platform::WallTimeUs();
     if (!(o_.live ? LiveInput(now) : ReplayInput(now))) return kExitFailure;

@@ -16,17 +16,17 @@
 #include <filesystem>
 #include <memory>
 #include <set>
-#include <utility>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "apps/app_common.hpp"
-#include "apps/merge_flags.hpp"
 #include "apps/commands.hpp"
-#include "core/common/bytes.hpp"
+#include "apps/merge_flags.hpp"
 #include "core/agent/delivery_digest.hpp"
 #include "core/agent/server_link.hpp"
 #include "core/cloud/scan_codec.hpp"
+#include "core/common/bytes.hpp"
 #include "core/exchange/exchange_policy.hpp"
 #include "core/merge/merged_map.hpp"
 #include "platform/io/merge_outputs.hpp"
@@ -38,7 +38,6 @@
 namespace commerge::app {
 
 namespace {
-
 
 struct ServerOptions {
   std::string out_dir = "commerge-server-out";

@@ -1,12 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Scan codec: int16 centimetres, little-endian, header with count and CRC-32 (layout in the header file).
 #include "core/cloud/scan_codec.hpp"
-#include "core/common/little_endian.hpp"
 
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <string>
+
+#include "core/common/little_endian.hpp"
 
 namespace commerge {
 namespace {

@@ -3,7 +3,6 @@
 // cloud's minimum voxel, LSD radix sort of (key, input index) pairs (stable, so each voxel's points keep
 // input order), then one centroid per run of equal keys.
 #include "core/cloud/voxel_grid.hpp"
-#include "core/common/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +10,8 @@
 #include <sstream>
 #include <string>
 #include <utility>
+
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
@@ -86,8 +87,8 @@ Result<VoxelGridStats> VoxelGrid::Downsample(Span<const PointXYZI> in, const Vox
         !(std::fabs(last) <= kMaxAbsVoxelIndex)) {
       return InvalidArgument(std::string("voxel grid: the cloud spans ") + FormatNumber(span, 12) + " voxels along " +
                              kAxisNames[a] + " (" + FormatNumber(static_cast<double>(lo[a]), 12) + " .. " +
-                             FormatNumber(static_cast<double>(hi[a]), 12) + " m at voxel_size_m = " + FormatNumber(voxel_size_m, 12) +
-                             "), more than the " + std::to_string(kMaxVoxelsPerAxis) +
+                             FormatNumber(static_cast<double>(hi[a]), 12) + " m at voxel_size_m = " +
+                             FormatNumber(voxel_size_m, 12) + "), more than the " + std::to_string(kMaxVoxelsPerAxis) +
                              " per axis that fit the sort key; use a larger voxel_size_m or crop the cloud");
     }
     min_index[a] = static_cast<std::int64_t>(first);

@@ -1,7 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/descriptor/descriptor_codec.hpp"
-#include "core/common/little_endian.hpp"
-#include "core/common/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,6 +7,9 @@
 #include <limits>
 #include <sstream>
 #include <string>
+
+#include "core/common/little_endian.hpp"
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
@@ -35,7 +36,6 @@ float BitsToFloat(std::uint32_t u) noexcept {
   std::memcpy(&f, &u, sizeof(f));
   return f;
 }
-
 
 // LSB-first bit field writer / reader over a zero-initialised byte range.
 void PutBits(std::uint8_t* base, std::size_t bit_offset, int bits, std::uint32_t value) noexcept {
@@ -91,8 +91,8 @@ Status EncodeKeyframeRecord(const KeyframeRecord& record, Span<std::uint8_t> out
   const Eigen::Matrix3d R = record.T_map_sensor.linear();
   const double ortho_error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (!(ortho_error <= 1e-3) || !(R.determinant() > 0.0)) {
-    return InvalidArgument(who() + "pose rotation is not a rotation matrix (max |R^T R - I| = " + FormatNumber(ortho_error, 9) +
-                           ", det = " + FormatNumber(R.determinant(), 9) + ")");
+    return InvalidArgument(who() + "pose rotation is not a rotation matrix (max |R^T R - I| = " +
+                           FormatNumber(ortho_error, 9) + ", det = " + FormatNumber(R.determinant(), 9) + ")");
   }
   const Eigen::Vector3d t = record.T_map_sensor.translation();
   float tf[3];
@@ -180,12 +180,13 @@ Result<KeyframeRecord> DecodeKeyframeRecord(Span<const std::uint8_t> bytes) {
   // (slack: quantisation moves each component by <= 2.2e-5).
   constexpr double kSlack = 1e-3;
   if (sum_sq > 0.75 + kSlack) {
-    return DataLoss(who() + "rotation is not a smallest-three quaternion (sum of squares " + FormatNumber(sum_sq, 9) + " > 3/4)");
+    return DataLoss(who() + "rotation is not a smallest-three quaternion (sum of squares " + FormatNumber(sum_sq, 9) +
+                    " > 3/4)");
   }
   c[largest] = std::sqrt(std::max(0.0, 1.0 - sum_sq));
   if (max_kept > c[largest] + kSlack) {
-    return DataLoss(who() + "rotation is not a smallest-three quaternion (dropped component " + FormatNumber(c[largest], 9) +
-                    " is not the largest)");
+    return DataLoss(who() + "rotation is not a smallest-three quaternion (dropped component " +
+                    FormatNumber(c[largest], 9) + " is not the largest)");
   }
   Eigen::Quaterniond q(c[0], c[1], c[2], c[3]);
   q.normalize();
@@ -265,7 +266,8 @@ Status EncodeFloat16(Span<const float> values, Span<std::uint8_t> out) {
   for (std::size_t i = 0; i < values.size(); ++i) {
     const std::uint16_t h = FloatToHalf(values[i]);
     if ((h & 0x7c00u) == 0x7c00u) {
-      return InvalidArgument("float16: value " + std::to_string(i) + " (" + FormatNumber(static_cast<double>(values[i]), 9) +
+      return InvalidArgument("float16: value " + std::to_string(i) + " (" +
+                             FormatNumber(static_cast<double>(values[i]), 9) +
                              ") is not finite or beyond the half range (|v| < 65520)");
     }
     out[2 * i] = static_cast<std::uint8_t>(h & 0xffu);

@@ -7,9 +7,9 @@
 #include <sstream>
 #include <string>
 
+#include "core/common/number_text.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/geometry/angles.hpp"
-#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
@@ -32,10 +32,12 @@ Status ValidateScanContextParams(const ScanContextParams& p) {
                            std::to_string(p.num_sectors));
   }
   if (!(std::isfinite(p.max_range_m) && p.max_range_m > 0.0)) {
-    return InvalidArgument("Scan Context parameters: max_range_m must be finite and > 0, got " + FormatNumber(p.max_range_m, 12));
+    return InvalidArgument("Scan Context parameters: max_range_m must be finite and > 0, got " +
+                           FormatNumber(p.max_range_m, 12));
   }
   if (!std::isfinite(p.lidar_height_m)) {
-    return InvalidArgument("Scan Context parameters: lidar_height_m must be finite, got " + FormatNumber(p.lidar_height_m, 12));
+    return InvalidArgument("Scan Context parameters: lidar_height_m must be finite, got " +
+                           FormatNumber(p.lidar_height_m, 12));
   }
   return Status::Ok();
 }

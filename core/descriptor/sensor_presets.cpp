@@ -1,11 +1,12 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/descriptor/sensor_presets.hpp"
-#include "core/common/number_text.hpp"
 
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <sstream>
+
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
@@ -101,18 +102,21 @@ Status ValidateSolidParams(const SolidParams& p) {
     return count_error("num_elev_bins", p.num_elev_bins, kSolidMaxElevBins);
   }
   if (!(std::isfinite(p.fov_up_deg) && p.fov_up_deg >= -90.0 && p.fov_up_deg <= 90.0)) {
-    return InvalidArgument("SOLiD parameters: fov_up_deg must be finite and in [-90, 90], got " + FormatNumber(p.fov_up_deg, 12));
+    return InvalidArgument("SOLiD parameters: fov_up_deg must be finite and in [-90, 90], got " +
+                           FormatNumber(p.fov_up_deg, 12));
   }
   if (!(std::isfinite(p.fov_down_deg) && p.fov_down_deg >= -90.0 && p.fov_down_deg <= 90.0)) {
     return InvalidArgument("SOLiD parameters: fov_down_deg must be finite and in [-90, 90], got " +
                            FormatNumber(p.fov_down_deg, 12));
   }
   if (!(p.fov_down_deg < p.fov_up_deg)) {
-    return InvalidArgument("SOLiD parameters: fov_down_deg (" + FormatNumber(p.fov_down_deg, 12) + ") must be < fov_up_deg (" +
-                           FormatNumber(p.fov_up_deg, 12) + "); a swapped FOV drops or misbins 40-50 % of the points");
+    return InvalidArgument("SOLiD parameters: fov_down_deg (" + FormatNumber(p.fov_down_deg, 12) +
+                           ") must be < fov_up_deg (" + FormatNumber(p.fov_up_deg, 12) +
+                           "); a swapped FOV drops or misbins 40-50 % of the points");
   }
   if (!(std::isfinite(p.max_range_m) && p.max_range_m > 0.0)) {
-    return InvalidArgument("SOLiD parameters: max_range_m must be finite and > 0, got " + FormatNumber(p.max_range_m, 12));
+    return InvalidArgument("SOLiD parameters: max_range_m must be finite and > 0, got " +
+                           FormatNumber(p.max_range_m, 12));
   }
   if (!(std::isfinite(p.min_range_m) && p.min_range_m >= 0.0 && p.min_range_m < p.max_range_m)) {
     return InvalidArgument("SOLiD parameters: min_range_m must be finite, >= 0 and < max_range_m (" +
@@ -120,9 +124,11 @@ Status ValidateSolidParams(const SolidParams& p) {
   }
   const bool z_unset = p.min_z_m == -std::numeric_limits<double>::infinity();
   if (!z_unset && !(std::isfinite(p.min_z_m) && std::abs(p.min_z_m) < p.max_range_m)) {
-    return InvalidArgument("SOLiD parameters: min_z_m must be -infinity (off) or finite within (-max_range_m, "
-                           "max_range_m) = (-" + FormatNumber(p.max_range_m, 12) + ", " + FormatNumber(p.max_range_m, 12) + "), got " +
-                           FormatNumber(p.min_z_m, 12));
+    return InvalidArgument(
+        "SOLiD parameters: min_z_m must be -infinity (off) or finite within (-max_range_m, "
+        "max_range_m) = (-" +
+        FormatNumber(p.max_range_m, 12) + ", " + FormatNumber(p.max_range_m, 12) + "), got " +
+        FormatNumber(p.min_z_m, 12));
   }
   return Status::Ok();
 }

@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "core/common/number_text.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
-#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {

@@ -13,8 +13,8 @@
 #include <arm_neon.h>
 #endif
 
-#include "core/descriptor/solid.hpp"
 #include "core/common/float_limits.hpp"
+#include "core/descriptor/solid.hpp"
 
 namespace commerge {
 namespace {
@@ -166,7 +166,7 @@ Status AffinityTileKernel::Extend(const DescriptorSetView& alpha, const Descript
 void AffinityTileKernel::PackBetaFrom(std::size_t first_col) {
   const std::size_t panels = NumPanels(beta_count_);
   beta_pack_.resize(panels * kNr * dim_, 0.0f);      // new panels: every column zero
-  beta_norm_pack_.resize(panels * kNr, kFloatInf);        // new panels: every column padding
+  beta_norm_pack_.resize(panels * kNr, kFloatInf);   // new panels: every column padding
   for (std::size_t j = first_col; j < beta_count_; ++j) {
     const std::size_t p = j / kNr, lane = j % kNr;
     float* dst = beta_pack_.data() + p * kNr * dim_ + lane;

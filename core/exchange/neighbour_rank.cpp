@@ -1,16 +1,16 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/exchange/neighbour_rank.hpp"
-#include "core/common/float_limits.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
+#include "core/common/float_limits.hpp"
+
 namespace commerge {
 
 namespace {
-
 
 // Inserts v into the ascending list [list, list + k) of the k smallest values so far.
 void KeepSmallest(float v, float* list, std::size_t k) {

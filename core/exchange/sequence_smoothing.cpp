@@ -1,15 +1,15 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/exchange/sequence_smoothing.hpp"
-#include "core/common/float_limits.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
+#include "core/common/float_limits.hpp"
+
 namespace commerge {
 namespace {
-
 
 // S of cell (i, j) (global indices) from a block holding rows [r0, r1) x cols [c0, c1) of the matrix, where
 // the block covers every in-matrix cell of the window (the caller's halo). at(ii, jj) reads global indices.

@@ -1,6 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/exchange/sequential_matching.hpp"
-#include "core/common/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,6 +8,8 @@
 #include <sstream>
 #include <string>
 #include <utility>
+
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
@@ -461,7 +462,8 @@ class SparseLabeler {
 
 Status ValidateSequentialMatchParams(const SequentialMatchParams& p) {
   if (!std::isfinite(p.tau_inter) || p.tau_inter < 0.0) {
-    return InvalidArgument("sequential matching: tau_inter must be finite and >= 0, got " + FormatNumber(p.tau_inter, 4));
+    return InvalidArgument("sequential matching: tau_inter must be finite and >= 0, got " +
+                           FormatNumber(p.tau_inter, 4));
   }
   if (p.tile_rows == 0 || p.tile_cols == 0) return InvalidArgument("sequential matching: tile size must be >= 1 x 1");
   if (p.sequence_half_window > kMaxSequenceHalfWindow) {
@@ -608,10 +610,10 @@ Result<SequentialMatchResult> RunSequentialMatchingOnHits(Span<const CompactHit>
     const bool ordered = k == 0 || hits[k - 1].alpha_index < h.alpha_index ||
                          (hits[k - 1].alpha_index == h.alpha_index && hits[k - 1].beta_index < h.beta_index);
     if (h.alpha_index >= n || h.beta_index >= m || !(h.distance <= tau) || !ordered) {
-      return InvalidArgument("sequential matching: hit " + std::to_string(k) + " (" + std::to_string(h.alpha_index) +
-                             ", " + std::to_string(h.beta_index) + ", " + FormatNumber(static_cast<double>(h.distance), 4) +
-                             ") is outside the " + std::to_string(n) + " x " + std::to_string(m) +
-                             " matrix, above tau_inter or out of row-major order");
+      return InvalidArgument(
+          "sequential matching: hit " + std::to_string(k) + " (" + std::to_string(h.alpha_index) + ", " +
+          std::to_string(h.beta_index) + ", " + FormatNumber(static_cast<double>(h.distance), 4) + ") is outside the " +
+          std::to_string(n) + " x " + std::to_string(m) + " matrix, above tau_inter or out of row-major order");
     }
   }
   SequentialMatchResult result;

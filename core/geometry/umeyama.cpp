@@ -3,14 +3,14 @@
 // centre both sets, SVD of the cross-covariance Sigma = U D V^T, R = U S V^T with S = diag(1, 1, +-1) chosen
 // so that det R = +1, s = tr(D S) / var(source), t = mu_target - s R mu_source.
 #include "core/geometry/umeyama.hpp"
-#include "core/common/number_text.hpp"
 
+#include <Eigen/SVD>
 #include <cmath>
 #include <limits>
 #include <sstream>
 #include <string>
 
-#include <Eigen/SVD>
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
@@ -26,7 +26,8 @@ Result<UmeyamaResult> Umeyama(Span<const Eigen::Vector3d> source, Span<const Eig
   const std::size_t n = source.size();
   if (n < 3) return InvalidArgument("umeyama: " + std::to_string(n) + " point pairs, at least 3 are needed");
   if (!(params.degenerate_ratio >= 0.0 && params.degenerate_ratio < 1.0)) {
-    return InvalidArgument("umeyama: degenerate_ratio must be in [0, 1), got " + FormatNumber(params.degenerate_ratio, 6));
+    return InvalidArgument("umeyama: degenerate_ratio must be in [0, 1), got " +
+                           FormatNumber(params.degenerate_ratio, 6));
   }
   Eigen::Vector3d mu_source = Eigen::Vector3d::Zero();
   Eigen::Vector3d mu_target = Eigen::Vector3d::Zero();
@@ -55,7 +56,8 @@ Result<UmeyamaResult> Umeyama(Span<const Eigen::Vector3d> source, Span<const Eig
   const Eigen::Vector3d d = svd.singularValues();
   if (!(d(0) > 0.0) || d(1) <= params.degenerate_ratio * d(0)) {
     return InvalidArgument("umeyama: degenerate point sets (all points coincident or on one line: singular values " +
-                           FormatNumber(d(0), 6) + ", " + FormatNumber(d(1), 6) + ", " + FormatNumber(d(2), 6) + "), the rotation is not unique");
+                           FormatNumber(d(0), 6) + ", " + FormatNumber(d(1), 6) + ", " + FormatNumber(d(2), 6) +
+                           "), the rotation is not unique");
   }
   Eigen::Vector3d s_diag(1.0, 1.0, 1.0);
   if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0.0) s_diag(2) = -1.0;  // no reflection

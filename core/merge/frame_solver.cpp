@@ -3,6 +3,7 @@
 // consistency verdicts, then a Gauss-Newton refinement on SE(3).
 #include "core/merge/frame_solver.hpp"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -10,11 +11,9 @@
 #include <sstream>
 #include <string>
 
-#include <Eigen/Cholesky>
-
+#include "core/common/number_text.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
-#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
@@ -552,7 +551,8 @@ Status ValidateFrameSolverParams(const FrameSolverParams& params) {
                            FormatNumber(params.max_translation_m, 6));
   }
   if (!(params.max_rotation_deg > 0.0 && params.max_rotation_deg <= 180.0)) {
-    return InvalidArgument("frame solver: max_rotation_deg must be in (0, 180], got " + FormatNumber(params.max_rotation_deg, 6));
+    return InvalidArgument("frame solver: max_rotation_deg must be in (0, 180], got " +
+                           FormatNumber(params.max_rotation_deg, 6));
   }
   if (params.refine_iterations < 0 || params.refine_iterations > 100) {
     return InvalidArgument("frame solver: refine_iterations must be in [0, 100], got " +

@@ -1,11 +1,12 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/sim/world.hpp"
-#include "core/common/float_limits.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
+
+#include "core/common/float_limits.hpp"
 
 namespace commerge {
 
@@ -478,12 +479,10 @@ bool World::CastRay(const float o[3], const float d[3], float min_range_m, float
   const int step_i = d[0] > 0 ? 1 : -1, step_j = d[1] > 0 ? 1 : -1;
   const float dt_x = std::fabs(d[0]) > 1e-12f ? cell_m_ / std::fabs(d[0]) : kFloatInf;
   const float dt_y = std::fabs(d[1]) > 1e-12f ? cell_m_ / std::fabs(d[1]) : kFloatInf;
-  float t_next_x = std::fabs(d[0]) > 1e-12f
-                       ? (gx0 + static_cast<float>(i + (d[0] > 0 ? 1 : 0)) * cell_m_ - o[0]) / d[0]
-                       : kFloatInf;
-  float t_next_y = std::fabs(d[1]) > 1e-12f
-                       ? (gy0 + static_cast<float>(j + (d[1] > 0 ? 1 : 0)) * cell_m_ - o[1]) / d[1]
-                       : kFloatInf;
+  float t_next_x =
+      std::fabs(d[0]) > 1e-12f ? (gx0 + static_cast<float>(i + (d[0] > 0 ? 1 : 0)) * cell_m_ - o[0]) / d[0] : kFloatInf;
+  float t_next_y =
+      std::fabs(d[1]) > 1e-12f ? (gy0 + static_cast<float>(j + (d[1] > 0 ? 1 : 0)) * cell_m_ - o[1]) / d[1] : kFloatInf;
   float t_cell_enter = t_enter;
   while (true) {
     const float t_cell_exit = std::min({t_next_x, t_next_y, t_exit});

@@ -9,8 +9,10 @@
 // in place and refactorises numerically; because the matrix is already permuted, Eigen factorises it without
 // copying it.
 #include "core/slam/pose_graph.hpp"
-#include "core/common/number_text.hpp"
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/OrderingMethods>
+#include <Eigen/Sparse>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -18,9 +20,7 @@
 #include <string>
 #include <utility>
 
-#include <Eigen/Eigenvalues>
-#include <Eigen/OrderingMethods>
-#include <Eigen/Sparse>
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 // Types held by PoseGraph::Workspace: a named namespace, because a class member may not use a type of an
@@ -100,7 +100,8 @@ std::uint32_t FindRoot(std::vector<std::uint32_t>& parent, std::uint32_t i) {
 
 Status ValidateParams(const PoseGraphParams& p) {
   const auto bad = [](const char* name, double value, const char* range) {
-    return InvalidArgument(std::string("pose graph: ") + name + " must be " + range + ", got " + FormatNumber(value, 6));
+    return InvalidArgument(std::string("pose graph: ") + name + " must be " + range + ", got " +
+                           FormatNumber(value, 6));
   };
   if (p.max_iterations < 0) return bad("max_iterations", p.max_iterations, ">= 0");
   if (!(p.convergence_step >= 0.0) || !std::isfinite(p.convergence_step)) {

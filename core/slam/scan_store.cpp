@@ -15,7 +15,6 @@
 namespace commerge {
 namespace {
 
-
 std::string Bytes(std::size_t n) {
   return std::to_string(n) + " B" + (n >= 1024 ? " (" + FormatBytes(static_cast<std::int64_t>(n)) + ")" : "");
 }

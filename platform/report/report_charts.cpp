@@ -202,13 +202,6 @@ std::string HumanBytes(double bytes) {
   return buf;
 }
 
-std::string FormatNumber(double value) {
-  if (std::isnan(value)) return "nan";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.3g", value);
-  return buf;
-}
-
 Result<HeatmapLayout> LayoutHeatmap(const HeatmapInput& in) {
   if (in.rows < 1 || in.cols < 1) {
     return InvalidArgument("heatmap: grid " + std::to_string(in.rows) + " x " + std::to_string(in.cols) +
@@ -263,8 +256,8 @@ Result<HeatmapLayout> LayoutHeatmap(const HeatmapInput& in) {
   layout.colour_bar_x_px = layout.grid_x_px + layout.grid_width_px + 16;
   layout.colour_bar_width_px = 18;
   const double vmin = static_cast<double>(layout.vmin), vmax = static_cast<double>(layout.vmax);
-  const int bar_labels_w = std::max({TextW(FormatNumber(vmin)), TextW(FormatNumber(vmax)),
-                                     TextW(FormatNumber(0.5 * (vmin + vmax))), TextW("n/a")});
+  const int bar_labels_w = std::max({TextW(FormatNumber(vmin, kChartDigits)), TextW(FormatNumber(vmax, kChartDigits)),
+                                     TextW(FormatNumber(0.5 * (vmin + vmax), kChartDigits)), TextW("n/a")});
   layout.image_width_px = layout.colour_bar_x_px + layout.colour_bar_width_px + kTickLen + 4 + bar_labels_w + kPad;
   layout.image_height_px = layout.grid_y_px + layout.grid_height_px + kTickLen + 4 + kTextH + 8 + kTextH + kPad;
   // A title wider than the grid widens the image.
@@ -370,7 +363,7 @@ Result<RgbImage> RenderHeatmap(const HeatmapInput& in) {
   image.DrawRect(bx0 - 1, gy0 - 1, bx1 + 1, gy1 + 1, kFrameColour);
   auto bar_label = [&](int y, double value) {
     image.FillRect(bx1 + 2, y, bx1 + 1 + kTickLen, y, kChartInk);
-    image.DrawText(bx1 + 2 + kTickLen + 3, y - kTextH / 2, FormatNumber(value), kChartInk, kTextScale);
+    image.DrawText(bx1 + 2 + kTickLen + 3, y - kTextH / 2, FormatNumber(value, kChartDigits), kChartInk, kTextScale);
   };
   bar_label(gy0, static_cast<double>(L.vmax));
   bar_label(gy1, static_cast<double>(L.vmin));
@@ -577,10 +570,10 @@ Result<MetricLayout> LayoutTopView(const TopViewInput& in) {
     const BoundsM& b = in.bounds;
     if (!std::isfinite(b.min_x_m) || !std::isfinite(b.min_y_m) || !std::isfinite(b.max_x_m) ||
         !std::isfinite(b.max_y_m) || !(b.max_x_m > b.min_x_m) || !(b.max_y_m > b.min_y_m)) {
-      return InvalidArgument("top view: bounds x " + FormatNumber(static_cast<double>(b.min_x_m)) + ".." +
-                             FormatNumber(static_cast<double>(b.max_x_m)) + " m, y " +
-                             FormatNumber(static_cast<double>(b.min_y_m)) + ".." +
-                             FormatNumber(static_cast<double>(b.max_y_m)) + " m are empty or not finite");
+      return InvalidArgument("top view: bounds x " + FormatNumber(static_cast<double>(b.min_x_m), kChartDigits) + ".." +
+                             FormatNumber(static_cast<double>(b.max_x_m), kChartDigits) + " m, y " +
+                             FormatNumber(static_cast<double>(b.min_y_m), kChartDigits) + ".." +
+                             FormatNumber(static_cast<double>(b.max_y_m), kChartDigits) + " m are empty or not finite");
     }
     bx0 = static_cast<double>(b.min_x_m);
     bx1 = static_cast<double>(b.max_x_m);
@@ -636,7 +629,7 @@ int BarChartLayout::HeightPx(double value) const noexcept {
 namespace {
 
 std::string FormatValue(BarValueFormat format, double v) {
-  return format == BarValueFormat::kBytes ? HumanBytes(v) : FormatNumber(v);
+  return format == BarValueFormat::kBytes ? HumanBytes(v) : FormatNumber(v, kChartDigits);
 }
 
 /// Axis tick text: as FormatValue, without a ".0" ("20 MB", not "20.0 MB").
@@ -696,7 +689,7 @@ Result<BarChartLayout> LayoutBarChart(const BarChartInput& in) {
   for (std::size_t i = 0; i < in.values.size(); ++i) {
     const double v = in.values[i];
     if (!std::isfinite(v) || v < 0.0) {
-      return InvalidArgument("bar chart: value " + FormatNumber(v) + " of group '" +
+      return InvalidArgument("bar chart: value " + FormatNumber(v, kChartDigits) + " of group '" +
                              in.groups[i / in.series.size()] + "', series '" + in.series[i % in.series.size()] +
                              "' is not a finite value >= 0");
     }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/cloud/point.hpp"
+#include "core/common/number_text.hpp"
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 #include "platform/report/raster_image.hpp"
@@ -26,8 +27,8 @@ Rgb ColourMap(float t) noexcept;
 
 /// "512 B", "1.3 kB", "12.4 MB", "134 MB", "2.0 GB" (SI units, 1 kB = 1000 B); negative or NaN: "?".
 std::string HumanBytes(double bytes);
-/// Up to 3 significant digits, e.g. "0.125", "42", "1.5e+06"; NaN: "nan".
-std::string FormatNumber(double value);
+/// Significant digits of the numbers on charts (FormatNumber, core/common/number_text.hpp): "0.125", "42", "1.5e+06".
+constexpr int kChartDigits = 3;
 
 // ---------------------------------------------------------------------------------------------- heatmap
 

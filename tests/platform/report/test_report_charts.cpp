@@ -76,9 +76,9 @@ TEST_CASE("HumanBytes and FormatNumber write short readable values") {
   CHECK(HumanBytes(2.5e12) == "2.5 TB");
   CHECK(HumanBytes(-1.0) == "?");
   CHECK(HumanBytes(std::nan("")) == "?");
-  CHECK(FormatNumber(0.125) == "0.125");
-  CHECK(FormatNumber(42.0) == "42");
-  CHECK(FormatNumber(1.5e6) == "1.5e+06");
+  CHECK(FormatNumber(0.125, kChartDigits) == "0.125");
+  CHECK(FormatNumber(42.0, kChartDigits) == "42");
+  CHECK(FormatNumber(1.5e6, kChartDigits) == "1.5e+06");
 }
 
 // ------------------------------------------------------------------------------------------ heatmap
