@@ -122,7 +122,7 @@ double Quantile(std::vector<float>* v, double q) {
   if (v->empty()) return -1.0;
   const std::size_t k = std::min(v->size() - 1, static_cast<std::size_t>(q * static_cast<double>(v->size())));
   std::nth_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(k), v->end());
-  return (*v)[k];
+  return static_cast<double>((*v)[k]);
 }
 
 DistanceQuantiles DescriptorSeparation(const RunJob& job, int a, int b) {

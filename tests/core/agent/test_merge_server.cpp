@@ -311,8 +311,9 @@ TEST_CASE("Merge server plans per exchange mode: stage A's loops equal the brute
     for (int j = 0; j < n; ++j) {
       double s = 0.0;
       for (std::size_t k = 0; k < kKeyframeDescriptorDim; ++k) {
-        const double diff = A.descriptors[static_cast<std::size_t>(i) * kKeyframeDescriptorDim + k] -
-                            B.descriptors[static_cast<std::size_t>(j) * kKeyframeDescriptorDim + k];
+        const float a_k = A.descriptors[static_cast<std::size_t>(i) * kKeyframeDescriptorDim + k];
+        const float b_k = B.descriptors[static_cast<std::size_t>(j) * kKeyframeDescriptorDim + k];
+        const double diff = static_cast<double>(a_k) - static_cast<double>(b_k);
         s += diff * diff;
       }
       if (std::sqrt(s) <= params.cascade.stage_a.tau_inter) {

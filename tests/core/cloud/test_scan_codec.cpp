@@ -189,9 +189,9 @@ TEST_CASE("scan_codec: Non-finite and out-of-range points are dropped and counte
   std::vector<PointXYZI> decoded;
   REQUIRE(DecodeScan(Span<const std::uint8_t>(buf), &decoded).ok());
   REQUIRE(decoded.size() == 3);
-  CHECK(decoded[0].x == doctest::Approx(1.0f));
-  CHECK(decoded[1].y == doctest::Approx(5.0f));
-  CHECK(decoded[2].z == doctest::Approx(-9.0f));
+  CHECK(decoded[0].x == doctest::Approx(1.0));
+  CHECK(decoded[1].y == doctest::Approx(5.0));
+  CHECK(decoded[2].z == doctest::Approx(-9.0));
 }
 
 TEST_CASE("scan_codec: Empty scans encode to the 12-byte header and decode to nothing") {

@@ -27,7 +27,7 @@ inline std::vector<PointXYZI> YawedCopy(const std::vector<PointXYZI>& in, double
   const double c = std::cos(psi_rad), s = std::sin(psi_rad);
   std::vector<PointXYZI> out(in);
   for (PointXYZI& p : out) {
-    const double x = p.x, y = p.y;
+    const double x = static_cast<double>(p.x), y = static_cast<double>(p.y);
     p.x = static_cast<float>(c * x + s * y);
     p.y = static_cast<float>(-s * x + c * y);
   }

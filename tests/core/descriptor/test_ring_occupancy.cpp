@@ -78,7 +78,9 @@ TEST_CASE("Ring occupancy: the same vector after a yaw by whole sectors, at anot
     DescriptorInfo i;
     const std::vector<float> v = Compute(d, cloud, &i);
     REQUIRE(i.valid);
-    for (std::size_t k = 0; k < v.size(); ++k) CHECK(v[k] == doctest::Approx(base[k]).epsilon(1e-6));
+    for (std::size_t k = 0; k < v.size(); ++k) {
+      CHECK(v[k] == doctest::Approx(static_cast<double>(base[k])).epsilon(1e-6));
+    }
     CHECK(d.Distance(Span<const float>(v), Span<const float>(base)) < 1e-6);
   };
   same(YawedCopy(Scene(-kSensorHeightM, 1), 90.0 * kDegToRad));

@@ -34,7 +34,7 @@ RefSolid ReferenceSolid(const std::vector<PointXYZI>& pts, const SolidParams& p)
   std::vector<std::vector<double>> aec(p.num_sectors, std::vector<double>(p.num_elev_bins, 0.0));
   RefSolid out;
   for (const PointXYZI& pt : pts) {
-    double x = pt.x, y = pt.y, z = pt.z;
+    double x = static_cast<double>(pt.x), y = static_cast<double>(pt.y), z = static_cast<double>(pt.z);
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
       ++out.nonfinite;
       continue;
@@ -347,7 +347,7 @@ TEST_CASE("SOLiD min_z_m: points below it are left out and counted, as if the cl
   std::vector<PointXYZI> kept;
   std::uint32_t dropped = 0;
   for (const PointXYZI& pt : scan) {
-    const double x = pt.x, y = pt.y, z = pt.z;
+    const double x = static_cast<double>(pt.x), y = static_cast<double>(pt.y), z = static_cast<double>(pt.z);
     const double range = std::sqrt(x * x + y * y + z * z);
     const bool in_range = range > params.min_range_m && range < params.max_range_m;
     if (in_range && z < params.min_z_m) {

@@ -33,7 +33,9 @@ TEST_CASE("Exchange graphs: the unbalanced weighted cover equals opt_mwvc of exc
   const std::string dir = tsv.substr(0, tsv.find_last_of('/') + 1);
   const auto rows = ReadExchangeGraphIndex(tsv);
   REQUIRE(rows.size() == 43);
-  for (const auto& [name, opt] : rows) {
+  for (const auto& row : rows) {
+    const std::string& name = row.first;  // CAPTURE needs a variable, not a structured binding
+    const double opt = row.second;
     CAPTURE(name);
     const test::LoadedExchangeGraph lg = LoadExchangeGraph(dir + name + ".dimacs", name);
     REQUIRE(lg.graph.robot_count() == 2);
@@ -91,7 +93,9 @@ TEST_CASE("Exchange graphs: KITTI 06 DBoW2 graphs with the balanced share equal 
   CM_SHARED_DATA_OR_SKIP(tsv, "graphs/exchange_cslam_resource/exchange_graphs.tsv");
   const std::string dir = tsv.substr(0, tsv.find_last_of('/') + 1);
   int checked = 0;
-  for (const auto& [name, opt] : ReadExchangeGraphIndex(tsv)) {
+  for (const auto& row : ReadExchangeGraphIndex(tsv)) {
+    const std::string& name = row.first;  // CAPTURE needs a variable, not a structured binding
+    const double opt = row.second;
     if (name.find("kitti06_dbow2") == std::string::npos) continue;
     CAPTURE(name);
     const test::LoadedExchangeGraph lg = LoadExchangeGraph(dir + name + ".dimacs", name);

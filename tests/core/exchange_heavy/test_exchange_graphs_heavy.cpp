@@ -35,7 +35,9 @@ constexpr const char* kIndex = "graphs/exchange_cslam_resource/exchange_graphs.t
 void BalancedSweep(const std::string& tsv, const std::string& filter, bool weighted, int expected_graphs) {
   const std::string dir = tsv.substr(0, tsv.find_last_of('/') + 1);
   int graphs = 0;
-  for (const auto& [name, opt_mwvc] : ReadExchangeGraphIndex(tsv)) {
+  for (const auto& row : ReadExchangeGraphIndex(tsv)) {
+    const std::string& name = row.first;  // CAPTURE needs a variable, not a structured binding
+    const double opt_mwvc = row.second;
     if (name.find(filter) == std::string::npos) continue;
     CAPTURE(name);
     ++graphs;

@@ -48,7 +48,7 @@ void Reference(const std::vector<std::vector<PointXYZI>>& scans, const std::vect
   for (std::size_t s = 0; s < scans.size(); ++s) {
     const Eigen::Matrix4d M = (T_world_map * T_map_sensor[s]).matrix();
     for (const PointXYZI& p : scans[s]) {
-      const Eigen::Vector4d q = M * Eigen::Vector4d(p.x, p.y, p.z, 1.0);
+      const Eigen::Vector4d q = M * Eigen::Vector4f(p.x, p.y, p.z, 1.0f).cast<double>();
       batch.push_back({static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), p.intensity});
     }
     if (batch.size() > batch_points) flush();

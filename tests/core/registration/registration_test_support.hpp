@@ -63,7 +63,7 @@ inline std::vector<PointXYZI> Transformed(const std::vector<PointXYZI>& in, cons
   std::vector<PointXYZI> out;
   out.reserve(in.size());
   for (const PointXYZI& p : in) {
-    const Eigen::Vector3d q = T * Eigen::Vector3d(p.x, p.y, p.z);
+    const Eigen::Vector3d q = T * Eigen::Vector3f(p.x, p.y, p.z).cast<double>();
     out.push_back({static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), p.intensity});
   }
   return out;

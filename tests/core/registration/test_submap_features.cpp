@@ -69,13 +69,13 @@ TEST_CASE("Pair feature: hand-derived angles, the swap rule and undefined cases"
   REQUIRE(ComputePairFeature({0, 0, 0}, {0, 0, 1}, {1, 0, 0}, {s, 0, s}, &f));
   CHECK(f.f1 == doctest::Approx(kPi / 4).epsilon(1e-4));
   CHECK(f.f2 == doctest::Approx(0.0).epsilon(1e-6));
-  CHECK(f.f3 == doctest::Approx(-s).epsilon(1e-6));
+  CHECK(f.f3 == doctest::Approx(-static_cast<double>(s)).epsilon(1e-6));
   // Swapping the two points gives the same feature (the source is chosen by angle, not by order).
   PairFeature g;
   REQUIRE(ComputePairFeature({1, 0, 0}, {s, 0, s}, {0, 0, 0}, {0, 0, 1}, &g));
-  CHECK(g.f1 == doctest::Approx(f.f1).epsilon(1e-5));
-  CHECK(g.f2 == doctest::Approx(f.f2).epsilon(1e-5));
-  CHECK(g.f3 == doctest::Approx(f.f3).epsilon(1e-5));
+  CHECK(g.f1 == doctest::Approx(static_cast<double>(f.f1)).epsilon(1e-5));
+  CHECK(g.f2 == doctest::Approx(static_cast<double>(f.f2)).epsilon(1e-5));
+  CHECK(g.f3 == doctest::Approx(static_cast<double>(f.f3)).epsilon(1e-5));
   // Coincident points, and a connecting line parallel to the source normal, are undefined.
   CHECK_FALSE(ComputePairFeature({1, 1, 1}, {0, 0, 1}, {1, 1, 1}, {0, 0, 1}, &f));
   CHECK_FALSE(ComputePairFeature({0, 0, 0}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}, &f));
@@ -83,7 +83,7 @@ TEST_CASE("Pair feature: hand-derived angles, the swap rule and undefined cases"
   REQUIRE(ComputePairFeature({0, 0, 0}, {0, 0, 1}, {1, 0, 0}, {s, 0, -s}, &f));
   CHECK(f.f1 == doctest::Approx(-3.0 * kPi / 4).epsilon(1e-4));
   CHECK(f.f2 == doctest::Approx(0.0).epsilon(1e-6));
-  CHECK(f.f3 == doctest::Approx(-s).epsilon(1e-6));
+  CHECK(f.f3 == doctest::Approx(-static_cast<double>(s)).epsilon(1e-6));
 }
 
 TEST_CASE("Neighbour lists equal a brute-force search capped at the closest max_neighbors") {
@@ -97,7 +97,9 @@ TEST_CASE("Neighbour lists equal a brute-force search capped at the closest max_
   for (std::size_t i = 0; i < pts.size(); ++i) {
     std::vector<std::pair<double, std::uint32_t>> ref;
     for (std::size_t j = 0; j < pts.size(); ++j) {
-      const double dx = pts[i].x - pts[j].x, dy = pts[i].y - pts[j].y, dz = pts[i].z - pts[j].z;
+      const Eigen::Vector3d d = Eigen::Vector3f(pts[i].x, pts[i].y, pts[i].z).cast<double>() -
+                                Eigen::Vector3f(pts[j].x, pts[j].y, pts[j].z).cast<double>();
+      const double dx = d.x(), dy = d.y(), dz = d.z();
       const double d2 = dx * dx + dy * dy + dz * dz;
       if (d2 <= p.fpfh_radius_m * p.fpfh_radius_m) ref.emplace_back(d2, static_cast<std::uint32_t>(j));
     }
@@ -126,7 +128,7 @@ TEST_CASE("Normals: plane normals, oriented towards the nearest of several senso
   for (std::size_t i = 0; i < pts.size(); ++i) {
     const Eigen::Vector3d n = f.normals()[i].cast<double>();
     CHECK(std::fabs(n.dot(plane_normal)) > 0.9999);
-    const Eigen::Vector3d p(pts[i].x, pts[i].y, pts[i].z);
+    const Eigen::Vector3d p = Eigen::Vector3f(pts[i].x, pts[i].y, pts[i].z).cast<double>();
     const Eigen::Vector3d& nearest = (origins[0] - p).norm() <= (origins[1] - p).norm() ? origins[0] : origins[1];
     // Brute-force orientation reference: towards the nearest origin (evaluated at the point; the plane is flat,
     // so the neighbourhood mean lies on the same side).
@@ -160,7 +162,7 @@ TEST_CASE("Descriptors: blocks sum to 100, invariant to a rigid motion of points
   T.translation() = Eigen::Vector3d(13.0, -7.0, 2.5);
   std::vector<PointXYZI> moved;
   for (const PointXYZI& p : pts) {
-    const Eigen::Vector3d q = T * Eigen::Vector3d(p.x, p.y, p.z);
+    const Eigen::Vector3d q = T * Eigen::Vector3f(p.x, p.y, p.z).cast<double>();
     moved.push_back({static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), 0.0f});
   }
   const std::vector<Eigen::Vector3d> moved_origins = {T * origins[0]};

@@ -80,7 +80,8 @@ TEST_CASE("sim world: oriented box faces at the analytic distance, also rotated 
           doctest::Approx(9.0 / std::cos(psi)).epsilon(1e-5));
   }
   // Over the top (z = 4) from above: a ray going down onto the roof.
-  CHECK(Cast(w, MakeRay(b.cx_m, b.cy_m, 10, 0, 0, -1)) == doctest::Approx(6.0).epsilon(1e-5));
+  const Ray down = MakeRay(static_cast<double>(b.cx_m), static_cast<double>(b.cy_m), 10, 0, 0, -1);
+  CHECK(Cast(w, down) == doctest::Approx(6.0).epsilon(1e-5));
   // Misses: above the roof, and beside it.
   CHECK(std::isinf(Cast(w, MakeRay(0, 0, 5, std::cos(yaw), std::sin(yaw), 0))));
   CHECK(std::isinf(Cast(w, MakeRay(0, 0, 1, std::cos(yaw + 0.5), std::sin(yaw + 0.5), 0))));
@@ -231,7 +232,7 @@ TEST_CASE("sim world: tunnel wall at the capsule radius, and on the noisy wall's
   // Along the axis: the round end cap, 50 + 3 m away.
   CHECK(Cast(w, MakeRay(0, 0, 1.2, 1, 0, 0)) == doctest::Approx(53.0).epsilon(0.001));
   const float inside[3] = {0, 0, 1.2f}, rock[3] = {0, 4, 1.2f};
-  CHECK(w.TunnelSignedDistance(inside) == doctest::Approx(-3.0f));
+  CHECK(w.TunnelSignedDistance(inside) == doctest::Approx(-3.0));
   CHECK(w.TunnelSignedDistance(rock) > 0.0f);
 
   World noisy;

@@ -35,7 +35,7 @@ Eigen::Isometry3d Pose(double x, double y, double yaw_deg) {
 std::vector<PointXYZI> Transform(const std::vector<PointXYZI>& in, const Eigen::Isometry3d& T) {
   std::vector<PointXYZI> out;
   for (const PointXYZI& p : in) {
-    const Eigen::Vector3d q = T * Eigen::Vector3d(p.x, p.y, p.z);
+    const Eigen::Vector3d q = T * Eigen::Vector3f(p.x, p.y, p.z).cast<double>();
     out.push_back({static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), p.intensity});
   }
   return out;

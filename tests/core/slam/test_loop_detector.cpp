@@ -166,8 +166,8 @@ TEST_CASE("LoopVerifier: the GICP refinement removes point-to-point ICP's bias o
     CastScan(scene, lidar, r.x0 + r.dx, r.dy, 1.73f, r.dyaw, 8, &raw);
     REQUIRE(VoxelDownsample(raw, VoxelGridParams{1.0}, &b).ok());
     Eigen::Isometry3d T_true = Eigen::Isometry3d::Identity();  // b's sensor frame in a's
-    T_true.linear() = Eigen::AngleAxisd(r.dyaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    T_true.translation() = Eigen::Vector3d(r.dx, r.dy, 0.0);
+    T_true.linear() = Eigen::AngleAxisd(static_cast<double>(r.dyaw), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    T_true.translation() = Eigen::Vector3d(static_cast<double>(r.dx), static_cast<double>(r.dy), 0.0);
     auto icp = verifier.Verify(300, 10, 0.01, Span<const PointXYZI>(b), Span<const PointXYZI>(a),
                                Eigen::Isometry3d::Identity(), paper);
     auto gicp = verifier.Verify(300, 10, 0.01, Span<const PointXYZI>(b), Span<const PointXYZI>(a),

@@ -307,7 +307,9 @@ void RunModelTest(const RunConfig& cfg) {
   if (cfg.policy == ScanStorePolicy::kSpillOldest) {
     CHECK(sink.order == model.drop_order);  // same eviction order, oldest first
     // Nothing lost beyond the failed spills: every scan ever stored is retrievable.
-    for (const auto& [keyframe, bytes] : model.ever_stored) {
+    for (const auto& stored : model.ever_stored) {
+      const auto& keyframe = stored.first;  // not a structured binding: REQUIRE_MESSAGE captures it in a lambda
+      const auto& bytes = stored.second;
       if (model.lost.count(keyframe)) {
         const Status s = store->CopyEncoded(keyframe, &copy);
         CHECK(s.code() == StatusCode::kNotFound);

@@ -85,7 +85,7 @@ TEST_CASE("LP validation rejects malformed programs and duplicate terms are merg
   CHECK(solver.Minimize(lp).status().code() == StatusCode::kInvalidArgument);
   lp.rows[0] = LpRow{{{0, 1.0}}, 2.0, 1.0};
   CHECK(solver.Minimize(lp).status().code() == StatusCode::kInvalidArgument);
-  lp.rows[0] = LpRow{{{0, NAN}}, 0.0, 1.0};
+  lp.rows[0] = LpRow{{{0, static_cast<double>(NAN)}}, 0.0, 1.0};
   CHECK(solver.Minimize(lp).status().code() == StatusCode::kInvalidArgument);
   // 0.5 x + 0.5 x >= 0.75 -> x >= 0.75
   lp.rows[0] = LpRow{{{0, 0.5}, {0, 0.5}}, 0.75, kLpInfinity};

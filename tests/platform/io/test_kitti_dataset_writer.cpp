@@ -118,7 +118,7 @@ TEST_CASE("kitti dataset writer: T_gt_robotstart * poses_gt(k) puts the scans' g
       REQUIRE(scan.ok());
       std::size_t on_ground = 0, below = 0;
       for (const PointXYZI& p : scan->points) {
-        const Eigen::Vector3d q = T_gt_start * gt[k] * Eigen::Vector3d(p.x, p.y, p.z);
+        const Eigen::Vector3d q = T_gt_start * gt[k] * Eigen::Vector3f(p.x, p.y, p.z).cast<double>();
         on_ground += std::fabs(q.z()) < 0.06;
         below += q.z() < -0.1;
       }

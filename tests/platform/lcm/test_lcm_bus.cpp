@@ -160,9 +160,10 @@ TEST_CASE("LcmBus: jitter reorders and duplication repeats, and every message st
     if (k > 0 && got[k] < got[k - 1]) ++inversions;
   }
   CHECK(copies.size() == n);
-  for (const auto& [i, c] : copies) {
-    CAPTURE(i);
-    CHECK((c == 1 || c == 2));
+  for (const auto& entry : copies) {
+    const auto& message = entry.first;  // CAPTURE takes it into a lambda, which a structured binding cannot be
+    CAPTURE(message);
+    CHECK((entry.second == 1 || entry.second == 2));
   }
   CHECK(inversions > 10);  // 200 messages spread over 40 ms do not stay in order
 }
