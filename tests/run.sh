@@ -2,16 +2,21 @@
 # The whole test suite, from a fresh Debian 12 machine: installs the dependencies (apt, via
 # toolchains/install-deps.sh --cross), then builds and tests
 #   host     x86-64 RelWithDebInfo, every test including those labelled `heavy`
-#   fuzz     x86-64 clang RelWithDebInfo with libFuzzer + ASan + UBSan (tests/fuzz): every LCM decoder and the
-#            server inbox fuzzed from their seed corpora for a bounded time (about 2.5 minutes of ctest)
-#   asan     x86-64 Debug (-O1, toolchains/cmake/CmDefaults.cmake) with AddressSanitizer + UndefinedBehaviorSanitizer
-#            (not `heavy`)
+#   asan     x86-64 clang Debug (-O1, toolchains/cmake/CmDefaults.cmake) with AddressSanitizer +
+#            UndefinedBehaviorSanitizer and libFuzzer's coverage (-DCM_SANITIZE=ON -DCM_FUZZ=ON): every test but
+#            `heavy`, and the fuzz tests (label `fuzz`, tests/fuzz: every LCM decoder and the server inbox fuzzed
+#            from their seed corpora for a bounded time, about 2.5 minutes of ctest). One build serves both: the
+#            sanitized libraries are compiled once.
 #   jetson   aarch64 Cortex-A57 cross build (Release, no benchmarks), tests under qemu-aarch64 -cpu cortex-a57
 #            (not `heavy`)
+#   fuzz     the fuzzers alone (clang RelWithDebInfo, libFuzzer + ASan + UBSan, no doctest suites); not in the
+#            default set, which fuzzes in `asan`: run `tests/run.sh fuzz`
 #   ipc      x86-64 -march=skylake (IPC-6000) build; its tests run when this CPU has AVX2/FMA (not `heavy`);
 #            not in the default set (CI time): run `tests/run.sh ipc`
 # Every configuration compiles in unity batches (CM_UNITY_BUILD=ON; CM_UNITY_BUILD=OFF in the environment compiles
 # file by file) with Ninja when it is installed.
+# Test code compiles at -O1 in the optimised builds (CM_TESTS_O1=ON; the libraries and apps under test keep the
+# build type's level).
 # Debug info is line tables only (CM_DEBUG_INFO=lines: backtraces and sanitizer reports keep file:line, the
 # builds take far less time); CM_DEBUG_INFO=full in the environment builds with full debug info instead.
 # Idempotent: build trees (build-<config>/) are reused; with ccache installed every compile goes through it, with
@@ -20,7 +25,7 @@
 # summary: per configuration the time of configure, build and ctest, how many tests passed, failed and skipped,
 # and each skipped test with its CM-SKIP reason. Exits non-zero when anything fails.
 #
-# Usage: tests/run.sh [--no-install] [CONFIG...]      (default: host fuzz asan jetson)
+# Usage: tests/run.sh [--no-install] [CONFIG...]      (default: host asan jetson)
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/.." && pwd)
 cd "$repo"
@@ -35,7 +40,7 @@ for arg in "$@"; do
     *) echo "tests/run.sh: unknown argument '$arg' (see --help)" >&2; exit 2 ;;
   esac
 done
-[ ${#configs[@]} -gt 0 ] || configs=(host fuzz asan jetson)
+[ ${#configs[@]} -gt 0 ] || configs=(host asan jetson)
 
 if [ $install -eq 1 ]; then bash toolchains/install-deps.sh --cross; fi
 
@@ -89,6 +94,16 @@ summarize_tests() {
   done < <(sed -n '/^The following tests FAILED:/,/^$/s/^[[:space:]]\{1,\}[0-9]\{1,\} - //p' "$log")
 }
 
+# CPU time of a stage (user + system of this shell's finished children), which next to its wall time shows how
+# busy the cores were: cpu_mark FILE writes the bash `times` report (in this shell: a subshell's would be its
+# own), cpu_seconds_between FILE1 FILE2 prints the children's CPU seconds between the two marks.
+cpu_mark() { times >"$1"; }
+cpu_seconds_between() {
+  awk 'FNR == 2 { t = 0; for (i = 1; i <= 2; ++i) { split($i, a, /[ms]/); t += a[1] * 60 + a[2] }
+                  if (FILENAME == ARGV[1]) t0 = t; else t1 = t }
+       END { printf "%d\n", t1 - t0 }' "$1" "$2"
+}
+
 # Configures, builds and tests one configuration; never exits the script (the caller records a failure).
 run_config() {
   local name=$1; shift
@@ -101,12 +116,13 @@ run_config() {
   local generator=()
   if [ ! -f "$dir/CMakeCache.txt" ] && command -v ninja >/dev/null 2>&1; then generator=(-G Ninja); fi
   if ! cmake -S . -B "$dir" "${generator[@]}" "${launcher[@]}" -DCM_DEBUG_INFO="$debug_info" -DCM_UNITY_BUILD="$unity" \
-       "$@" >"$dir/configure.log" 2>&1; then
+       -DCM_TESTS_O1=ON "$@" >"$dir/configure.log" 2>&1; then
     cat "$dir/configure.log"
     summary+=("$name: FAILED at configure ($((SECONDS - t0)) s; log $dir/configure.log)")
     return 1
   fi
   t_configure=$((SECONDS - t0)); t0=$SECONDS
+  cpu_mark "$dir/.cpu-0"
   local build_args=()
   if [ "$name" = fuzz ]; then build_args=(--target cm_fuzz_all); fi  # only what the fuzzers link, and their seeds
   if ! cmake --build "$dir" -j "$jobs" "${build_args[@]}"; then
@@ -114,6 +130,7 @@ run_config() {
     return 1
   fi
   t_build=$((SECONDS - t0)); t0=$SECONDS
+  cpu_mark "$dir/.cpu-1"
   case "$name" in
     host) ;;
     ipc)
@@ -129,9 +146,12 @@ run_config() {
   local rc=0
   ctest "${ctest_args[@]}" 2>&1 | tee "$dir/ctest.log" || rc=$?
   t_ctest=$((SECONDS - t0))
+  cpu_mark "$dir/.cpu-2"
   local verdict=passed
   if [ $rc -ne 0 ]; then verdict=FAILED; fi
   summary+=("$name: $verdict (configure $t_configure s, build $t_build s, ctest $t_ctest s)")
+  summary+=("    CPU time: build $(cpu_seconds_between "$dir/.cpu-0" "$dir/.cpu-1") s, ctest $(cpu_seconds_between \
+    "$dir/.cpu-1" "$dir/.cpu-2") s ($jobs cores)")
   summarize_tests "$dir"
   if [ $rc -ne 0 ]; then failure_digest "$name" "$dir"; return $rc; fi
 }
@@ -158,7 +178,8 @@ for c in "${configs[@]}"; do
     host)   run_config host -DCMAKE_BUILD_TYPE=RelWithDebInfo || rc=$? ;;
     fuzz)   run_config fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
                             -DCM_FUZZ=ON -DCM_BUILD_TESTS=OFF -DCM_BUILD_PROFILING=OFF || rc=$? ;;
-    asan)   run_config asan -DCMAKE_BUILD_TYPE=Debug -DCM_SANITIZE=ON -DCM_BUILD_PROFILING=OFF || rc=$? ;;
+    asan)   run_config asan -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Debug \
+                            -DCM_SANITIZE=ON -DCM_FUZZ=ON -DCM_BUILD_PROFILING=OFF || rc=$? ;;
     jetson) run_config jetson -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/aarch64-jetson-nano.cmake \
                               -DCM_BUILD_PROFILING=OFF || rc=$? ;;
     ipc)    run_config ipc -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/x86_64-ipc6000.cmake || rc=$? ;;
