@@ -162,22 +162,23 @@ void AddDescriptorFlags(CLI::App* cmd, DescriptorFlags* flags) {
 
 namespace {
 
-bool ForwardLooking(const std::string& lidar) {
-  auto preset = SolidPresetFor(lidar);
-  return preset.ok() && SolidParameterId(*preset) == SolidParameterId(SolidPreset(LidarSensor::kLivoxAvia));
+// A non-repetitive sensor (ScanTraits): the paper's thresholds for it, and local maps for the ring descriptor.
+bool NonRepetitive(const std::string& lidar) {
+  Result<LidarSensor> sensor = LidarSensorFor(lidar);
+  return sensor.ok() && ScanTraits(*sensor).non_repetitive;
 }
 
 }  // namespace
 
 double DefaultTauIntra(const std::string& descriptor, const std::string& lidar) {
   if (descriptor == "ring") return 0.15;
-  return ForwardLooking(lidar) ? 0.01 : 0.05;
+  return NonRepetitive(lidar) ? 0.01 : 0.05;
 }
 
 DescriptorInputParams RingDescriptorInput(const std::string& lidar) {
   DescriptorInputParams input;
   input.level = true;
-  input.local_map_window_m = ForwardLooking(lidar) ? 5.0 : 0.0;
+  input.local_map_window_m = NonRepetitive(lidar) ? 5.0 : 0.0;
   return input;
 }
 

@@ -35,13 +35,13 @@ std::string PoseText(const Eigen::Isometry3d& T) {
 
 // ---- against ground truth: robots that share a place, merged, wrong; where unmerged pairs stopped
 
-// A forward-looking sensor (Livox Avia, 70 deg wide) does not see a place again from a heading more than its
-// field of view away; a spinning one does.
+// A sensor narrower than 360 deg (ScanTraits: Livox Avia 70.4 deg, Aeva 120 deg) does not see a place again
+// from a heading more than its field of view away; a spinning one does.
 SharedPlaceParams SharedPlaceFor(const RunJob& job) {
   SharedPlaceParams p;
-  auto sensor = SolidPresetFor(job.options.sensor);
-  if (sensor.ok() && SolidParameterId(*sensor) == SolidParameterId(SolidPreset(LidarSensor::kLivoxAvia))) {
-    p.max_heading_deg = 70.0;
+  Result<LidarSensor> sensor = LidarSensorFor(job.options.sensor);
+  if (sensor.ok() && ScanTraits(*sensor).horizontal_fov_deg < 360.0) {
+    p.max_heading_deg = ScanTraits(*sensor).horizontal_fov_deg;
   }
   return p;
 }

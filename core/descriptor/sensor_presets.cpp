@@ -77,13 +77,36 @@ const char* LidarSensorName(LidarSensor sensor) noexcept {
   return "unknown";
 }
 
-Result<SolidParams> SolidPresetFor(const std::string& sensor) {
-  const std::string key = Canonical(sensor);
+Result<LidarSensor> LidarSensorFor(const std::string& name) {
+  const std::string key = Canonical(name);
   for (const NamedSensor& n : kNames) {
-    if (key == n.key) return SolidPreset(n.sensor);
+    if (key == n.key) return n.sensor;
   }
-  return NotFound("no SOLiD preset for sensor '" + sensor +
+  return NotFound("no SOLiD preset for sensor '" + name +
                   "'; known: hdl-64e (kitti), vlp-16, os1-64, os1-128, os2-128, avia (livox-avia), aeva");
+}
+
+Result<SolidParams> SolidPresetFor(const std::string& sensor) {
+  Result<LidarSensor> s = LidarSensorFor(sensor);
+  if (!s.ok()) return s.status();
+  return SolidPreset(*s);
+}
+
+LidarScanTraits ScanTraits(LidarSensor sensor) noexcept {
+  LidarScanTraits t;
+  switch (sensor) {
+    case LidarSensor::kLivoxAvia:
+      t.horizontal_fov_deg = 70.4;
+      t.non_repetitive = true;
+      break;
+    case LidarSensor::kAeva: t.horizontal_fov_deg = 120.0; break;
+    case LidarSensor::kVelodyneHdl64e:
+    case LidarSensor::kVelodyneVlp16:
+    case LidarSensor::kOusterOs1_64:
+    case LidarSensor::kOusterOs1_128:
+    case LidarSensor::kOusterOs2_128: break;
+  }
+  return t;
 }
 
 Status ValidateSolidParams(const SolidParams& p) {

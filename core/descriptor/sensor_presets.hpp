@@ -60,10 +60,25 @@ SolidParams SolidPreset(LidarSensor sensor) noexcept;
 /// Canonical name of `sensor`: "hdl-64e", "vlp-16", "os1-64", "os1-128", "os2-128", "avia", "aeva".
 const char* LidarSensorName(LidarSensor sensor) noexcept;
 
-/// Preset by name, case-insensitive, ignoring '-', '_' and spaces: the canonical names above plus the
+/// Sensor by name, case-insensitive, ignoring '-', '_' and spaces: the canonical names above plus the
 /// aliases "kitti" (HDL-64E), "velodyne-hdl-64e", "velodyne-vlp-16", "ouster-os1-64", "ouster-os1-128",
 /// "ouster-os2-128", "livox-avia". Unknown name: not found, the message lists the known names.
+Result<LidarSensor> LidarSensorFor(const std::string& name);
+
+/// Preset of the sensor named `sensor` (names as LidarSensorFor).
 Result<SolidParams> SolidPresetFor(const std::string& sensor);
+
+/// How a sensor scans, from its datasheet, for the choices that depend on it rather than on its SOLiD bins.
+struct LidarScanTraits {
+  /// Horizontal field of view [deg]: 360 for the spinning sensors, 70.4 for the Livox Avia, 120 for the Aeva
+  /// Aeries II. A sensor narrower than 360 deg sees a place again only from a similar heading.
+  double horizontal_fov_deg = 360.0;
+  /// A non-repetitive (rosette) pattern: each scan covers the field of view sparsely and differently, so the
+  /// paper's second threshold column (tau_intra 0.01, tau_inter 0.05) and accumulated local maps apply.
+  /// Only the Livox Avia.
+  bool non_repetitive = false;
+};
+LidarScanTraits ScanTraits(LidarSensor sensor) noexcept;
 
 /// OK, or invalid argument naming the first offending field and its value: counts in [1, kSolidMax*];
 /// num_sectors must divide 360; FOV finite, within [-90, 90] deg and fov_down_deg < fov_up_deg; ranges

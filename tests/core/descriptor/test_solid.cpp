@@ -520,6 +520,31 @@ TEST_CASE("SOLiD unit normalisation and distance (SOLID.md section 2.1)") {
   CHECK(SolidDistance(nan_v, b) == kSolidMaxDistance);
 }
 
+TEST_CASE("Sensor names and scan traits: only the Livox Avia is non-repetitive, narrow sensors keep their datasheet FOV") {
+  // Datasheets: Livox Avia 70.4 x 77.2 deg (non-repetitive rosette), Aeva Aeries II 120 x 19.2 deg, the
+  // Velodyne and Ouster sensors spin (360 deg).
+  const struct {
+    const char* name;
+    double horizontal_fov_deg;
+    bool non_repetitive;
+  } kExpected[] = {{"hdl-64e", 360.0, false}, {"KITTI", 360.0, false},  {"vlp-16", 360.0, false},
+                   {"os1-64", 360.0, false},  {"OS1_128", 360.0, false}, {"os2-128", 360.0, false},
+                   {"avia", 70.4, true},      {"Livox-Avia", 70.4, true}, {"aeva", 120.0, false}};
+  for (const auto& e : kExpected) {
+    CAPTURE(e.name);
+    const Result<LidarSensor> sensor = LidarSensorFor(e.name);
+    REQUIRE(sensor.ok());
+    CHECK(ScanTraits(*sensor).horizontal_fov_deg == e.horizontal_fov_deg);
+    CHECK(ScanTraits(*sensor).non_repetitive == e.non_repetitive);
+    // The name resolves to the sensor whose preset SolidPresetFor returns, and the canonical name round-trips.
+    CHECK(SolidParameterId(*SolidPresetFor(e.name)) == SolidParameterId(SolidPreset(*sensor)));
+    CHECK(LidarSensorFor(LidarSensorName(*sensor)).value() == *sensor);
+  }
+  const Result<LidarSensor> unknown = LidarSensorFor("livox");
+  REQUIRE_FALSE(unknown.ok());
+  CHECK(unknown.status().message().find("'livox'") != std::string::npos);
+}
+
 TEST_CASE("SOLiD presets, validation messages and parameter ids") {
   const auto kitti = SolidPresetFor("KITTI");
   REQUIRE(kitti.ok());
