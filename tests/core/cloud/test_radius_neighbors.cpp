@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // All-points capped radius neighbours (core/cloud/radius_neighbors) against a brute-force reference: every
-// pair's squared distance computed the same way in float, sorted by (distance, index), cut at the cap.
+// pair's squared distance computed the same way in float, sorted by (distance, index), cut at the cap. The library
+// may fuse a * b + c into one multiply-add (GCC does on aarch64 at -O2) where the test code, built at another
+// optimisation level, does not: distances then agree to a few ulp, and neighbours that close may swap places.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -35,9 +37,16 @@ void CheckAgainstBruteForce(const std::vector<PointXYZI>& pts, float radius_m, s
     const Span<const std::uint32_t> got = nb.indices(i);
     const Span<const float> got_d2 = nb.distances_sq(i);
     REQUIRE(got.size() == ref.size());
+    const auto same_distance = [](float a, float b) {
+      return std::fabs(a - b) <= 1e-6f * (1.0f + std::max(std::fabs(a), std::fabs(b)));
+    };
     for (std::size_t k = 0; k < ref.size(); ++k) {
-      REQUIRE(got[k] == ref[k].second);
-      REQUIRE(got_d2[k] == ref[k].first);
+      CAPTURE(k);
+      REQUIRE(same_distance(got_d2[k], ref[k].first));
+      const bool swapped_tie = (k > 0 && got[k] == ref[k - 1].second && same_distance(ref[k - 1].first, ref[k].first)) ||
+                               (k + 1 < ref.size() && got[k] == ref[k + 1].second &&
+                                same_distance(ref[k + 1].first, ref[k].first));
+      REQUIRE((got[k] == ref[k].second || swapped_tie));
     }
     total += ref.size();
   }
