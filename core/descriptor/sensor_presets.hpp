@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// commerge: SOLiD descriptor parameters, per-sensor presets, validation and the parameter-set id.
+// commerge: SOLiD descriptor parameters, per-sensor presets and scan traits, validation and the parameter-set id.
 //
 // The values of SolidParams are part of the protocol: two SOLiD descriptors are comparable only when all of
 // them are identical, which SolidParameterId() condenses into one 32-bit id (shared/spec/SOLID.md §1.1). The

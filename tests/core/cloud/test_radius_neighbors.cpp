@@ -43,9 +43,9 @@ void CheckAgainstBruteForce(const std::vector<PointXYZI>& pts, float radius_m, s
     for (std::size_t k = 0; k < ref.size(); ++k) {
       CAPTURE(k);
       REQUIRE(same_distance(got_d2[k], ref[k].first));
-      const bool swapped_tie = (k > 0 && got[k] == ref[k - 1].second && same_distance(ref[k - 1].first, ref[k].first)) ||
-                               (k + 1 < ref.size() && got[k] == ref[k + 1].second &&
-                                same_distance(ref[k + 1].first, ref[k].first));
+      const bool swapped_tie =
+          (k > 0 && got[k] == ref[k - 1].second && same_distance(ref[k - 1].first, ref[k].first)) ||
+          (k + 1 < ref.size() && got[k] == ref[k + 1].second && same_distance(ref[k + 1].first, ref[k].first));
       REQUIRE((got[k] == ref[k].second || swapped_tie));
     }
     total += ref.size();

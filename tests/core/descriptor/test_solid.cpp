@@ -520,7 +520,7 @@ TEST_CASE("SOLiD unit normalisation and distance (SOLID.md section 2.1)") {
   CHECK(SolidDistance(nan_v, b) == kSolidMaxDistance);
 }
 
-TEST_CASE("Sensor names and scan traits: only the Livox Avia is non-repetitive, narrow sensors keep their datasheet FOV") {
+TEST_CASE("Sensor scan traits: only the Livox Avia is non-repetitive, narrow sensors have their datasheet FOV") {
   // Datasheets: Livox Avia 70.4 x 77.2 deg (non-repetitive rosette), Aeva Aeries II 120 x 19.2 deg, the
   // Velodyne and Ouster sensors spin (360 deg).
   const struct {
