@@ -128,8 +128,15 @@ struct RobotVerdict {
   bool has_gt = false;
   bool reachable = false;
   bool merged = false;
-  TransformError error;  ///< of T_world_map against the truth (when merged and has_gt)
-  bool wrong = false;    ///< merged and off the truth by more than kWrongMergeM / kWrongMergeDeg
+  TransformError error;  ///< of T_world_map against the transform of the true start poses (merged, has_gt)
+  /// Against the truth where it met another placed robot (core/eval TruthAtSharedPlace; the partner whose
+  /// shared places agree best); judged_at_place is false when it shares no place with a placed robot.
+  TransformError error_at_place;
+  bool judged_at_place = false;
+  int place_partner = -1;  ///< the robot of error_at_place
+  /// Merged and off the truth by more than kWrongMergeM or kWrongMergeDeg: at the shared place when judged
+  /// there (a drifting robot's start pose is not where a right registration puts it), else at the start pose.
+  bool wrong = false;
 };
 constexpr double kWrongMergeM = 1.0;
 constexpr double kWrongMergeDeg = 3.0;

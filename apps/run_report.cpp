@@ -60,6 +60,32 @@ std::vector<SharedPlace> SharedPlaces(const RunJob& job, const ModeOutcome& m) {
   return out;
 }
 
+// Placed robot r against every other placed robot q it meets: the reported T_q_r = T_world_q^-1 T_world_r at the
+// places they share, against the truth there (TruthAtSharedPlace). The best-agreeing partner decides (a robot
+// is placed right when it fits where it met one placed robot; drift makes it disagree elsewhere).
+void JudgeAtSharedPlace(const RunJob& job, const ModeOutcome& m, int r, RobotVerdict& v) {
+  const SharedPlaceParams params = SharedPlaceFor(job);
+  const Trajectories& tr = job.trajectories[static_cast<std::size_t>(r)];
+  double best = 0.0;
+  for (int q = 0; q < job.num_robots(); ++q) {
+    if (q == r || !m.round.in_world(q)) continue;
+    const Trajectories& tq = job.trajectories[static_cast<std::size_t>(q)];
+    const Result<SharedPlaceTruth> truth = TruthAtSharedPlace(
+        Span<const Eigen::Isometry3d>(tq.estimated), Span<const Eigen::Isometry3d>(tq.ground_truth),
+        Span<const Eigen::Isometry3d>(tr.estimated), Span<const Eigen::Isometry3d>(tr.ground_truth), params);
+    if (!truth.ok()) continue;
+    const TransformError e =
+        ErrorAtSharedPlace(m.round.T_world_map(q).inverse() * m.round.T_world_map(r), *truth);
+    const double score = std::max(e.translation_m / kWrongMergeM, e.rotation_deg / kWrongMergeDeg);
+    if (!v.judged_at_place || score < best) {
+      v.judged_at_place = true;
+      v.error_at_place = e;
+      v.place_partner = q;
+      best = score;
+    }
+  }
+}
+
 std::vector<RobotVerdict> RobotVerdicts(const RunJob& job, const ModeOutcome& m) {
   const std::vector<SharedPlace> shared = SharedPlaces(job, m);
   std::vector<bool> shared_pairs;
@@ -83,7 +109,9 @@ std::vector<RobotVerdict> RobotVerdicts(const RunJob& job, const ModeOutcome& m)
     if (v.merged && v.has_gt) {
       const Eigen::Isometry3d truth = job.trajectories[0].T_gt_map.inverse() * t.T_gt_map;
       v.error = ComputeTransformError(m.round.T_world_map(r), truth);
-      v.wrong = r > 0 && (v.error.translation_m > kWrongMergeM || v.error.rotation_deg > kWrongMergeDeg);
+      if (r > 0) JudgeAtSharedPlace(job, m, r, v);
+      const TransformError& e = v.judged_at_place ? v.error_at_place : v.error;
+      v.wrong = r > 0 && (e.translation_m > kWrongMergeM || e.rotation_deg > kWrongMergeDeg);
     }
   }
   return out;
@@ -238,7 +266,7 @@ void FinalResult(const RunJob& job, const ModeOutcome& m, const std::function<vo
     line("  against ground truth: " + std::to_string(reachable) + " of " + std::to_string(job.num_robots() - 1) +
          " robots share a place with robot 0's team, " + std::to_string(merged) + " placed right, " +
          std::to_string(wrong) + " wrong (> " + Fmt("%.0f m", kWrongMergeM) + " or " + Fmt("%.0f deg", kWrongMergeDeg) +
-         " off)");
+         " off where it met a placed robot)");
   }
   for (const MeasurementOutcome& mo : m.round.frames.measurements) {
     if (mo.verdict == MeasurementVerdict::kRejected) {
@@ -493,6 +521,11 @@ void WriteMetrics(const RunJob& job) {
     if (v.merged && v.has_gt) {
       kv(k + "error_m", Fmt("%.3f", v.error.translation_m));
       kv(k + "error_deg", Fmt("%.2f", v.error.rotation_deg));
+      if (v.judged_at_place) {
+        kv(k + "error_at_place_m", Fmt("%.3f", v.error_at_place.translation_m));
+        kv(k + "error_at_place_deg", Fmt("%.2f", v.error_at_place.rotation_deg));
+        kv(k + "place_partner", std::to_string(v.place_partner));
+      }
     }
   }
   kv("peak_rss_after_robots_bytes", std::to_string(job.robots_peak_rss));

@@ -2,7 +2,7 @@
 # Usage: profiling/bench_recall.sh [--commerge BUILD/commerge] [--work DIR] [--slice quick|generated|long|real|all]
 #                                  [--seeds "11 12"] [--keyframes 800] [--long-keyframes 3000] [--run-args "ARGS"]
 #                                  [--worlds "urban campus indoor cave"] [--reuse-data] [--shared-data DIR]
-#                                  [--send-all]
+#                                  [--send-all] [--only REGEX]
 # Merge recall of `commerge run` with its default flags (only --lidar, and the data's own description:
 # keyframe spacing of generated data, odometry and reference files of real data), scenario by scenario:
 #   generated  every world x 2, 3 and 5 robots x complete / moderate / partial overlap x same / alternating
@@ -13,13 +13,15 @@
 #   quick      a CI slice: two generated scenarios and the hku2 halves;
 #   all        generated + long + real.
 # Per scenario one row: robots that truly share a place with robot 0's component (from ground truth,
-# core/eval/shared_place.hpp), robots merged (right and wrong: > 1 m or > 3 deg from the truth), the worst
-# transform error, the worst e_rmse, bytes of A+B+C against sending every stored scan and against every raw
-# keyframe scan, and the stage that stopped each pair that shares a place and was not merged. Then one summary
-# line: recall, real splits merged, wrong merges, median byte reductions. Exit 0 (it measures; it does not judge)
-# unless a run fails (a crash, an unreadable input; "no pair merged" is a measurement, not a failure).
+# core/eval/shared_place.hpp), robots merged (right and wrong: > 1 m or > 3 deg from the truth where the
+# robot met a placed robot, core/eval TruthAtSharedPlace), the worst such error, the worst e_rmse, bytes of
+# A+B+C against sending every stored scan and against every raw keyframe scan, the stage that stopped each pair
+# that shares a place and was not merged, and the worst translation error against the transform of the true
+# start poses (what drift adds). Then one summary line: recall, real splits merged, wrong merges, median byte
+# reductions. Exit 0 (it measures; it does not judge) unless a run fails (a crash, an unreadable input; "no pair merged" is a measurement, not a failure).
 # --run-args adds options to every `commerge run` (e.g. the paper's stage A: "--neighbour-rank 0
 # --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1 --descriptor solid").
+# --only runs just the scenarios whose name matches the extended regular expression (a before/after subset).
 # --send-all also runs mode send-all (each pair registers the two complete stored maps) and adds its column:
 # robots placed / other robots and the worst e_rmse, what shipping everything buys.
 set -euo pipefail
@@ -34,6 +36,7 @@ worlds="urban campus indoor cave"
 reuse=0
 shared=""
 send_all=0
+only=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --commerge) bin=$2; shift 2 ;;
@@ -46,8 +49,9 @@ while [ $# -gt 0 ]; do
     --worlds) worlds=$2; shift 2 ;;
     --reuse-data) reuse=1; shift ;;
     --send-all) send_all=1; shift ;;
+    --only) only=$2; shift 2 ;;
     --shared-data) shared=$2; shift 2 ;;
-    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
     *) echo "bench_recall.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -66,6 +70,7 @@ get() { awk -F'\t' -v k="$1" '$1 == k { print $2 }' "$2"; }
 run_scenario() {
   local name=$1 lidar=$2
   shift 2
+  if [ -n "$only" ] && ! [[ "$name" =~ $only ]]; then return; fi
   local out="$work/$name/run"
   set +e
   local modes=(A+B+C)
@@ -80,17 +85,20 @@ run_scenario() {
     failures=$((failures + 1))
     return
   fi
-  local robots reachable=0 merged=0 wrong=0 worst_m=0 worst_deg=0 stops=""
+  local robots reachable=0 merged=0 wrong=0 worst_m=0 worst_deg=0 worst_start_m=0 stops=""
   robots=$(get robots "$m")
   for ((r = 1; r < robots; r++)); do
-    local reach ok bad em ed
+    local reach ok bad em ed sm
     reach=$(get "robot.$r.reachable" "$m"); ok=$(get "robot.$r.merged" "$m"); bad=$(get "robot.$r.wrong" "$m")
     [ "$reach" = 1 ] && reachable=$((reachable + 1))
     if [ "$ok" = 1 ]; then
       if [ "$bad" = 1 ]; then wrong=$((wrong + 1)); elif [ "$reach" = 1 ]; then merged=$((merged + 1)); fi
-      em=$(get "robot.$r.error_m" "$m"); ed=$(get "robot.$r.error_deg" "$m")
+      em=$(get "robot.$r.error_at_place_m" "$m"); ed=$(get "robot.$r.error_at_place_deg" "$m")
+      [ -n "$em" ] || { em=$(get "robot.$r.error_m" "$m"); ed=$(get "robot.$r.error_deg" "$m"); }
       worst_m=$(awk -v a="$worst_m" -v b="$em" 'BEGIN { print (b > a ? b : a) }')
       worst_deg=$(awk -v a="$worst_deg" -v b="$ed" 'BEGIN { print (b > a ? b : a) }')
+      sm=$(get "robot.$r.error_m" "$m")
+      worst_start_m=$(awk -v a="$worst_start_m" -v b="$sm" 'BEGIN { print (b > a ? b : a) }')
     fi
   done
   stops=$(awk -F'\t' '$1 ~ /^pair\..*\.stopped$/ && $2 != "merged" && $2 != "no shared place" {
@@ -100,17 +108,18 @@ run_scenario() {
   total=$(get mode.A+B+C.total_bytes "$m"); stored=$(get stored_send_all_bytes "$m"); raw=$(get raw_keyframe_scan_bytes "$m")
   local send_all_col=-
   if [ "$send_all" = 1 ]; then send_all_col="$(get mode.send-all.robots_merged "$m") ($(get mode.send-all.worst_rmse_m "$m") m)"; fi
-  printf '%s\t%d\t%d\t%d\t%d\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$((robots - 1))" "$reachable" "$merged" "$wrong" \
+  printf '%s\t%d\t%d\t%d\t%d\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$((robots - 1))" "$reachable" "$merged" "$wrong" \
       "$(printf '%.2f m / %.2f deg' "$worst_m" "$worst_deg")" "$(get mode.A+B+C.worst_rmse_m "$m")" "$total" "$stored" \
       "$(awk -v a="$stored" -v b="$total" 'BEGIN { printf "%.2f", 100 * (1 - b / a) }')" "$raw" \
       "$(awk -v a="$raw" -v b="$total" 'BEGIN { printf "%.3f", 100 * (1 - b / a) }')" "${stops:--}" "$send_all_col" \
-      | tee -a "$rows"
+      "$(printf '%.2f m' "$worst_start_m")" | tee -a "$rows"
 }
 
 generated() {  # $1 = keyframes, $2 = seed, $3 = world, $4 = robots, $5 = overlap, $6 = direction, $7 = wobble
   local kf=$1 seed=$2 world=$3 robots=$4 overlap=$5 direction=$6 wobble=$7
   local name="$world-${robots}r-$overlap-$direction-w$wobble-k$kf-s$seed"
   local data="$work/$name/data"
+  if [ -n "$only" ] && ! [[ "$name" =~ $only ]]; then return; fi
   if [ "$reuse" = 0 ] || [ ! -f "$data/robot_$((robots - 1))/poses.txt" ]; then
     "$bin" sim --world "$world" --robots "$robots" --overlap "$overlap" --keyframes "$kf" --lidar vlp16 --seed "$seed" \
         --threads 2 --direction "$direction" --wobble-deg "$wobble" --out "$data" --force > "$work/$name.sim.log" 2>&1
@@ -137,7 +146,7 @@ real_splits() {  # $1 = folder under real/, $2 = scans
 }
 
 echo "commerge recall benchmark: slice $slice, seeds $seeds, $keyframes keyframes (long: $long_keyframes)${run_args:+, run options: $run_args}"
-printf 'scenario\tother robots\tsharing robots\tmerged\twrong\tworst transform error\tworst e_rmse [m]\tA+B+C bytes\tstored send-all bytes\treduction %%\traw scan bytes\treduction vs raw %%\tunmerged pairs stopped at\tsend-all placed (worst e_rmse)\n'
+printf 'scenario\tother robots\tsharing robots\tmerged\twrong\tworst transform error\tworst e_rmse [m]\tA+B+C bytes\tstored send-all bytes\treduction %%\traw scan bytes\treduction vs raw %%\tunmerged pairs stopped at\tsend-all placed (worst e_rmse)\tworst error vs start poses\n'
 for seed in $seeds; do
   case "$slice" in
     quick)

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "core/geometry/se3.hpp"
+#include "core/geometry/umeyama.hpp"
 
 namespace commerge {
 
@@ -14,18 +15,30 @@ namespace {
 constexpr double kRadToDeg = 57.29577951308232;
 
 // Path [m] of `a` at places of `b`.
+// Heading difference [deg] in [0, 180].
+double HeadingDifferenceDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  double d = std::fabs(YawRad(a.linear()) - YawRad(b.linear())) * kRadToDeg;
+  d = std::fmod(d, 360.0);
+  return d > 180.0 ? 360.0 - d : d;
+}
+
+bool Finite(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
+
+double PathLength(Span<const Eigen::Isometry3d> poses) {
+  double length = 0.0;
+  for (std::size_t i = 1; i < poses.size(); ++i) length += (poses[i].translation() - poses[i - 1].translation()).norm();
+  return length;
+}
+
 double PathAtPlacesOf(Span<const Eigen::Isometry3d> a, Span<const Eigen::Isometry3d> b, const SharedPlaceParams& p) {
   const double r2 = p.radius_m * p.radius_m;
   double path = 0.0;
   for (std::size_t i = 0; i < a.size(); ++i) {
     const Eigen::Vector3d pa = a[i].translation();
-    const double yaw_a = YawRad(a[i].linear());
     bool near = false;
     for (std::size_t j = 0; j < b.size() && !near; ++j) {
       if ((b[j].translation() - pa).squaredNorm() > r2) continue;
-      double d = std::fabs(YawRad(b[j].linear()) - yaw_a) * kRadToDeg;
-      if (d > 180.0) d = 360.0 - d;
-      near = d <= p.max_heading_deg;
+      near = HeadingDifferenceDeg(a[i], b[j]) <= p.max_heading_deg;
     }
     if (near && i > 0) path += (pa - a[i - 1].translation()).norm();
   }
@@ -42,6 +55,9 @@ Status ValidateSharedPlaceParams(const SharedPlaceParams& p) {
   if (!(p.min_shared_path_m >= 0.0) || !std::isfinite(p.min_shared_path_m)) {
     return InvalidArgument("shared place min_shared_path_m must be >= 0");
   }
+  if (!(p.min_shared_path_fraction >= 0.0 && p.min_shared_path_fraction <= 1.0)) {
+    return InvalidArgument("shared place min_shared_path_fraction must be in [0, 1]");
+  }
   return Status::Ok();
 }
 
@@ -50,8 +66,14 @@ SharedPlace MeasureSharedPlace(Span<const Eigen::Isometry3d> alpha_gt, Span<cons
   SharedPlace s;
   s.alpha_path_m = PathAtPlacesOf(alpha_gt, beta_gt, params);
   s.beta_path_m = PathAtPlacesOf(beta_gt, alpha_gt, params);
-  s.shared = std::min(s.alpha_path_m, s.beta_path_m) >= params.min_shared_path_m &&
-             (s.alpha_path_m > 0.0 || params.min_shared_path_m == 0.0);
+  s.alpha_total_m = PathLength(alpha_gt);
+  s.beta_total_m = PathLength(beta_gt);
+  const double needed_m =
+      params.min_shared_path_fraction > 0.0
+          ? std::min(params.min_shared_path_m,
+                     params.min_shared_path_fraction * std::min(s.alpha_total_m, s.beta_total_m))
+          : params.min_shared_path_m;
+  s.shared = std::min(s.alpha_path_m, s.beta_path_m) >= needed_m && (s.alpha_path_m > 0.0 || needed_m == 0.0);
   return s;
 }
 
@@ -74,6 +96,57 @@ std::vector<bool> ReachableFromRobot0(int robots, const std::vector<bool>& share
     }
   }
   return reachable;
+}
+
+Result<SharedPlaceTruth> TruthAtSharedPlace(Span<const Eigen::Isometry3d> ref_est, Span<const Eigen::Isometry3d> ref_gt,
+                                            Span<const Eigen::Isometry3d> other_est,
+                                            Span<const Eigen::Isometry3d> other_gt, const SharedPlaceParams& params,
+                                            std::size_t min_keyframe_pairs) {
+  if (Status s = ValidateSharedPlaceParams(params); !s.ok()) return s;
+  if (ref_est.size() != ref_gt.size()) return InvalidArgument("ref_est and ref_gt differ in size");
+  if (other_est.size() != other_gt.size()) return InvalidArgument("other_est and other_gt differ in size");
+  for (Span<const Eigen::Isometry3d> poses : {ref_est, ref_gt, other_est, other_gt}) {
+    for (const Eigen::Isometry3d& T : poses) {
+      if (!Finite(T)) return InvalidArgument("TruthAtSharedPlace: a pose has a non-finite entry");
+    }
+  }
+  const double r2 = params.radius_m * params.radius_m;
+  std::vector<Eigen::Vector3d> source, target;
+  SharedPlaceTruth truth;
+  for (std::size_t i = 0; i < other_gt.size(); ++i) {
+    std::size_t best = ref_gt.size();
+    double best_d2 = r2;
+    for (std::size_t j = 0; j < ref_gt.size(); ++j) {
+      const double d2 = (ref_gt[j].translation() - other_gt[i].translation()).squaredNorm();
+      if (d2 <= best_d2 && HeadingDifferenceDeg(ref_gt[j], other_gt[i]) <= params.max_heading_deg) {
+        best = j;
+        best_d2 = d2;
+      }
+    }
+    if (best == ref_gt.size()) continue;
+    const Eigen::Isometry3d T_ref_i = ref_est[best] * ref_gt[best].inverse() * other_gt[i];
+    for (const Eigen::Vector3d& offset : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0)}) {
+      source.push_back(other_est[i] * offset);
+      target.push_back(T_ref_i * offset);
+    }
+    truth.p_other_place += other_est[i].translation();
+    ++truth.keyframe_pairs;
+  }
+  if (truth.keyframe_pairs < std::max<std::size_t>(min_keyframe_pairs, 1)) {
+    return NotFound("TruthAtSharedPlace: " + std::to_string(truth.keyframe_pairs) +
+                    " keyframes of the other robot at a place of the reference robot");
+  }
+  truth.p_other_place /= static_cast<double>(truth.keyframe_pairs);
+  Result<Eigen::Isometry3d> T = AlignRigid(Span<const Eigen::Vector3d>(source), Span<const Eigen::Vector3d>(target));
+  if (!T.ok()) return T.status();
+  truth.T_ref_other = *T;
+  return truth;
+}
+
+TransformError ErrorAtSharedPlace(const Eigen::Isometry3d& T_ref_other, const SharedPlaceTruth& truth) {
+  TransformError e = ComputeTransformError(T_ref_other, truth.T_ref_other);
+  e.translation_m = (T_ref_other * truth.p_other_place - truth.T_ref_other * truth.p_other_place).norm();
+  return e;
 }
 
 }  // namespace commerge
