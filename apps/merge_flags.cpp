@@ -37,6 +37,11 @@ const MergeFlag kMergeFlags[] = {
      "stage A asks short missions for less: the span area becomes at most (this x the shorter robot's keyframes)^2, "
      "never below 100 cells; 0 = --tau-area as given (the paper)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.tau_area_fraction; }},
+    {"--verify-area-fraction", "cascade.verification_area_fraction", "", 0.0, 1.0, "ours",
+     "when no cluster of stage A spans the area asked but the largest spans at least this fraction of it, pass "
+     "that cluster on and let registration's gates decide on the few scans it names; 0 = the paper (nothing "
+     "below tau_area is passed on)",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.verification_area_fraction; }},
     {"--tau-con-m", "cascade.stage_c.tau_con_m", "m", 1e-3, 1e4, "tau_con",
      "stage C: two loops are compatible when their positional inconsistency is below this", FlagType::kDouble,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_c.tau_con_m; }},

@@ -404,6 +404,7 @@ int RunCascades(RunJob* job) {
                  " more of stage A's keyframes, --min-submap-scans)";
       }
       if (c->stage_c.any_endpoint_fallback) padded += " (stage C over the loops with one endpoint selected: none had both)";
+      if (c->verification) padded += " (to verify: stage A's " + c->verification_reason + ", --verify-area-fraction)";
       std::printf("  pair %d-%d: %s; L_seq %zu loops (%zu x %zu keyframes), stage B %zu + %zu scans (%s), |L_K| = %zu%s; "
                   "A %.3f s, B %.3f s, C %.3f s%s%s\n",
                   a, b, CascadeOutcomeName(c->outcome), c->stage_a.cells.size(), c->stage_b_vertices_alpha,

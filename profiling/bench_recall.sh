@@ -20,7 +20,8 @@
 # start poses (what drift adds). Then one summary line: recall, real splits merged, wrong merges, median byte
 # reductions. Exit 0 (it measures; it does not judge) unless a run fails (a crash, an unreadable input; "no pair merged" is a measurement, not a failure).
 # --run-args adds options to every `commerge run` (e.g. the paper's stage A: "--neighbour-rank 0
-# --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1 --descriptor solid").
+# --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1 --verify-area-fraction 0
+# --descriptor solid").
 # --only runs just the scenarios whose name matches the extended regular expression (a before/after subset).
 # --send-all also runs mode send-all (each pair registers the two complete stored maps) and adds its column:
 # robots placed / other robots and the worst e_rmse, what shipping everything buys.
@@ -51,7 +52,7 @@ while [ $# -gt 0 ]; do
     --send-all) send_all=1; shift ;;
     --only) only=$2; shift 2 ;;
     --shared-data) shared=$2; shift 2 ;;
-    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
     *) echo "bench_recall.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done

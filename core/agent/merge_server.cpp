@@ -27,6 +27,7 @@ SequentialMatchParams ServerStageADefaults() {
 ExchangeCascadeParams ServerCascadeDefaults() {
   ExchangeCascadeParams p;
   p.stage_a = ServerStageADefaults();
+  p.verification_area_fraction = 0.5;
   return p;
 }
 

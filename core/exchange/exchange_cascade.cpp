@@ -35,10 +35,20 @@ const char* CascadeOutcomeName(CascadeOutcome outcome) noexcept {
   return "unknown";
 }
 
-Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
-                                                 const ExchangeCascadeParams& params) {
+Status ValidateExchangeCascadeParams(const ExchangeCascadeParams& params) {
+  if (Status s = ValidateSequentialMatchParams(params.stage_a); !s.ok()) return s;
   if (Status s = ValidateStageCParams(params.stage_c); !s.ok()) return s;
   if (Status s = ValidateExchangePolicyParams(params.policy); !s.ok()) return s;
+  if (!(params.verification_area_fraction >= 0.0 && params.verification_area_fraction <= 1.0)) {
+    return InvalidArgument("cascade verification_area_fraction must be in [0, 1], got " +
+                           std::to_string(params.verification_area_fraction));
+  }
+  return Status::Ok();
+}
+
+Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                                                 const ExchangeCascadeParams& params) {
+  if (Status s = ValidateExchangeCascadeParams(params); !s.ok()) return s;
   if (Status s = ValidateDescriptorSet(alpha.descriptors, "alpha"); !s.ok()) return s;
   if (Status s = ValidateDescriptorSet(beta.descriptors, "beta"); !s.ok()) return s;
   if (alpha.positions_m.size() != alpha.descriptors.count() || beta.positions_m.size() != beta.descriptors.count()) {
@@ -55,6 +65,23 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
   auto stage_a = RunSequentialMatching(alpha.descriptors, beta.descriptors, params.stage_a);
   if (!stage_a.ok()) return stage_a.status();
   result.stage_a = std::move(*stage_a);
+  const std::uint64_t asked =
+      EffectiveTauArea(params.stage_a, alpha.descriptors.count(), beta.descriptors.count());
+  const std::uint64_t largest = result.stage_a.largest_span_area;
+  if (!result.stage_a.found && largest > 0 && params.verification_area_fraction > 0.0 &&
+      static_cast<double>(largest) >= params.verification_area_fraction * static_cast<double>(asked)) {
+    SequentialMatchParams retry = params.stage_a;
+    retry.tau_area = largest;
+    retry.tau_area_fraction = 0.0;
+    auto again = RunSequentialMatching(alpha.descriptors, beta.descriptors, retry);
+    if (!again.ok()) return again.status();
+    if (again->found) {
+      result.verification = true;
+      result.verification_reason = "largest cluster spans " + std::to_string(largest) + " of the " +
+                                   std::to_string(asked) + " cells asked";
+      result.stage_a = std::move(*again);
+    }
+  }
   result.stage_a_s = SecondsSince(t0);
   if (!result.stage_a.found) {
     result.no_candidate_reason = "stage A: " + result.stage_a.no_candidate_reason;

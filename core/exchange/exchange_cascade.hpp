@@ -27,7 +27,15 @@ struct ExchangeCascadeParams {
   BalancedCoverParams stage_b;
   StageCParams stage_c;
   ExchangePolicyParams policy;
+  /// Ours; 0 = off (the paper). When no cluster of stage A spans the area asked (EffectiveTauArea) but the
+  /// largest spans at least this fraction of it, stage A takes that largest cluster (a second pass asking for
+  /// exactly its span area) and the cascade goes on, flagged `verification`: the few scans its policy names
+  /// are registered, and the registration gates decide as for every candidate. In [0, 1].
+  double verification_area_fraction = 0.0;
 };
+
+/// Checks every stage's parameters and verification_area_fraction; InvalidArgument naming the field.
+Status ValidateExchangeCascadeParams(const ExchangeCascadeParams& params);
 
 /// One robot's side of the cascade input: descriptors (rows = keyframe index), keyframe positions in the robot's
 /// own map frame (same count), and optionally the stored point count per keyframe (empty = unknown).
@@ -48,6 +56,10 @@ const char* CascadeOutcomeName(CascadeOutcome outcome) noexcept;
 struct ExchangeCascadeResult {
   CascadeOutcome outcome = CascadeOutcome::kNoCandidate;
   std::string no_candidate_reason;   ///< empty for kPolicy
+  /// Stage A found no cluster of the asked span area and passed on its largest one instead
+  /// (ExchangeCascadeParams::verification_area_fraction); verification_reason says what it found.
+  bool verification = false;
+  std::string verification_reason;
   SequentialMatchResult stage_a;     ///< L_seq = stage_a.cells
   BalancedCoverResult stage_b;       ///< selected keyframes (indices of the robots, not of the compacted graph)
   StageCResult stage_c;              ///< candidate loops (L_V as used) and L_K = stage_c.selected_loops

@@ -120,7 +120,8 @@ cm_cli_test(NAME "run: in the aliased indoor world the robots accept no false lo
             REGEX "robot 0 [^\n]* loops \\(0 false against ground truth, error median 0\\.0[0-9]+ m[^\n]*\n *robot 1 [^\n]* loops \\(0 false against ground truth, error median 0\\.0[0-9]+ m"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-indoor/robot_0" "${CM_CLI_OUT}/sim-indoor/robot_1" --lidar vlp-16
                     --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
-                    --tau-window 100 --descriptor solid --neighbour-rank 0 --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1 --out "${CM_CLI_OUT}/run-indoor")
+                    --tau-window 100 --descriptor solid --neighbour-rank 0 --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1
+                    --verify-area-fraction 0 --out "${CM_CLI_OUT}/run-indoor")
 # Stage A with the sequence-smoothed threshold (--sequence-half-window 8, core/README.md "Sequence-smoothed
 # stage A"): the corridors' single-keyframe jumps above tau_inter no longer cut the revisit's diagonal, and the
 # same pair merges within 1 m of the ground truth.
@@ -129,6 +130,7 @@ cm_cli_test(NAME "run: in the aliased indoor world the sequence-smoothed stage A
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-indoor/robot_0" "${CM_CLI_OUT}/sim-indoor/robot_1" --lidar vlp-16
                     --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
                     --descriptor solid --neighbour-rank 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1 --sequence-half-window 8
+                    --verify-area-fraction 0
                     --out "${CM_CLI_OUT}/run-indoor-seq")
 set_tests_properties("cli: run: in the aliased indoor world the robots accept no false loop"
                      "cli: run: in the aliased indoor world the sequence-smoothed stage A merges the pair"
@@ -153,13 +155,14 @@ cm_cli_test(NAME "run: campus with roll and pitch merges once SOLiD leaves the g
             REGEX "robot 1: T_world_map [^\n]*; e_rmse 0\\.[0-9]+ m"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-campus/robot_0" "${CM_CLI_OUT}/sim-campus/robot_1" --lidar vlp-16
                     --descriptor solid --solid-min-z-m -0.5 --tau-inter 0.2 --neighbour-rank 0 --sequence-half-window 0
-                    --tau-area 10000 --tau-area-fraction 0 --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C
+                    --tau-area 10000 --tau-area-fraction 0 --verify-area-fraction 0 --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C
                     --no-report --no-progress --out "${CM_CLI_OUT}/run-campus-z")
 cm_cli_test(NAME "run: campus with roll and pitch, SOLiD on every point: stage A finds no cluster" RC 1 LABELS heavy
             REGEX "pair 0-1: not merged: stage A: no cluster with span area >= tau_area"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-campus/robot_0" "${CM_CLI_OUT}/sim-campus/robot_1" --lidar vlp-16
                     --keyframe-spacing-m 0.9 --max-keyframes 900 --modes A+B+C --no-report --no-progress
-                    --descriptor solid --neighbour-rank 0 --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1 --out "${CM_CLI_OUT}/run-campus")
+                    --descriptor solid --neighbour-rank 0 --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1
+                    --verify-area-fraction 0 --out "${CM_CLI_OUT}/run-campus")
 # The same data with the default flags (ring descriptor on the levelled scan, stage A by neighbour rank): placed
 # within 1 m and 3 deg of the truth.
 cm_cli_test(NAME "run: campus with roll and pitch merges with the default flags" RC 0 LABELS heavy

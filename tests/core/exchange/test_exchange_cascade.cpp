@@ -215,5 +215,63 @@ TEST_CASE("Cascade: degenerate inputs give a reason, not a crash") {
   CHECK(bad.status().message().find("positions") != std::string::npos);
 }
 
+TEST_CASE("Cascade: a cluster below tau_area is passed on to verify only above the verification fraction") {
+  // Orthonormal descriptors: alpha keyframe i is e_i; beta keyframe j is e_j for j in [10, 25) (the same places)
+  // and a basis vector of its own otherwise. The only cells below tau_inter are the 15 diagonal cells
+  // (10..24, 10..24): one cluster spanning 15 x 15 = 225 cells, against tau_area = 400.
+  constexpr std::size_t kN = 40, kDim = 80;
+  std::vector<float> da(kN * kDim, 0.0f), db(kN * kDim, 0.0f);
+  std::vector<Eigen::Vector3d> pa, pb;
+  for (std::size_t i = 0; i < kN; ++i) {
+    da[i * kDim + i] = 1.0f;
+    db[i * kDim + (i >= 10 && i < 25 ? i : kN + i)] = 1.0f;
+    pa.emplace_back(static_cast<double>(i), 0.0, 0.0);
+    pb.emplace_back(static_cast<double>(i), 0.0, 0.0);
+  }
+  CascadeRobotInput a, b;
+  a.descriptors.values = Span<const float>(da);
+  a.descriptors.dim = kDim;
+  a.positions_m = Span<const Eigen::Vector3d>(pa);
+  b.descriptors.values = Span<const float>(db);
+  b.descriptors.dim = kDim;
+  b.positions_m = Span<const Eigen::Vector3d>(pb);
+  ExchangeCascadeParams params;  // the paper's stage A at tau_area 400
+  params.stage_a.tau_area = 400;
+  params.policy.min_scans_per_robot = 0;
+
+  auto r = RunExchangeCascade(a, b, params);  // verification off: the paper's answer
+  REQUIRE(r.ok());
+  CHECK(r->outcome == CascadeOutcome::kNoCandidate);
+  CHECK_FALSE(r->verification);
+  CHECK(r->no_candidate_reason.find("largest was 225") != std::string::npos);
+
+  params.verification_area_fraction = 0.6;  // 225 < 0.6 x 400
+  r = RunExchangeCascade(a, b, params);
+  REQUIRE(r.ok());
+  CHECK(r->outcome == CascadeOutcome::kNoCandidate);
+  CHECK_FALSE(r->verification);
+
+  params.verification_area_fraction = 0.5;  // 225 >= 0.5 x 400: the cluster goes on, flagged
+  r = RunExchangeCascade(a, b, params);
+  REQUIRE(r.ok());
+  REQUIRE(r->outcome == CascadeOutcome::kPolicy);
+  CHECK(r->verification);
+  CHECK(r->verification_reason.find("225 of the 400") != std::string::npos);
+  REQUIRE(r->stage_a.cells.size() == 15);
+  for (const SequentialLoopCell& l : r->stage_a.cells) {
+    CHECK(l.alpha_index == l.beta_index);
+    CHECK(l.alpha_index >= 10);
+    CHECK(l.alpha_index < 25);
+  }
+  // The scans asked for are keyframes of that cluster only.
+  for (std::uint32_t k : r->policy.alpha.keyframes) CHECK((k >= 10 && k < 25));
+  for (std::uint32_t k : r->policy.beta.keyframes) CHECK((k >= 10 && k < 25));
+
+  params.verification_area_fraction = 1.5;
+  auto bad = RunExchangeCascade(a, b, params);
+  REQUIRE_FALSE(bad.ok());
+  CHECK(bad.status().message().find("verification_area_fraction") != std::string::npos);
+}
+
 }  // namespace
 }  // namespace commerge
