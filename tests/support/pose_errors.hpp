@@ -1,12 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Pose differences for test assertions: the rotation angle between two orientations (core/geometry's
 // RotationAngleRad of a^T b, in [0, pi]) and the distance between two positions, so that every test measures
-// rotation and translation errors the same way.
+// rotation and translation errors the same way. Also ground-truth poses re-expressed in a robot's map frame.
 #pragma once
 
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <vector>
 
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
@@ -35,6 +36,15 @@ inline double RotationErrorDeg(const Eigen::Isometry3d& truth, const Eigen::Isom
 /// Distance between the translations of a and b [m].
 inline double TranslationErrorM(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return (a.translation() - b.translation()).norm();
+}
+
+/// The ground-truth poses expressed in a map frame whose pose in the ground-truth frame is T_gt_map.
+inline std::vector<Eigen::Isometry3d> InMapFrame(const std::vector<Eigen::Isometry3d>& ground_truth,
+                                                 const Eigen::Isometry3d& T_gt_map) {
+  std::vector<Eigen::Isometry3d> out;
+  out.reserve(ground_truth.size());
+  for (const Eigen::Isometry3d& T : ground_truth) out.push_back(T_gt_map.inverse() * T);
+  return out;
 }
 
 }  // namespace commerge::test

@@ -13,9 +13,12 @@
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
+#include "tests/support/pose_errors.hpp"
 
 namespace commerge {
 namespace {
+
+using test::InMapFrame;
 
 Eigen::Isometry3d MakePose(double x, double y, double z, double yaw, double pitch = 0.0, double roll = 0.0) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -36,14 +39,6 @@ std::vector<Eigen::Isometry3d> CurvedTrajectory(double x0, double y0, double hea
     yaw += 0.12 * std::sin(0.15 * s);
   }
   return poses;
-}
-
-// The ground truth expressed in a map frame whose pose in the ground-truth frame gt is T_gt_map.
-std::vector<Eigen::Isometry3d> InMapFrame(const std::vector<Eigen::Isometry3d>& ground_truth,
-                                          const Eigen::Isometry3d& T_gt_map) {
-  std::vector<Eigen::Isometry3d> out;
-  for (const auto& T : ground_truth) out.push_back(T_gt_map.inverse() * T);
-  return out;
 }
 
 Eigen::Isometry3d Translation(const Eigen::Vector3d& d) {

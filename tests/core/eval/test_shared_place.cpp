@@ -10,6 +10,7 @@
 #include "core/eval/shared_place.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
+#include "tests/support/pose_errors.hpp"
 
 using namespace commerge;
 
@@ -104,14 +105,8 @@ Eigen::Isometry3d Pose(double x, double y, double z, double yaw_deg, double pitc
   return T;
 }
 
-// The ground-truth poses expressed in a map frame whose pose in the ground truth is T_gt_map.
-std::vector<Eigen::Isometry3d> InMapFrame(const std::vector<Eigen::Isometry3d>& gt, const Eigen::Isometry3d& T_gt_map) {
-  std::vector<Eigen::Isometry3d> out;
-  for (const Eigen::Isometry3d& T : gt) out.push_back(T_gt_map.inverse() * T);
-  return out;
-}
-
 using Poses = Span<const Eigen::Isometry3d>;
+using test::InMapFrame;
 
 }  // namespace
 
