@@ -44,7 +44,8 @@ Status CheckPair(Span<const Eigen::Isometry3d> estimated, Span<const Eigen::Isom
   return CheckPoses(ground_truth, ground_truth_name);
 }
 
-// Positions, or positions plus the two axis points of each pose.
+}  // namespace
+
 std::vector<Eigen::Vector3d> AlignmentPoints(Span<const Eigen::Isometry3d> poses, bool with_axes, double offset_m) {
   std::vector<Eigen::Vector3d> points;
   points.reserve(poses.size() * (with_axes ? 3 : 1));
@@ -57,8 +58,6 @@ std::vector<Eigen::Vector3d> AlignmentPoints(Span<const Eigen::Isometry3d> poses
   }
   return points;
 }
-
-}  // namespace
 
 TransformError ComputeTransformError(const Eigen::Isometry3d& T_estimate, const Eigen::Isometry3d& T_reference) {
   TransformError e;

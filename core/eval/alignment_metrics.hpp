@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -48,6 +49,10 @@ struct InterRobotAlignment {
   /// True when alpha's positions were collinear and T_gt_alpha was fitted on the pose axes as well.
   bool used_orientations = false;
 };
+
+/// Points for a rigid fit of poses: each position, and with_axes also p + offset_m R e_x and p + offset_m R e_y
+/// (never collinear with p, so the poses' orientations fix the rotation even on a straight stretch).
+std::vector<Eigen::Vector3d> AlignmentPoints(Span<const Eigen::Isometry3d> poses, bool with_axes, double offset_m);
 
 /// Checks InterRobotAlignmentParams; InvalidArgument naming the field otherwise.
 Status ValidateInterRobotAlignmentParams(const InterRobotAlignmentParams& params);

@@ -14,7 +14,6 @@ namespace {
 
 constexpr double kRadToDeg = 57.29577951308232;
 
-// Path [m] of `a` at places of `b`.
 // Heading difference [deg] in [0, 180].
 double HeadingDifferenceDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   double d = std::fabs(YawRad(a.linear()) - YawRad(b.linear())) * kRadToDeg;
@@ -22,14 +21,13 @@ double HeadingDifferenceDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d&
   return d > 180.0 ? 360.0 - d : d;
 }
 
-bool Finite(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
-
 double PathLength(Span<const Eigen::Isometry3d> poses) {
   double length = 0.0;
   for (std::size_t i = 1; i < poses.size(); ++i) length += (poses[i].translation() - poses[i - 1].translation()).norm();
   return length;
 }
 
+// Path [m] of `a` at places of `b`.
 double PathAtPlacesOf(Span<const Eigen::Isometry3d> a, Span<const Eigen::Isometry3d> b, const SharedPlaceParams& p) {
   const double r2 = p.radius_m * p.radius_m;
   double path = 0.0;
@@ -107,11 +105,11 @@ Result<SharedPlaceTruth> TruthAtSharedPlace(Span<const Eigen::Isometry3d> ref_es
   if (other_est.size() != other_gt.size()) return InvalidArgument("other_est and other_gt differ in size");
   for (Span<const Eigen::Isometry3d> poses : {ref_est, ref_gt, other_est, other_gt}) {
     for (const Eigen::Isometry3d& T : poses) {
-      if (!Finite(T)) return InvalidArgument("TruthAtSharedPlace: a pose has a non-finite entry");
+      if (!T.matrix().allFinite()) return InvalidArgument("TruthAtSharedPlace: a pose has a non-finite entry");
     }
   }
   const double r2 = params.radius_m * params.radius_m;
-  std::vector<Eigen::Vector3d> source, target;
+  std::vector<Eigen::Isometry3d> source, target;  // other's estimated poses, and where they belong in ref's map
   SharedPlaceTruth truth;
   for (std::size_t i = 0; i < other_gt.size(); ++i) {
     std::size_t best = ref_gt.size();
@@ -124,11 +122,8 @@ Result<SharedPlaceTruth> TruthAtSharedPlace(Span<const Eigen::Isometry3d> ref_es
       }
     }
     if (best == ref_gt.size()) continue;
-    const Eigen::Isometry3d T_ref_i = ref_est[best] * ref_gt[best].inverse() * other_gt[i];
-    for (const Eigen::Vector3d& offset : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0)}) {
-      source.push_back(other_est[i] * offset);
-      target.push_back(T_ref_i * offset);
-    }
+    source.push_back(other_est[i]);
+    target.push_back(ref_est[best] * ref_gt[best].inverse() * other_gt[i]);
     truth.p_other_place += other_est[i].translation();
     ++truth.keyframe_pairs;
   }
@@ -137,7 +132,13 @@ Result<SharedPlaceTruth> TruthAtSharedPlace(Span<const Eigen::Isometry3d> ref_es
                     " keyframes of the other robot at a place of the reference robot");
   }
   truth.p_other_place /= static_cast<double>(truth.keyframe_pairs);
-  Result<Eigen::Isometry3d> T = AlignRigid(Span<const Eigen::Vector3d>(source), Span<const Eigen::Vector3d>(target));
+  constexpr double kAxisOffsetM = 1.0;
+  const std::vector<Eigen::Vector3d> source_points =
+      AlignmentPoints(Span<const Eigen::Isometry3d>(source), true, kAxisOffsetM);
+  const std::vector<Eigen::Vector3d> target_points =
+      AlignmentPoints(Span<const Eigen::Isometry3d>(target), true, kAxisOffsetM);
+  Result<Eigen::Isometry3d> T =
+      AlignRigid(Span<const Eigen::Vector3d>(source_points), Span<const Eigen::Vector3d>(target_points));
   if (!T.ok()) return T.status();
   truth.T_ref_other = *T;
   return truth;
