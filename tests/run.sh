@@ -7,6 +7,7 @@
 #            `heavy`, and the fuzz tests (label `fuzz`, tests/fuzz: every LCM decoder and the server inbox fuzzed
 #            from their seed corpora for a bounded time, about 2.5 minutes of ctest). One build serves both: the
 #            sanitized libraries are compiled once.
+#            Neither asan nor jetson compiles the *_heavy test areas (CM_BUILD_HEAVY_TESTS=OFF): they never run there.
 #   jetson   aarch64 Cortex-A57 cross build (Release, no benchmarks), tests under qemu-aarch64 -cpu cortex-a57
 #            (not `heavy`)
 #   fuzz     the fuzzers alone (clang RelWithDebInfo, libFuzzer + ASan + UBSan, no doctest suites); not in the
@@ -181,9 +182,9 @@ for c in "${configs[@]}"; do
     fuzz)   run_config fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
                             -DCM_FUZZ=ON -DCM_BUILD_TESTS=OFF -DCM_BUILD_PROFILING=OFF || rc=$? ;;
     asan)   run_config asan -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Debug \
-                            -DCM_SANITIZE=ON -DCM_FUZZ=ON -DCM_BUILD_PROFILING=OFF || rc=$? ;;
+                            -DCM_SANITIZE=ON -DCM_FUZZ=ON -DCM_BUILD_PROFILING=OFF -DCM_BUILD_HEAVY_TESTS=OFF || rc=$? ;;
     jetson) run_config jetson -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/aarch64-jetson-nano.cmake \
-                              -DCM_BUILD_PROFILING=OFF || rc=$? ;;
+                              -DCM_BUILD_PROFILING=OFF -DCM_BUILD_HEAVY_TESTS=OFF || rc=$? ;;
     ipc)    run_config ipc -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=toolchains/x86_64-ipc6000.cmake || rc=$? ;;
   esac
   if [ $rc -ne 0 ]; then failed_configs+=("$c"); fi
