@@ -353,8 +353,10 @@ Status ServerLink::ContinueRound(std::int64_t now_us, std::vector<ServerOutgoing
 }
 
 bool ServerLink::Settled(std::int64_t now_us) const {
+  // Also with rounds on request (a replay): keyframes that arrived after the last round keep it unsettled until a
+  // round has seen them, so a replay does not end at a recording's early round while the log still plays.
   return round_ > 0 && !round_active_ && !round_requested_ && Elapsed(last_message_us_, now_us, params_.round_quiet_s) &&
-         (!params_.automatic_rounds || DeliveredKeyframes() == delivered_at_last_round_);
+         DeliveredKeyframes() == delivered_at_last_round_;
 }
 
 Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {

@@ -205,6 +205,56 @@ TEST_CASE("Server link: a robot restarted with the team's descriptor setting is 
   CHECK(server.cascade(0, 1)->stage_a.found);
 }
 
+// Rounds on request (commerge server --replay): a round at a recording's early merge result must not settle the
+// server while keyframes keep arriving after it; only a round that saw them does.
+TEST_CASE("Server link: with rounds on request, keyframes delivered after the last round keep it unsettled") {
+  MergeServerParams mp;
+  mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
+  mp.cascade.stage_a.tau_area = 100;
+  MergeServer server(2, 100, mp);
+  ServerLinkParams lp;
+  lp.automatic_rounds = false;
+  lp.accept_unrequested_scans = true;
+  ServerLink link(500, lp, &server);
+  std::int64_t now = 1000000;
+  const auto run_round = [&] {
+    link.RequestRound();
+    const int rounds = link.rounds_merged();
+    std::vector<ServerOutgoing> out;
+    for (int poll = 0; poll < 50 && link.rounds_merged() == rounds; ++poll, now += 100000) {
+      out.clear();
+      REQUIRE(link.Poll(now, &out).ok());
+      for (const ServerOutgoing& o : out) {
+        if (o.kind != ServerOutgoing::Kind::kScanRequest) continue;
+        for (std::uint32_t k : o.request.keyframes) {
+          for (ScanChunk c : ChunksOf(o.request.robot_id, k, EncodeForTest(LatticePoints(2)))) {
+            c.request_id = o.request.request_id;
+            (void)link.OnScanChunk(c, now);
+          }
+        }
+      }
+    }
+    REQUIRE(link.rounds_merged() == rounds + 1);
+  };
+  const auto quiet = static_cast<std::int64_t>(lp.round_quiet_s * 1e6) + 1;
+  for (const KeyframeBatch& b : ShiftedPairBatches(40, 5, 1000)) REQUIRE(link.OnKeyframeBatch(b, now).ok());
+  CHECK_FALSE(link.Settled(now + quiet));  // no round yet
+  run_round();
+  CHECK(link.Settled(now + quiet));
+
+  // One more keyframe of robot 1 after that round: the quiet alone does not settle the server ...
+  std::mt19937 rng(11);
+  KeyframeBatch late = MakeBatch(1, 40, {RandomDescriptor(&rng)}, {Eigen::Vector3d(-40.0, 3.0, 0.0)}, 3000);
+  late.session = 1001;
+  late.sequence = 1;
+  REQUIRE(link.OnKeyframeBatch(late, now).ok());
+  now += quiet;
+  CHECK_FALSE(link.Settled(now));
+  // ... a round that saw it does.
+  run_round();
+  CHECK(link.Settled(now + quiet));
+}
+
 TEST_CASE("Server link: the status columns give each robot with a session its keyframes, scans and descriptor id") {
   const std::uint32_t kId = 0x761BEAA5u, kOtherId = 0x12345678u;
   MergeServer server(3, 100, MergeServerParams{});
