@@ -405,10 +405,11 @@ int RunCascades(RunJob* job) {
       }
       if (c->stage_c.any_endpoint_fallback) padded += " (stage C over the loops with one endpoint selected: none had both)";
       if (c->verification) padded += " (to verify: stage A's " + c->verification_reason + ", --verify-area-fraction)";
-      std::printf("  pair %d-%d: %s; L_seq %zu loops (%zu x %zu keyframes), stage B %zu + %zu scans (%s), |L_K| = %zu%s; "
+      std::printf("  pair %d-%d: %s; L_seq %zu loops (%zu x %zu keyframes; span %llu cells, next cluster %llu), stage B %zu + %zu scans (%s), |L_K| = %zu%s; "
                   "A %.3f s, B %.3f s, C %.3f s%s%s\n",
                   a, b, CascadeOutcomeName(c->outcome), c->stage_a.cells.size(), c->stage_b_vertices_alpha,
-                  c->stage_b_vertices_beta, c->stage_b.selected_left.size(), c->stage_b.selected_right.size(),
+                  c->stage_b_vertices_beta, static_cast<unsigned long long>(c->stage_a.found ? c->stage_a.best.span_area() : 0),
+                  static_cast<unsigned long long>(c->stage_a.second_span_area), c->stage_b.selected_left.size(), c->stage_b.selected_right.size(),
                   BalancedCoverStatusName(c->stage_b.status), c->stage_c.selected_loops.size(), padded.c_str(),
                   c->stage_a_s, c->stage_b_s, c->stage_c_s, c->no_candidate_reason.empty() ? "" : "; ",
                   c->no_candidate_reason.c_str());

@@ -31,6 +31,16 @@ struct Node {
   std::size_t seed_row = 0, seed_col = 0;  // one cell of the cluster (identifies it in the second pass)
 };
 
+// Keeps the two largest span areas seen (ties count twice).
+void NoteSpanArea(std::uint64_t area, std::uint64_t* largest, std::uint64_t* second) {
+  if (area > *largest) {
+    *second = *largest;
+    *largest = area;
+  } else if (area > *second) {
+    *second = area;
+  }
+}
+
 struct RecordedCell {
   std::size_t row = 0, col = 0;
   std::int32_t label = kNoLabel;
@@ -196,6 +206,7 @@ class StreamingLabeler {
   std::size_t num_clusters() const noexcept { return num_clusters_; }
   std::uint64_t num_below() const noexcept { return num_below_; }
   std::uint64_t largest_area() const noexcept { return largest_area_; }
+  std::uint64_t second_area() const noexcept { return second_area_; }
   double min_distance() const noexcept { return min_distance_; }
   bool has_best() const noexcept { return has_best_; }
   const Node& best() const noexcept { return best_; }
@@ -247,7 +258,7 @@ class StreamingLabeler {
   void Finalize(const Node& node) {
     ++num_clusters_;
     const std::uint64_t area = node.cluster.span_area();
-    largest_area_ = std::max(largest_area_, area);
+    NoteSpanArea(area, &largest_area_, &second_area_);
     if (area >= tau_area_ && (!has_best_ || Better(node.cluster, best_.cluster))) {
       has_best_ = true;
       best_ = node;
@@ -288,7 +299,7 @@ class StreamingLabeler {
   std::vector<RecordedCell> cells_;
   std::size_t band_begin_ = 0, band_rows_ = 0, next_col_ = 0;
   std::size_t num_clusters_ = 0;
-  std::uint64_t num_below_ = 0, largest_area_ = 0;
+  std::uint64_t num_below_ = 0, largest_area_ = 0, second_area_ = 0;
   bool has_best_ = false;
   Node best_;
   double min_distance_ = 0.0;
@@ -310,7 +321,8 @@ bool ExplainCandidate(const SequentialMatchParams& p, bool has_best, SequentialM
   }
   if (!has_best) {
     result->no_candidate_reason = "no cluster with span area >= tau_area = " + std::to_string(p.tau_area) +
-                                  ": largest was " + std::to_string(result->largest_span_area) + " (" +
+                                  ": largest was " + std::to_string(result->largest_span_area) + " (next " +
+                                  std::to_string(result->second_span_area) + ", " +
                                   std::to_string(result->num_clusters) + " clusters)";
     return false;
   }
@@ -506,6 +518,7 @@ Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const Sequen
   result.num_clusters = labeler.num_clusters();
   result.num_cells_below_threshold = labeler.num_below();
   result.largest_span_area = labeler.largest_area();
+  result.second_span_area = labeler.second_area();
   result.min_distance = labeler.min_distance();
   if (!ExplainCandidate(p, labeler.has_best(), &result)) return result;
   const Node best = labeler.best();
@@ -634,7 +647,7 @@ Result<SequentialMatchResult> RunSequentialMatchingOnHits(Span<const CompactHit>
     if (nodes[l].parent != static_cast<std::int32_t>(l)) continue;
     const SequentialCluster& c = nodes[l].cluster;
     ++result.num_clusters;
-    result.largest_span_area = std::max(result.largest_span_area, c.span_area());
+    NoteSpanArea(c.span_area(), &result.largest_span_area, &result.second_span_area);
     if (c.span_area() >= p.tau_area && (!has_best || Better(c, result.best))) {
       has_best = true;
       result.best = c;

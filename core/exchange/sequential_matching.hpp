@@ -87,6 +87,9 @@ struct SequentialMatchResult {
   std::size_t num_clusters = 0;          ///< N_label, all clusters whatever their area
   std::uint64_t num_cells_below_threshold = 0;  ///< cells with B_ij = 1
   std::uint64_t largest_span_area = 0;   ///< over all clusters (0 when none)
+  /// The second largest span area over all clusters (0 with fewer than two; equals largest_span_area when two
+  /// clusters tie): how unique the largest cluster is.
+  std::uint64_t second_span_area = 0;
   double min_distance = 0.0;             ///< smallest finite A_ij seen (+inf when none)
   std::string no_candidate_reason;       ///< empty when found; else why nothing qualified, in words
 };

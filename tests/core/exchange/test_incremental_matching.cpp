@@ -83,6 +83,7 @@ void CheckSameResult(const SequentialMatchResult& got, const SequentialMatchResu
   CHECK(got.num_clusters == want.num_clusters);
   CHECK(got.num_cells_below_threshold == want.num_cells_below_threshold);
   CHECK(got.largest_span_area == want.largest_span_area);
+  CHECK(got.second_span_area == want.second_span_area);
   CHECK(got.min_distance == want.min_distance);  // both +inf when there is no valid pair
   CHECK(got.no_candidate_reason == want.no_candidate_reason);
   CHECK(got.best.row_min == want.best.row_min);
@@ -362,7 +363,7 @@ TEST_CASE("incremental matching degenerate inputs give a reason and never crash"
   CHECK(matcher->stats().last_update_cells == 1);
   CHECK_FALSE(r->found);
   CHECK(r->num_clusters == 1);
-  CHECK(r->no_candidate_reason == "no cluster with span area >= tau_area = 10000: largest was 1 (1 clusters)");
+  CHECK(r->no_candidate_reason == "no cluster with span area >= tau_area = 10000: largest was 1 (next 0, 1 clusters)");
 
   // NaN, infinite, huge and flagged-invalid keyframes: never match, even against themselves.
   std::vector<float> bad(a.begin() + kDim, a.begin() + 5 * kDim);

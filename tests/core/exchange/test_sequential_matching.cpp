@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <random>
 #include <string>
@@ -47,7 +48,7 @@ struct RefResult {
   SequentialCluster best;
   std::vector<std::pair<std::size_t, std::size_t>> cells;
   std::size_t num_clusters = 0;
-  std::uint64_t num_below = 0, largest_area = 0;
+  std::uint64_t num_below = 0, largest_area = 0, second_area = 0;
 };
 
 // Naive stage A: threshold, BFS labelling over the whole matrix, scoring (same tie-break as documented).
@@ -86,6 +87,7 @@ RefResult NaiveStageA(const std::vector<T>& a, std::size_t n, std::size_t m, dou
     clusters.push_back(std::move(cl));
   }
   out.num_clusters = clusters.size();
+  std::vector<std::uint64_t> areas;
   for (auto& cl : clusters) {
     SequentialCluster c;
     c.row_min = c.col_min = std::numeric_limits<std::size_t>::max();
@@ -97,6 +99,7 @@ RefResult NaiveStageA(const std::vector<T>& a, std::size_t n, std::size_t m, dou
       c.distance_sum += static_cast<double>(static_cast<float>(a[ij.first * m + ij.second]));
     }
     c.cell_count = cl.size();
+    areas.push_back(c.span_area());
     out.largest_area = std::max(out.largest_area, c.span_area());
     if (c.span_area() < tau_area) continue;
     const double mc = c.mean_distance(), mb = out.best.mean_distance();
@@ -110,6 +113,8 @@ RefResult NaiveStageA(const std::vector<T>& a, std::size_t n, std::size_t m, dou
       out.cells = cl;
     }
   }
+  std::sort(areas.begin(), areas.end(), std::greater<std::uint64_t>());
+  if (areas.size() >= 2) out.second_area = areas[1];
   return out;
 }
 
@@ -118,6 +123,7 @@ void CheckEqual(const SequentialMatchResult& got, const RefResult& ref, const st
   CHECK(got.num_clusters == ref.num_clusters);
   CHECK(got.num_cells_below_threshold == ref.num_below);
   CHECK(got.largest_span_area == ref.largest_area);
+  CHECK(got.second_span_area == ref.second_area);
   REQUIRE(got.found == ref.found);
   if (!ref.found) {
     CHECK_FALSE(got.no_candidate_reason.empty());
@@ -254,6 +260,7 @@ TEST_CASE("sequential matching on hits replays the streaming pass exactly on ran
           CHECK(got->num_clusters == want->num_clusters);
           CHECK(got->num_cells_below_threshold == want->num_cells_below_threshold);
           CHECK(got->largest_span_area == want->largest_span_area);
+          CHECK(got->second_span_area == want->second_span_area);
           CHECK(got->min_distance == want->min_distance);
           CHECK(got->no_candidate_reason == want->no_candidate_reason);
           CHECK(got->best.row_min == want->best.row_min);
@@ -421,7 +428,7 @@ TEST_CASE("sequential matching no-candidate reasons for degenerate inputs") {
     REQUIRE(r.ok());
     CHECK_FALSE(r->found);
     CHECK(r->num_clusters == 1);
-    CHECK(r->no_candidate_reason == "no cluster with span area >= tau_area = 10000: largest was 1 (1 clusters)");
+    CHECK(r->no_candidate_reason == "no cluster with span area >= tau_area = 10000: largest was 1 (next 0, 1 clusters)");
     p.tau_area = 1;
     r = RunSequentialMatching(DescriptorSetView{one, dim, {}}, DescriptorSetView{one, dim, {}}, p);
     REQUIRE(r.ok());
@@ -496,7 +503,9 @@ TEST_CASE("sequential matching span area is inclusive rows x cols and selection 
   p.tau_area = 10;
   r = RunSequentialMatching(src, p);
   CHECK_FALSE(r->found);
-  CHECK(r->no_candidate_reason == "no cluster with span area >= tau_area = 10: largest was 9 (2 clusters)");
+  // The diagonal spans 9 cells, the row 4: the reason names both.
+  CHECK(r->second_span_area == 4);
+  CHECK(r->no_candidate_reason == "no cluster with span area >= tau_area = 10: largest was 9 (next 4, 2 clusters)");
 }
 
 TEST_CASE("sequential matching tile minimum skips do not change the result") {
