@@ -42,6 +42,11 @@ const MergeFlag kMergeFlags[] = {
      "that cluster on and let registration's gates decide on the few scans it names; 0 = the paper (nothing "
      "below tau_area is passed on)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.verification_area_fraction; }},
+    {"--max-ambiguous-fraction", "cascade.max_ambiguous_fraction", "", 0.0, 1.0, "ours",
+     "register a pair once, never widened, when more than this fraction of its stage A cluster's keyframes of "
+     "either robot look as alike to another place of the robot's own map (more than 20 m away) as to the other "
+     "robot (repeated structure); 1 = off (the paper)",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.max_ambiguous_fraction; }},
     {"--tau-con-m", "cascade.stage_c.tau_con_m", "m", 1e-3, 1e4, "tau_con",
      "stage C: two loops are compatible when their positional inconsistency is below this", FlagType::kDouble,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_c.tau_con_m; }},

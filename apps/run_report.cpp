@@ -189,6 +189,28 @@ DistanceQuantiles DescriptorSeparation(const RunJob& job, int a, int b) {
   return out;
 }
 
+// Stage A's chosen cluster against ground truth: the fraction of its cells (L_seq) whose two keyframes were truly
+// within kPlaceM of each other (-1 when there is no cluster or no ground truth). Low means stage A picked a place
+// the robots never shared (aliasing), whatever registration made of it afterwards.
+double StageATrueFraction(const RunJob& job, int a, int b) {
+  constexpr double kPlaceM = 10.0;
+  const ExchangeCascadeResult* c = job.server->cascade(a, b);
+  const Trajectories& ta = job.trajectories[static_cast<std::size_t>(a)];
+  const Trajectories& tb = job.trajectories[static_cast<std::size_t>(b)];
+  if (!c || !c->stage_a.found || c->stage_a.cells.empty() || ta.ground_truth.empty() || tb.ground_truth.empty()) {
+    return -1.0;
+  }
+  std::size_t near = 0, judged = 0;
+  for (const SequentialLoopCell& cell : c->stage_a.cells) {
+    if (cell.alpha_index >= ta.ground_truth.size() || cell.beta_index >= tb.ground_truth.size()) continue;
+    ++judged;
+    const double d =
+        (ta.ground_truth[cell.alpha_index].translation() - tb.ground_truth[cell.beta_index].translation()).norm();
+    if (d <= kPlaceM) ++near;
+  }
+  return judged == 0 ? -1.0 : static_cast<double>(near) / static_cast<double>(judged);
+}
+
 // ---- stdout
 
 std::string ModeRow(const RunJob& job, const ModeOutcome& m) {
@@ -504,7 +526,21 @@ void WriteMetrics(const RunJob& job) {
     const bool no_place = !shared.empty() && !shared[i].shared;
     const std::string stopped = StoppedAt(job, final_mode, i);
     kv(k + "stopped", no_place && stopped != "merged" ? "no shared place" : stopped);
+    if (const ExchangeCascadeResult* c = job.server->cascade(p.alpha, p.beta); c && c->stage_a.found) {
+      const SequentialCluster& best = c->stage_a.best;
+      kv(k + "stage_a_keyframes", std::to_string(best.row_min) + "-" + std::to_string(best.row_max) + " " +
+                                      std::to_string(best.col_min) + "-" + std::to_string(best.col_max));
+      kv(k + "stage_a_span_cells", std::to_string(best.span_area()));
+      kv(k + "stage_a_next_span_cells", std::to_string(c->stage_a.second_span_area));
+      if (c->verification) kv(k + "stage_a_verification", "1");
+      if (c->ambiguous) kv(k + "stage_a_ambiguous", "1");
+      if (c->ambiguity_measured) {
+        kv(k + "stage_a_ambiguous_fraction", Fmt("%.2f", c->ambiguity.alpha_fraction()) + " " +
+                                                 Fmt("%.2f", c->ambiguity.beta_fraction()));
+      }
+    }
     if (shared.empty()) continue;
+    if (const double f = StageATrueFraction(job, p.alpha, p.beta); f >= 0.0) kv(k + "stage_a_true_fraction", Fmt("%.2f", f));
     const DistanceQuantiles q = DescriptorSeparation(job, p.alpha, p.beta);
     kv(k + "true_pairs", std::to_string(q.true_pairs));
     kv(k + "false_pairs", std::to_string(q.false_pairs));

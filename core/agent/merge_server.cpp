@@ -28,6 +28,7 @@ ExchangeCascadeParams ServerCascadeDefaults() {
   ExchangeCascadeParams p;
   p.stage_a = ServerStageADefaults();
   p.verification_area_fraction = 0.5;
+  p.max_ambiguous_fraction = 0.75;
   return p;
 }
 
@@ -610,6 +611,10 @@ Result<ExchangePlan> MergeServer::WidenPlan(const ExchangePlan& plan, Span<const
     if (!result || !result->attempted || result->registration.success()) continue;
     const PairState* p = FindPair(sel.alpha, sel.beta);
     if (!p || sel.alpha_keyframes.empty() || sel.beta_keyframes.empty()) continue;
+    // A cluster below tau_area (the cascade's `verification`) or at an ambiguous place gets one registration and
+    // no more scans: asking again until something aligns is how a repeated structure (an aliased corridor) got
+    // merged.
+    if (p->cascade.verification || p->cascade.ambiguous) continue;
     const Span<const SequentialLoopCell> l_seq(p->cascade.stage_a.cells);
     PairSelection w = sel;
     const auto grow = [](std::vector<std::uint32_t>* keyframes, std::vector<std::uint32_t> pool) {

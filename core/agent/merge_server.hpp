@@ -69,7 +69,9 @@ struct MergeServerParams {
   /// Widening (ours, not in the paper; WidenPlan): when registration refuses a pair, the server may ask again for
   /// up to twice the pair's scans per robot, taken from stage A's loops next to the selected keyframes, and register
   /// once more; at most this many times per pair and round (0 = the paper's single exchange). A refused pair costs
-  /// the extra scans; a pair that merged costs nothing.
+  /// the extra scans; a pair that merged costs nothing. A pair whose cluster is below tau_area (the cascade's
+  /// verification) or at an ambiguous place (the cascade's `ambiguous`) is never widened: its one registration
+  /// decides.
   int max_widen_steps = 2;
 };
 

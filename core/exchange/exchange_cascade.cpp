@@ -3,8 +3,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <string>
 #include <utility>
+
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 namespace {
@@ -39,6 +42,14 @@ Status ValidateExchangeCascadeParams(const ExchangeCascadeParams& params) {
   if (Status s = ValidateSequentialMatchParams(params.stage_a); !s.ok()) return s;
   if (Status s = ValidateStageCParams(params.stage_c); !s.ok()) return s;
   if (Status s = ValidateExchangePolicyParams(params.policy); !s.ok()) return s;
+  if (!(params.max_ambiguous_fraction >= 0.0 && params.max_ambiguous_fraction <= 1.0)) {
+    return InvalidArgument("cascade max_ambiguous_fraction must be in [0, 1], got " +
+                           std::to_string(params.max_ambiguous_fraction));
+  }
+  if (!(std::isfinite(params.ambiguity_far_m) && params.ambiguity_far_m >= 0.0)) {
+    return InvalidArgument("cascade ambiguity_far_m must be finite and >= 0, got " +
+                           std::to_string(params.ambiguity_far_m));
+  }
   if (!(params.verification_area_fraction >= 0.0 && params.verification_area_fraction <= 1.0)) {
     return InvalidArgument("cascade verification_area_fraction must be in [0, 1], got " +
                            std::to_string(params.verification_area_fraction));
@@ -86,6 +97,22 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
   if (!result.stage_a.found) {
     result.no_candidate_reason = "stage A: " + result.stage_a.no_candidate_reason;
     return result;
+  }
+  if (params.max_ambiguous_fraction < 1.0) {
+    auto ambiguity = MeasurePlaceAmbiguity(alpha.descriptors, alpha.positions_m, beta.descriptors, beta.positions_m,
+                                           Span<const SequentialLoopCell>(result.stage_a.cells), params.ambiguity_far_m);
+    if (!ambiguity.ok()) return ambiguity.status();
+    result.ambiguity_measured = true;
+    result.ambiguity = *ambiguity;
+    if (result.ambiguity.max_fraction() > params.max_ambiguous_fraction) {
+      const bool alpha_worse = result.ambiguity.alpha_fraction() >= result.ambiguity.beta_fraction();
+      result.ambiguous = true;
+      result.ambiguity_reason =
+          std::to_string(alpha_worse ? result.ambiguity.alpha_ambiguous : result.ambiguity.beta_ambiguous) + " of " +
+          std::to_string(alpha_worse ? result.ambiguity.alpha_keyframes : result.ambiguity.beta_keyframes) +
+          " of robot " + (alpha_worse ? "alpha" : "beta") + "'s keyframes in the cluster look as alike to a place of " +
+          "its own map more than " + FormatNumber(params.ambiguity_far_m, 3) + " m away";
+    }
   }
 
   // Stage B on the exchange graph of L_seq: vertices = distinct keyframes, compacted to 0..n-1 per robot.

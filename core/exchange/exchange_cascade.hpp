@@ -18,6 +18,7 @@
 #include "core/exchange/balanced_vertex_cover.hpp"
 #include "core/exchange/edge_weighted_clique.hpp"
 #include "core/exchange/exchange_policy.hpp"
+#include "core/exchange/place_ambiguity.hpp"
 #include "core/exchange/sequential_matching.hpp"
 
 namespace commerge {
@@ -32,6 +33,13 @@ struct ExchangeCascadeParams {
   /// exactly its span area) and the cascade goes on, flagged `verification`: the few scans its policy names
   /// are registered, and the registration gates decide as for every candidate. In [0, 1].
   double verification_area_fraction = 0.0;
+  /// Ours; 1 = off (the paper). When more than this fraction of the chosen cluster's keyframes of either robot are
+  /// ambiguous (the robot's own map has a keyframe more than ambiguity_far_m away whose descriptor is as close as
+  /// the other robot's match, place_ambiguity.hpp), the result is flagged `ambiguous`: the pair is registered
+  /// once, never widened (MergeServer::WidenPlan). In [0, 1].
+  double max_ambiguous_fraction = 1.0;
+  /// [m], >= 0: how far a keyframe of the robot's own map must be to count as another place.
+  double ambiguity_far_m = 20.0;
 };
 
 /// Checks every stage's parameters and verification_area_fraction; InvalidArgument naming the field.
@@ -60,6 +68,12 @@ struct ExchangeCascadeResult {
   /// (ExchangeCascadeParams::verification_area_fraction); verification_reason says what it found.
   bool verification = false;
   std::string verification_reason;
+  /// Of stage A's chosen cluster (measured when max_ambiguous_fraction < 1 and a cluster was found); `ambiguous`
+  /// when it exceeds max_ambiguous_fraction, ambiguity_reason says how.
+  bool ambiguity_measured = false;
+  PlaceAmbiguity ambiguity;
+  bool ambiguous = false;
+  std::string ambiguity_reason;
   SequentialMatchResult stage_a;     ///< L_seq = stage_a.cells
   BalancedCoverResult stage_b;       ///< selected keyframes (indices of the robots, not of the compacted graph)
   StageCResult stage_c;              ///< candidate loops (L_V as used) and L_K = stage_c.selected_loops

@@ -646,6 +646,74 @@ TEST_CASE("Server link: a refused pair is widened, the extra scans are asked for
   }
 }
 
+TEST_CASE("Merge server does not widen a refused pair whose stage A cluster was below tau_area (verification)") {
+  // ShiftedPairBatches(40, 5): stage A's cluster spans 35 x 35 = 1225 cells.
+  const auto widened_pairs = [](std::uint64_t tau_area) {
+    MergeServerParams params;
+    params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
+    params.cascade.stage_a.tau_area = tau_area;
+    params.cascade.verification_area_fraction = 0.5;
+    MergeServer server(2, 100, params);
+    for (const KeyframeBatch& b : ShiftedPairBatches(40, 5)) REQUIRE(server.OnKeyframeBatch(b).ok());
+    REQUIRE(server.RunCascades().ok());
+    REQUIRE(server.cascade(0, 1) != nullptr);
+    REQUIRE(server.cascade(0, 1)->stage_a.found);
+    CHECK(server.cascade(0, 1)->verification == (tau_area > 1225));
+    auto plan = server.Plan(ExchangeMode::kStageABC);
+    REQUIRE(plan.ok());
+    REQUIRE(plan->pairs.size() == 1);
+    REQUIRE_FALSE(plan->pairs[0].alpha_keyframes.empty());
+    const PairMergeResult refused = Refused(0, 1);
+    auto wider = server.WidenPlan(*plan, Span<const PairMergeResult>(&refused, 1), 1);
+    REQUIRE(wider.ok());
+    CHECK(wider->pairs.empty() == wider->requests.empty());
+    return wider->pairs.size();
+  };
+  CHECK(widened_pairs(1000) == 1);  // the cluster met tau_area: refused, it is widened
+  CHECK(widened_pairs(2000) == 0);  // 1225 of 2000 cells: verified once, never widened
+}
+
+TEST_CASE("Merge server does not widen a refused pair whose place is ambiguous in a robot's own map") {
+  // ShiftedPairBatches(40, 5) with alpha's keyframes 30..39 made copies of 5..14 and moved 100 m on: stage A's
+  // cluster (alpha 5..29 with beta 0..24) then holds 10 places alpha saw twice, far apart, of 25.
+  const auto widened_pairs = [](double max_ambiguous_fraction) {
+    MergeServerParams params;
+    params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
+    params.cascade.stage_a.tau_area = 200;  // the copies' own cluster with beta (10 x 10) does not qualify
+    params.cascade.max_ambiguous_fraction = max_ambiguous_fraction;
+    MergeServer server(2, 100, params);
+    std::vector<KeyframeBatch> batches = ShiftedPairBatches(40, 5);
+    std::vector<std::uint8_t>& records = batches[0].records;
+    for (std::uint32_t k = 30; k < 40; ++k) {
+      auto copy = DecodeKeyframeRecord(
+          Span<const std::uint8_t>(records.data() + (k - 25) * kKeyframeRecordBytes, kKeyframeRecordBytes));
+      auto moved_or = DecodeKeyframeRecord(
+          Span<const std::uint8_t>(records.data() + k * kKeyframeRecordBytes, kKeyframeRecordBytes));
+      REQUIRE(copy.ok());
+      REQUIRE(moved_or.ok());
+      KeyframeRecord moved = *moved_or;
+      moved.descriptor = copy->descriptor;
+      moved.T_map_sensor.translation().x() += 100.0;
+      REQUIRE(EncodeKeyframeRecord(moved, Span<std::uint8_t>(records.data() + k * kKeyframeRecordBytes,
+                                                            kKeyframeRecordBytes)).ok());
+    }
+    for (const KeyframeBatch& b : batches) REQUIRE(server.OnKeyframeBatch(b).ok());
+    REQUIRE(server.RunCascades().ok());
+    REQUIRE(server.cascade(0, 1) != nullptr);
+    REQUIRE(server.cascade(0, 1)->stage_a.found);
+    CHECK(server.cascade(0, 1)->ambiguous == (max_ambiguous_fraction < 0.2));
+    auto plan = server.Plan(ExchangeMode::kStageABC);
+    REQUIRE(plan.ok());
+    REQUIRE(plan->pairs.size() == 1);
+    const PairMergeResult refused = Refused(0, 1);
+    auto wider = server.WidenPlan(*plan, Span<const PairMergeResult>(&refused, 1), 1);
+    REQUIRE(wider.ok());
+    return wider->pairs.size();
+  };
+  CHECK(widened_pairs(1.0) == 1);  // not measured: widened as any refused pair
+  CHECK(widened_pairs(0.1) == 0);  // 10 of alpha's 25 cluster keyframes ambiguous, above 0.1: registered once
+}
+
 TEST_CASE("Merge server does not widen a refused pair whose robots merged pairs already join") {
   MergeServerParams params;
   params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
