@@ -33,12 +33,18 @@ using commerge::test::ShiftedPairBatches;
 
 namespace {
 
+// The paper's stage A (B_ij = [A_ij <= tau_inter]) at span area `tau_area`, every other server default.
+MergeServerParams PaperStageA(std::uint64_t tau_area) {
+  MergeServerParams params;
+  params.cascade.stage_a = SequentialMatchParams{};
+  params.cascade.stage_a.tau_area = tau_area;
+  return params;
+}
+
 
 // A server (stage A's tau_area 100) holding ShiftedPairBatches(n, shift), its cascades run.
 std::unique_ptr<MergeServer> ShiftedPairServer(int n, int shift) {
-  MergeServerParams params;
-  params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
-  params.cascade.stage_a.tau_area = 100;
+  MergeServerParams params = PaperStageA(100);
   auto server = std::make_unique<MergeServer>(2, 100, params);
   for (const KeyframeBatch& b : ShiftedPairBatches(n, shift)) REQUIRE(server->OnKeyframeBatch(b).ok());
   REQUIRE(server->RunCascades().ok());
@@ -107,9 +113,7 @@ TEST_CASE("Merge server compares only robots of one descriptor id and refuses a 
   // another descriptor id (a robot started with another --lidar): its descriptors are not comparable.
   const int n = 40, shift = 5;
   const std::uint32_t kId = 0x761BEAA5u, kOtherId = 0x12345678u;
-  MergeServerParams params;
-  params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
-  params.cascade.stage_a.tau_area = 100;
+  MergeServerParams params = PaperStageA(100);
   MergeServer server(3, 100, params);
   std::vector<KeyframeBatch> batches = ShiftedPairBatches(n, shift);
   REQUIRE(batches.size() == 2);
@@ -168,9 +172,7 @@ TEST_CASE("Merge server compares only robots of one descriptor id and refuses a 
 
 TEST_CASE("Server link: a robot restarted with the team's descriptor setting is adopted, within a session its id is held") {
   const std::uint32_t kId = 0x761BEAA5u, kOtherId = 0x12345678u;
-  MergeServerParams mp;
-  mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
-  mp.cascade.stage_a.tau_area = 100;
+  MergeServerParams mp = PaperStageA(100);
   MergeServer server(2, 100, mp);
   ServerLinkParams lp;
   lp.automatic_rounds = false;
@@ -208,9 +210,7 @@ TEST_CASE("Server link: a robot restarted with the team's descriptor setting is 
 // Rounds on request (commerge server --replay): a round at a recording's early merge result must not settle the
 // server while keyframes keep arriving after it; only a round that saw them does.
 TEST_CASE("Server link: with rounds on request, keyframes delivered after the last round keep it unsettled") {
-  MergeServerParams mp;
-  mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
-  mp.cascade.stage_a.tau_area = 100;
+  MergeServerParams mp = PaperStageA(100);
   MergeServer server(2, 100, mp);
   ServerLinkParams lp;
   lp.automatic_rounds = false;
@@ -593,9 +593,7 @@ TEST_CASE("Server link: a refused pair is widened, the extra scans are asked for
   for (int j = 0; j + shift < n; ++j) pool_b.push_back(static_cast<std::uint32_t>(j));
   for (int steps : {0, 1, 2}) {
     CAPTURE(steps);
-    MergeServerParams mp;
-    mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
-    mp.cascade.stage_a.tau_area = 100;
+    MergeServerParams mp = PaperStageA(100);
     mp.max_widen_steps = steps;
     MergeServer server(2, 100, mp);
     ServerLinkParams lp;
@@ -649,9 +647,7 @@ TEST_CASE("Server link: a refused pair is widened, the extra scans are asked for
 TEST_CASE("Merge server does not widen a refused pair whose stage A cluster was below tau_area (verification)") {
   // ShiftedPairBatches(40, 5): stage A's cluster spans 35 x 35 = 1225 cells.
   const auto widened_pairs = [](std::uint64_t tau_area) {
-    MergeServerParams params;
-    params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
-    params.cascade.stage_a.tau_area = tau_area;
+    MergeServerParams params = PaperStageA(tau_area);
     params.cascade.verification_area_fraction = 0.5;
     MergeServer server(2, 100, params);
     for (const KeyframeBatch& b : ShiftedPairBatches(40, 5)) REQUIRE(server.OnKeyframeBatch(b).ok());
@@ -677,9 +673,7 @@ TEST_CASE("Merge server does not widen a refused pair whose place is ambiguous i
   // ShiftedPairBatches(40, 5) with alpha's keyframes 30..39 made copies of 5..14 and moved 100 m on: stage A's
   // cluster (alpha 5..29 with beta 0..24) then holds 10 places alpha saw twice, far apart, of 25.
   const auto widened_pairs = [](double max_ambiguous_fraction) {
-    MergeServerParams params;
-    params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
-    params.cascade.stage_a.tau_area = 200;  // the copies' own cluster with beta (10 x 10) does not qualify
+    MergeServerParams params = PaperStageA(200);  // the copies' own cluster with beta (10 x 10) does not qualify
     params.cascade.max_ambiguous_fraction = max_ambiguous_fraction;
     MergeServer server(2, 100, params);
     std::vector<KeyframeBatch> batches = ShiftedPairBatches(40, 5);
@@ -715,9 +709,7 @@ TEST_CASE("Merge server does not widen a refused pair whose place is ambiguous i
 }
 
 TEST_CASE("Merge server does not widen a refused pair whose robots merged pairs already join") {
-  MergeServerParams params;
-  params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
-  params.cascade.stage_a.tau_area = 100;
+  MergeServerParams params = PaperStageA(100);
   MergeServer server(3, 100, params);
   for (const KeyframeBatch& b : ShiftedPairBatches(40, 5)) REQUIRE(server.OnKeyframeBatch(b).ok());
   std::mt19937 rng(11);
