@@ -57,9 +57,6 @@ if command -v ccache >/dev/null 2>&1; then
   if [ -z "${CCACHE_DIR:-}" ] && ccache --show-config 2>/dev/null | grep -q '^(default) cache_dir = '; then
     export CCACHE_DIR="${XDG_CACHE_HOME:-$HOME/.cache}/commerge-ccache"
   fi
-  # Paths under the clone are hashed relative to it and the working directory is left out, so a clone at
-  # another path (each CI run) hits the objects an earlier clone compiled.
-  export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$repo}" CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-1}"
   launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 fi
 
