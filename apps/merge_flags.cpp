@@ -47,6 +47,11 @@ const MergeFlag kMergeFlags[] = {
      "either robot look as alike to another place of the robot's own map (more than 20 m away) as to the other "
      "robot (repeated structure); 1 = off (the paper)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.max_ambiguous_fraction; }},
+    {"--consensus-max-cells", "cascade.consensus_max_cells", "cells", 0.0, 1e7, "ours",
+     "place every stage A cluster from the robots' keyframe positions and pass on the qualifying cluster the "
+     "other clusters agree with when the lowest-mean one has less than half its support (repeated places); "
+     "skipped when more cells are below threshold; 0 = off (the paper)",
+     FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.consensus_max_cells; }},
     {"--tau-con-m", "cascade.stage_c.tau_con_m", "m", 1e-3, 1e4, "tau_con",
      "stage C: two loops are compatible when their positional inconsistency is below this", FlagType::kDouble,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_c.tau_con_m; }},

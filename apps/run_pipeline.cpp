@@ -406,6 +406,7 @@ int RunCascades(RunJob* job) {
       if (c->stage_c.any_endpoint_fallback) padded += " (stage C over the loops with one endpoint selected: none had both)";
       if (c->verification) padded += " (to verify: stage A's " + c->verification_reason + ", --verify-area-fraction)";
       if (c->ambiguous) padded += " (ambiguous place, registered once: " + c->ambiguity_reason + ", --max-ambiguous-fraction)";
+      if (c->consensus_switched) padded += " (place consensus: " + c->consensus_reason + ", --consensus-max-cells)";
       std::printf("  pair %d-%d: %s; L_seq %zu loops (%zu x %zu keyframes; span %llu cells, next cluster %llu), stage B %zu + %zu scans (%s), |L_K| = %zu%s; "
                   "A %.3f s, B %.3f s, C %.3f s%s%s\n",
                   a, b, CascadeOutcomeName(c->outcome), c->stage_a.cells.size(), c->stage_b_vertices_alpha,

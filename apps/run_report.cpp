@@ -538,6 +538,11 @@ void WriteMetrics(const RunJob& job) {
         kv(k + "stage_a_ambiguous_fraction", Fmt("%.2f", c->ambiguity.alpha_fraction()) + " " +
                                                  Fmt("%.2f", c->ambiguity.beta_fraction()));
       }
+      if (c->consensus_measured) {
+        kv(k + "stage_a_consensus_support", Fmt("%.0f", c->consensus_support_lowest_mean) + " " +
+                                                Fmt("%.0f", c->consensus_support_chosen));
+        if (c->consensus_switched) kv(k + "stage_a_consensus_switched", "1");
+      }
     }
     if (shared.empty()) continue;
     if (const double f = StageATrueFraction(job, p.alpha, p.beta); f >= 0.0) kv(k + "stage_a_true_fraction", Fmt("%.2f", f));

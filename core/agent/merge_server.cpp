@@ -29,6 +29,7 @@ ExchangeCascadeParams ServerCascadeDefaults() {
   p.stage_a = ServerStageADefaults();
   p.verification_area_fraction = 0.5;
   p.max_ambiguous_fraction = 0.75;
+  p.consensus_max_cells = kServerConsensusMaxCells;
   return p;
 }
 

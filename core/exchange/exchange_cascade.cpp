@@ -29,6 +29,46 @@ int CompactIndex(const std::vector<std::size_t>& sorted, std::size_t value) {
 
 }  // namespace
 
+namespace {
+
+// Index of stage A's S* in its cluster set (same span and cell count), or the set's size.
+std::size_t IndexOfBest(const SequentialMatchResult& a) {
+  const SequentialCluster& b = a.best;
+  for (std::size_t k = 0; k < a.clusters.clusters.size(); ++k) {
+    const SequentialCluster& c = a.clusters.clusters[k];
+    if (c.row_min == b.row_min && c.row_max == b.row_max && c.col_min == b.col_min && c.col_max == b.col_max &&
+        c.cell_count == b.cell_count) {
+      return k;
+    }
+  }
+  return a.clusters.clusters.size();
+}
+
+// Runs the place consensus over stage A's cluster set and, when it switches, makes the chosen cluster S*.
+Status ApplyPlaceConsensus(const CascadeRobotInput& alpha, const CascadeRobotInput& beta, std::uint64_t min_span_area,
+                           const PlaceConsensusParams& params, ExchangeCascadeResult* result) {
+  SequentialMatchResult& a = result->stage_a;
+  const std::size_t preferred = IndexOfBest(a);
+  if (preferred == a.clusters.clusters.size()) {
+    return Status(StatusCode::kInternal, "cascade: stage A's chosen cluster is not in its cluster set");
+  }
+  auto consensus = RunPlaceConsensus(a.clusters, preferred, min_span_area, alpha.positions_m, beta.positions_m, params);
+  if (!consensus.ok()) return consensus.status();
+  result->consensus_measured = true;
+  result->consensus_support_lowest_mean = consensus->support[preferred];
+  result->consensus_support_chosen = consensus->support[consensus->chosen];
+  for (const ClusterPlacement& p : consensus->placements) result->consensus_clusters_placed += p.valid ? 1 : 0;
+  if (!consensus->switched) return Status::Ok();
+  result->consensus_switched = true;
+  result->consensus_reason = consensus->reason;
+  a.best = a.clusters.clusters[consensus->chosen];
+  const Span<const SequentialLoopCell> cells = a.clusters.CellsOf(consensus->chosen);
+  a.cells.assign(cells.begin(), cells.end());
+  return Status::Ok();
+}
+
+}  // namespace
+
 const char* CascadeOutcomeName(CascadeOutcome outcome) noexcept {
   switch (outcome) {
     case CascadeOutcome::kPolicy: return "policy";
@@ -49,6 +89,9 @@ Status ValidateExchangeCascadeParams(const ExchangeCascadeParams& params) {
   if (!(std::isfinite(params.ambiguity_far_m) && params.ambiguity_far_m >= 0.0)) {
     return InvalidArgument("cascade ambiguity_far_m must be finite and >= 0, got " +
                            std::to_string(params.ambiguity_far_m));
+  }
+  if (params.consensus_max_cells > 0) {
+    if (Status s = ValidatePlaceConsensusParams(params.consensus); !s.ok()) return s;
   }
   if (!(params.verification_area_fraction >= 0.0 && params.verification_area_fraction <= 1.0)) {
     return InvalidArgument("cascade verification_area_fraction must be in [0, 1], got " +
@@ -73,15 +116,18 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
 
   // Stage A: L_seq.
   auto t0 = std::chrono::steady_clock::now();
-  auto stage_a = RunSequentialMatching(alpha.descriptors, beta.descriptors, params.stage_a);
+  SequentialMatchParams stage_a_params = params.stage_a;
+  stage_a_params.all_clusters_max_cells = params.consensus_max_cells;
+  auto stage_a = RunSequentialMatching(alpha.descriptors, beta.descriptors, stage_a_params);
   if (!stage_a.ok()) return stage_a.status();
   result.stage_a = std::move(*stage_a);
   const std::uint64_t asked =
       EffectiveTauArea(params.stage_a, alpha.descriptors.count(), beta.descriptors.count());
+  std::uint64_t candidate_area = asked;
   const std::uint64_t largest = result.stage_a.largest_span_area;
   if (!result.stage_a.found && largest > 0 && params.verification_area_fraction > 0.0 &&
       static_cast<double>(largest) >= params.verification_area_fraction * static_cast<double>(asked)) {
-    SequentialMatchParams retry = params.stage_a;
+    SequentialMatchParams retry = stage_a_params;
     retry.tau_area = largest;
     retry.tau_area_fraction = 0.0;
     auto again = RunSequentialMatching(alpha.descriptors, beta.descriptors, retry);
@@ -91,8 +137,13 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
       result.verification_reason = "largest cluster spans " + std::to_string(largest) + " of the " +
                                    std::to_string(asked) + " cells asked";
       result.stage_a = std::move(*again);
+      candidate_area = largest;
     }
   }
+  if (result.stage_a.found && !result.stage_a.clusters.clusters.empty()) {
+    if (Status s = ApplyPlaceConsensus(alpha, beta, candidate_area, params.consensus, &result); !s.ok()) return s;
+  }
+  result.stage_a.clusters = SequentialClusterSet{};
   result.stage_a_s = SecondsSince(t0);
   if (!result.stage_a.found) {
     result.no_candidate_reason = "stage A: " + result.stage_a.no_candidate_reason;

@@ -19,6 +19,7 @@
 #include "core/exchange/edge_weighted_clique.hpp"
 #include "core/exchange/exchange_policy.hpp"
 #include "core/exchange/place_ambiguity.hpp"
+#include "core/exchange/place_consensus.hpp"
 #include "core/exchange/sequential_matching.hpp"
 
 namespace commerge {
@@ -40,6 +41,11 @@ struct ExchangeCascadeParams {
   double max_ambiguous_fraction = 1.0;
   /// [m], >= 0: how far a keyframe of the robot's own map must be to count as another place.
   double ambiguity_far_m = 20.0;
+  /// Ours; 0 = off (the paper). c > 0: when stage A has at most c cells below threshold, every cluster is placed
+  /// from the robots' keyframe positions and S* gives way to the qualifying cluster the other clusters confirm
+  /// (place_consensus.hpp).
+  std::size_t consensus_max_cells = 0;
+  PlaceConsensusParams consensus;
 };
 
 /// Checks every stage's parameters and verification_area_fraction; InvalidArgument naming the field.
@@ -74,7 +80,15 @@ struct ExchangeCascadeResult {
   PlaceAmbiguity ambiguity;
   bool ambiguous = false;
   std::string ambiguity_reason;
-  SequentialMatchResult stage_a;     ///< L_seq = stage_a.cells
+  /// Place consensus (consensus_max_cells > 0 and stage A's clusters collected): the support of S* and of the
+  /// cluster passed on; `consensus_switched` when that is not S* (consensus_reason says why).
+  bool consensus_measured = false;
+  bool consensus_switched = false;
+  double consensus_support_lowest_mean = 0.0;
+  double consensus_support_chosen = 0.0;
+  std::size_t consensus_clusters_placed = 0;  ///< clusters with a placement (the voters)
+  std::string consensus_reason;
+  SequentialMatchResult stage_a;     ///< L_seq = stage_a.cells (its cluster set is released after the consensus)
   BalancedCoverResult stage_b;       ///< selected keyframes (indices of the robots, not of the compacted graph)
   StageCResult stage_c;              ///< candidate loops (L_V as used) and L_K = stage_c.selected_loops
   ExchangePolicy policy;

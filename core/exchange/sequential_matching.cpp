@@ -47,6 +47,47 @@ struct RecordedCell {
   float distance = 0.0f;
 };
 
+struct LabelledCell {
+  std::size_t root = 0;  // the cluster's union-find root
+  SequentialLoopCell cell;
+};
+
+// Groups labelled cells into a SequentialClusterSet: clusters in the order of their first cell (row-major),
+// each cluster's cells row-major; stats(root) gives a cluster's SequentialCluster.
+template <typename Stats>
+SequentialClusterSet GroupClusterCells(std::vector<LabelledCell> labelled, const Stats& stats) {
+  std::sort(labelled.begin(), labelled.end(), [](const LabelledCell& a, const LabelledCell& b) {
+    return a.cell.alpha_index != b.cell.alpha_index ? a.cell.alpha_index < b.cell.alpha_index
+                                                    : a.cell.beta_index < b.cell.beta_index;
+  });
+  SequentialClusterSet set;
+  std::vector<std::size_t> roots;  // slot -> root
+  std::vector<std::size_t> slot_of(labelled.size(), 0);
+  std::vector<std::size_t> count;
+  constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+  std::size_t max_root = 0;
+  for (const LabelledCell& c : labelled) max_root = std::max(max_root, c.root);
+  std::vector<std::size_t> slot_of_root(labelled.empty() ? 0 : max_root + 1, kNone);  // roots are node indices
+  for (std::size_t q = 0; q < labelled.size(); ++q) {
+    std::size_t& slot = slot_of_root[labelled[q].root];
+    if (slot == kNone) {
+      slot = roots.size();
+      roots.push_back(labelled[q].root);
+      count.push_back(0);
+    }
+    slot_of[q] = slot;
+    ++count[slot];
+  }
+  set.clusters.reserve(roots.size());
+  for (const std::size_t root : roots) set.clusters.push_back(stats(root));
+  set.begin.assign(roots.size() + 1, 0);
+  for (std::size_t k = 0; k < count.size(); ++k) set.begin[k + 1] = set.begin[k] + count[k];
+  std::vector<std::size_t> next(set.begin.begin(), set.begin.end() - 1);
+  set.cells.resize(labelled.size());
+  for (std::size_t q = 0; q < labelled.size(); ++q) set.cells[next[slot_of[q]]++] = labelled[q].cell;
+  return set;
+}
+
 // Lower mean wins; ties by span corners so the choice does not depend on the labelling order.
 bool Better(const SequentialCluster& a, const SequentialCluster& b) {
   const double ma = a.mean_distance(), mb = b.mean_distance();
@@ -183,6 +224,16 @@ class StreamingLabeler {
       nodes_.clear();
     }
     return Status::Ok();
+  }
+
+  // Every cluster with its cells (non-compact, recording mode).
+  SequentialClusterSet AllClusters() {
+    std::vector<LabelledCell> labelled;
+    labelled.reserve(cells_.size());
+    for (const RecordedCell& c : cells_) {
+      labelled.push_back({static_cast<std::size_t>(Find(c.label)), {c.row, c.col, c.distance}});
+    }
+    return GroupClusterCells(std::move(labelled), [&](std::size_t root) { return nodes_[root].cluster; });
   }
 
   // Second pass: the cells whose cluster contains the seed cell, sorted row-major.
@@ -520,6 +571,28 @@ Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const Sequen
   result.largest_span_area = labeler.largest_area();
   result.second_span_area = labeler.second_area();
   result.min_distance = labeler.min_distance();
+  if (p.all_clusters_max_cells > 0) {
+    if (result.num_cells_below_threshold > p.all_clusters_max_cells) {
+      result.clusters_skipped = true;
+    } else if (result.num_cells_below_threshold > 0) {
+      StreamingLabeler all;
+      all.Begin(0, n, 0, m, tau, p.tau_area, /*compact=*/false, /*record_cells=*/true);
+      s = ForEachAffinityTile(source, p.tile_rows, p.tile_cols, [&](const AffinityTile& t) {
+        return all.Consume(Block{t.row_begin, t.col_begin, t.rows, t.cols, t.stride, t.distances, t.min_distance,
+                                 /*min_is_exact=*/true});
+      });
+      if (!s.ok()) return s;
+      s = all.Finish();
+      if (!s.ok()) return s;
+      result.clusters = all.AllClusters();
+      if (result.clusters.clusters.size() != result.num_clusters) {
+        return Status(StatusCode::kInternal, "sequential matching: the cluster pass found " +
+                                                 std::to_string(result.clusters.clusters.size()) +
+                                                 " clusters, the first pass " + std::to_string(result.num_clusters) +
+                                                 " (non-deterministic tile source?)");
+      }
+    }
+  }
   if (!ExplainCandidate(p, labeler.has_best(), &result)) return result;
   const Node best = labeler.best();
   result.best = best.cluster;
@@ -652,6 +725,19 @@ Result<SequentialMatchResult> RunSequentialMatchingOnHits(Span<const CompactHit>
       has_best = true;
       result.best = c;
       best_root = static_cast<std::int32_t>(l);
+    }
+  }
+  if (p.all_clusters_max_cells > 0) {
+    if (hits.size() > p.all_clusters_max_cells) {
+      result.clusters_skipped = true;
+    } else {
+      std::vector<LabelledCell> labelled;
+      labelled.reserve(hits.size());
+      for (std::size_t k = 0; k < hits.size(); ++k) {
+        labelled.push_back({static_cast<std::size_t>(labeler.Find(labeler.label(k))),
+                            {hits[k].alpha_index, hits[k].beta_index, hits[k].distance}});
+      }
+      result.clusters = GroupClusterCells(std::move(labelled), [&](std::size_t root) { return nodes[root].cluster; });
     }
   }
   if (!ExplainCandidate(p, has_best, &result)) return result;

@@ -42,6 +42,10 @@ struct SequentialMatchParams {
   double tau_area_fraction = 0.0;
   /// With tau_area_fraction: the scaled area never drops below this many cells.
   std::uint64_t min_tau_area = 100;
+  /// 0 = only S*'s cells (the paper). c > 0 (ours): when at most c cells are below threshold, one more pass
+  /// returns every cluster with its cells (SequentialMatchResult::clusters), for the cascade's place consensus
+  /// (place_consensus.hpp); above c the clusters are not collected (clusters_skipped says so). Memory O(c).
+  std::size_t all_clusters_max_cells = 0;
 };
 
 /// The span area stage A asks for on an n x m matrix: tau_area, or with tau_area_fraction f > 0
@@ -80,6 +84,18 @@ struct SequentialLoopCell {
   float distance = 0.0f;
 };
 
+/// Every cluster of B with its cells (SequentialMatchParams::all_clusters_max_cells): cluster k's cells are
+/// cells[begin[k] .. begin[k + 1]), row-major. Clusters in order of their first cell (row-major).
+struct SequentialClusterSet {
+  std::vector<SequentialCluster> clusters;
+  std::vector<std::size_t> begin;  ///< clusters.size() + 1 offsets into cells
+  std::vector<SequentialLoopCell> cells;
+
+  Span<const SequentialLoopCell> CellsOf(std::size_t k) const {
+    return Span<const SequentialLoopCell>(cells.data() + begin[k], begin[k + 1] - begin[k]);
+  }
+};
+
 struct SequentialMatchResult {
   bool found = false;                    ///< a cluster qualified (span area >= tau_area)
   SequentialCluster best;                ///< S*, meaningful when found
@@ -92,6 +108,10 @@ struct SequentialMatchResult {
   std::uint64_t second_span_area = 0;
   double min_distance = 0.0;             ///< smallest finite A_ij seen (+inf when none)
   std::string no_candidate_reason;       ///< empty when found; else why nothing qualified, in words
+  /// Every cluster with its cells, when all_clusters_max_cells > 0 and num_cells_below_threshold is at most
+  /// that (else empty and clusters_skipped). Collected whether or not a cluster qualified.
+  SequentialClusterSet clusters;
+  bool clusters_skipped = false;
 };
 
 /// Stage A over any tile source (two passes; the source must be deterministic). With sequence_half_window

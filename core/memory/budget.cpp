@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "core/common/bytes.hpp"
+#include "core/exchange/place_consensus.hpp"
 
 namespace commerge {
 
@@ -155,9 +156,12 @@ void AddServerModules(BudgetTable* t, const MemoryConfig& c, const std::string& 
          Str(r) + " robots (--robots) x " + Str(k) + " keyframes x " + Str(R::kDescriptorRecordBytes) + " B");
   // Streaming affinity: two 256x256 float tiles plus O(N + M) labelling state per robot pair.
   const std::int64_t pairs = r * (r - 1) / 2;
-  t->Add(prefix + "affinity", 2 * 256 * 256 * 4 + std::max<std::int64_t>(pairs, 1) * 2 * k * 64,
+  // Place consensus: one pair's cluster set at a time, at most kServerConsensusMaxCells cells.
+  const auto consensus_bytes = static_cast<std::int64_t>(kServerConsensusMaxCells * kConsensusCellBytes);
+  t->Add(prefix + "affinity", 2 * 256 * 256 * 4 + std::max<std::int64_t>(pairs, 1) * 2 * k * 64 + consensus_bytes,
          "2 tiles of 256x256 floats + " + Str(std::max<std::int64_t>(pairs, 1)) + " pairs x 2 x " + Str(k) +
-             " x 64 B of labelling state");
+             " x 64 B of labelling state + " + Str(static_cast<std::int64_t>(kServerConsensusMaxCells)) + " x " +
+             Str(static_cast<std::int64_t>(kConsensusCellBytes)) + " B of one pair's place-consensus clusters");
   t->Add(prefix + "solvers", c.solver_workspace_bytes, "--solver-mb");
   t->Add(prefix + "scan_reassembly", c.max_scans_in_flight * c.max_points_per_stored_scan * R::kStoredPointBytes,
          Str(c.max_scans_in_flight) + " scans x " + Str(c.max_points_per_stored_scan) + " points x " +

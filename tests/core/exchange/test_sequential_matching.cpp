@@ -49,6 +49,8 @@ struct RefResult {
   std::vector<std::pair<std::size_t, std::size_t>> cells;
   std::size_t num_clusters = 0;
   std::uint64_t num_below = 0, largest_area = 0, second_area = 0;
+  /// Every cluster in the order of its first cell (row-major), its cells row-major.
+  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> clusters;
 };
 
 // Naive stage A: threshold, BFS labelling over the whole matrix, scoring (same tie-break as documented).
@@ -84,6 +86,7 @@ RefResult NaiveStageA(const std::vector<T>& a, std::size_t n, std::size_t m, dou
       }
     }
     out.num_below += cl.size() - 1;
+    std::sort(cl.begin(), cl.end());
     clusters.push_back(std::move(cl));
   }
   out.num_clusters = clusters.size();
@@ -115,7 +118,40 @@ RefResult NaiveStageA(const std::vector<T>& a, std::size_t n, std::size_t m, dou
   }
   std::sort(areas.begin(), areas.end(), std::greater<std::uint64_t>());
   if (areas.size() >= 2) out.second_area = areas[1];
+  out.clusters = clusters;
   return out;
+}
+
+// SequentialMatchResult::clusters against the reference's clusters: same order, spans, counts, cells, distances.
+void CheckClusterSet(const SequentialClusterSet& got, const RefResult& ref, const std::vector<float>& a, std::size_t m) {
+  REQUIRE(got.clusters.size() == ref.clusters.size());
+  REQUIRE(got.begin.size() == ref.clusters.size() + 1);
+  REQUIRE(got.cells.size() == ref.num_below);
+  for (std::size_t k = 0; k < ref.clusters.size(); ++k) {
+    CAPTURE(k);
+    const auto& want = ref.clusters[k];
+    const Span<const SequentialLoopCell> cells = got.CellsOf(k);
+    REQUIRE(cells.size() == want.size());
+    double sum = 0.0;
+    std::size_t row_min = want[0].first, row_max = 0, col_min = want[0].second, col_max = 0;
+    for (std::size_t q = 0; q < want.size(); ++q) {
+      REQUIRE(cells[q].alpha_index == want[q].first);
+      REQUIRE(cells[q].beta_index == want[q].second);
+      CHECK(cells[q].distance == a[want[q].first * m + want[q].second]);
+      sum += static_cast<double>(a[want[q].first * m + want[q].second]);
+      row_min = std::min(row_min, want[q].first);
+      row_max = std::max(row_max, want[q].first);
+      col_min = std::min(col_min, want[q].second);
+      col_max = std::max(col_max, want[q].second);
+    }
+    const SequentialCluster& c = got.clusters[k];
+    CHECK(c.cell_count == want.size());
+    CHECK(c.row_min == row_min);
+    CHECK(c.row_max == row_max);
+    CHECK(c.col_min == col_min);
+    CHECK(c.col_max == col_max);
+    CHECK(c.distance_sum == doctest::Approx(sum).epsilon(1e-9));
+  }
 }
 
 template <class T>
@@ -283,6 +319,65 @@ TEST_CASE("sequential matching on hits replays the streaming pass exactly on ran
   }
   CHECK(found > 0);
   CHECK(found < total);
+}
+
+TEST_CASE("Stage A's cluster set equals the naive BFS clusters on every tile grid, streaming and sparse, and is "
+          "skipped above its cell cap") {
+  const std::vector<std::pair<std::size_t, std::size_t>> sizes = {{1, 1}, {1, 300}, {300, 1}, {60, 75}, {130, 140}};
+  const std::vector<std::pair<std::size_t, std::size_t>> tiles = {{1, 1}, {2, 3}, {7, 7}, {16, 5}, {256, 256}};
+  std::uint32_t seed = 700;
+  std::size_t multi = 0;
+  for (const auto& nm : sizes) {
+    for (const double noise : {0.0, 0.05, 0.35}) {
+      const std::size_t n = nm.first, m = nm.second;
+      MatrixTileSource src(RandomMatrixWithBands(n, m, noise, 4, ++seed), n, m);
+      const RefResult ref = NaiveStageA(src.matrix(), n, m, 0.10, 30);
+      multi += ref.clusters.size() >= 2 ? 1 : 0;
+      double min_d = 0.0;
+      const std::vector<CompactHit> hits = HitsOf(src.matrix(), n, m, 0.10, &min_d);
+      for (const auto& tile : tiles) {
+        if (n * m > 10000 && tile.first * tile.second < 10) continue;
+        CAPTURE(n);
+        CAPTURE(m);
+        CAPTURE(noise);
+        CAPTURE(tile.first);
+        CAPTURE(tile.second);
+        SequentialMatchParams p;
+        p.tau_area = 30;
+        p.tile_rows = tile.first;
+        p.tile_cols = tile.second;
+        p.all_clusters_max_cells = ref.num_below;  // exactly at the cap: collected
+        auto streamed = RunSequentialMatching(src, p);
+        auto sparse = RunSequentialMatchingOnHits(hits, n, m, min_d, p);
+        REQUIRE(streamed.ok());
+        REQUIRE(sparse.ok());
+        CheckEqual(*streamed, ref, src.matrix(), m);  // S* and its cells unchanged by the extra pass
+        if (ref.num_below == 0) {
+          CHECK(streamed->clusters.clusters.empty());
+          CHECK_FALSE(streamed->clusters_skipped);
+          continue;
+        }
+        CHECK_FALSE(streamed->clusters_skipped);
+        CheckClusterSet(streamed->clusters, ref, src.matrix(), m);
+        CHECK_FALSE(sparse->clusters_skipped);
+        CheckClusterSet(sparse->clusters, ref, src.matrix(), m);
+        if (ref.num_below < 2) continue;
+        p.all_clusters_max_cells = ref.num_below - 1;  // one cell over the cap: not collected, said so
+        auto capped = RunSequentialMatching(src, p);
+        REQUIRE(capped.ok());
+        CHECK(capped->clusters_skipped);
+        CHECK(capped->clusters.clusters.empty());
+        CHECK(capped->found == ref.found);
+      }
+      SequentialMatchParams off;  // the paper: no cluster set
+      off.tau_area = 30;
+      auto plain = RunSequentialMatching(src, off);
+      REQUIRE(plain.ok());
+      CHECK(plain->clusters.clusters.empty());
+      CHECK_FALSE(plain->clusters_skipped);
+    }
+  }
+  CHECK(multi > 5);  // the matrices have several clusters, so order and grouping are exercised
 }
 
 // Smooth trajectory of unit descriptors: each keyframe a small random step from the previous one.

@@ -1,0 +1,273 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Place consensus among stage A's clusters (core/exchange/place_consensus.hpp) on two robots whose answer is
+// known: beta's map lies in alpha's at yaw 30 deg, t = (50, -20, 1) m. Beta drives two stretches of alpha's
+// L-shaped path (two true places) and, between them, a place alpha never saw that looks like alpha's keyframes
+// 35..54 (exact descriptor copies, so stage A's lowest mean picks it). Each cluster's placement is checked
+// against that transform (and the repeated place's against the one its pairs imply); the consensus against
+// supports summed by hand; the cascade end to end on descriptors built from orthonormal places.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/exchange/exchange_cascade.hpp"
+#include "core/exchange/place_consensus.hpp"
+#include "core/geometry/angles.hpp"
+
+namespace commerge {
+namespace {
+
+constexpr double kYawDeg = 30.0;
+const Eigen::Vector3d kT(50.0, -20.0, 1.0);
+
+// Alpha's map: keyframes 0..59 along x, 60..119 along y from (59, 0).
+Eigen::Vector3d AlphaPosition(std::size_t i) {
+  return i < 60 ? Eigen::Vector3d(static_cast<double>(i), 0.0, 0.0)
+                : Eigen::Vector3d(59.0, static_cast<double>(i) - 59.0, 0.0);
+}
+
+// Beta keyframe j in alpha's frame: j < 20 at alpha's 10 + j, 20 <= j < 40 at (180 + j, 50) (never seen by
+// alpha), j >= 40 at alpha's 40 + j.
+Eigen::Vector3d BetaInAlpha(std::size_t j) {
+  if (j < 20) return AlphaPosition(10 + j);
+  if (j < 40) return Eigen::Vector3d(180.0 + static_cast<double>(j), 50.0, 0.0);
+  return AlphaPosition(40 + j);
+}
+
+Eigen::Vector3d ToBetaFrame(const Eigen::Vector3d& p_alpha) {
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(kYawDeg * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return r.transpose() * (p_alpha - kT);
+}
+
+struct Scene {
+  std::vector<Eigen::Vector3d> pa, pb;
+  Scene() {
+    for (std::size_t i = 0; i < 120; ++i) pa.push_back(AlphaPosition(i));
+    for (std::size_t j = 0; j < 60; ++j) pb.push_back(ToBetaFrame(BetaInAlpha(j)));
+  }
+};
+
+// One cluster of `len` diagonal cells from (i0, j0), with `width` cells per column (i, i + 1, ...).
+void AddCluster(SequentialClusterSet* set, std::size_t i0, std::size_t j0, std::size_t len, std::size_t width,
+                float distance) {
+  if (set->begin.empty()) set->begin.push_back(0);
+  SequentialCluster c;
+  c.row_min = i0;
+  c.row_max = i0 + len - 1 + width - 1;
+  c.col_min = j0;
+  c.col_max = j0 + len - 1;
+  for (std::size_t k = 0; k < len; ++k) {
+    for (std::size_t w = 0; w < width; ++w) {
+      set->cells.push_back({i0 + k + w, j0 + k, distance});
+      ++c.cell_count;
+      c.distance_sum += static_cast<double>(distance);
+    }
+  }
+  set->clusters.push_back(c);
+  set->begin.push_back(set->cells.size());
+}
+
+// [true place at alpha 10..29, the look-alike at alpha 35..54, true place at alpha 80..99], as stage A orders
+// them (by first cell).
+SequentialClusterSet ThreeClusters(std::size_t width) {
+  SequentialClusterSet set;
+  AddCluster(&set, 10, 0, 20, width, 0.14f);
+  AddCluster(&set, 35, 20, 20, width, 0.0f);
+  AddCluster(&set, 80, 40, 20, width, 0.14f);
+  return set;
+}
+
+TEST_CASE("Place consensus: a cluster's placement is the transform its keyframe pairs imply") {
+  const Scene s;
+  const SequentialClusterSet set = ThreeClusters(1);
+  PlaceConsensusParams params;
+  for (const std::size_t k : {std::size_t{0}, std::size_t{2}}) {  // the true places: the true transform, exactly
+    auto p = PlaceCluster(set.CellsOf(k), set.clusters[k], s.pa, s.pb, params);
+    REQUIRE(p.ok());
+    REQUIRE(p->valid);
+    CHECK(p->yaw_rad * kRadToDeg == doctest::Approx(kYawDeg).epsilon(1e-9));
+    CHECK((p->t_alpha_beta_m - kT).norm() < 1e-9);
+    CHECK(p->rms_m < 1e-9);
+    CHECK(p->weight == 20.0);
+    for (const SequentialLoopCell& c : set.CellsOf(k)) CHECK((p->Apply(s.pb[c.beta_index]) - s.pa[c.alpha_index]).norm() < 1e-9);
+  }
+  // The look-alike: alpha's (35 + k, 0) for beta's place (200 + k, 50): the true rotation, shifted by (-165, -50).
+  auto wrong = PlaceCluster(set.CellsOf(1), set.clusters[1], s.pa, s.pb, params);
+  REQUIRE(wrong.ok());
+  REQUIRE(wrong->valid);
+  CHECK(wrong->yaw_rad * kRadToDeg == doctest::Approx(kYawDeg).epsilon(1e-9));
+  CHECK((wrong->t_alpha_beta_m - (kT + Eigen::Vector3d(-165.0, -50.0, 0.0))).norm() < 1e-9);
+
+  // A band two cells wide (each beta keyframe also paired with alpha's next one, 1 m on): close, not exact.
+  const SequentialClusterSet wide = ThreeClusters(2);
+  auto p = PlaceCluster(wide.CellsOf(0), wide.clusters[0], s.pa, s.pb, params);
+  REQUIRE(p.ok());
+  CHECK(std::abs(p->yaw_rad * kRadToDeg - kYawDeg) < 1.0);
+  CHECK((p->t_alpha_beta_m - kT).norm() < 1.0);
+  CHECK(p->rms_m > 0.1);
+  CHECK(p->rms_m < 1.0);
+
+  // Three keyframes 2 m apart: too short a stretch to fix the yaw, no placement (and no vote).
+  SequentialClusterSet tiny;
+  AddCluster(&tiny, 10, 0, 3, 1, 0.1f);
+  auto t = PlaceCluster(tiny.CellsOf(0), tiny.clusters[0], s.pa, s.pb, params);
+  REQUIRE(t.ok());
+  CHECK_FALSE(t->valid);
+  params.min_extent_m = 1.5;
+  t = PlaceCluster(tiny.CellsOf(0), tiny.clusters[0], s.pa, s.pb, params);
+  REQUIRE(t.ok());
+  CHECK(t->valid);
+}
+
+TEST_CASE("Place consensus: placements agree within the drift tolerance, not across a repeated place") {
+  PlaceConsensusParams params;  // 4 m + 5 % of the distance between the places, 10 deg
+  ClusterPlacement a;
+  a.valid = true;
+  a.yaw_rad = 0.3;
+  a.t_alpha_beta_m = Eigen::Vector3d(10.0, 5.0, 0.0);
+  a.place_beta_m = Eigen::Vector3d(0.0, 0.0, 0.0);
+  ClusterPlacement b = a;
+  b.place_beta_m = Eigen::Vector3d(100.0, 0.0, 0.0);  // 100 m on: 9 m allowed
+  CHECK(PlacementsAgree(a, b, params));
+  b.t_alpha_beta_m += Eigen::Vector3d(8.5, 0.0, 0.0);  // drifted 8.5 m
+  CHECK(PlacementsAgree(a, b, params));
+  CHECK(PlacementsAgree(b, a, params));
+  b.t_alpha_beta_m += Eigen::Vector3d(1.0, 0.0, 0.0);  // 9.5 m
+  CHECK_FALSE(PlacementsAgree(a, b, params));
+  b.t_alpha_beta_m = a.t_alpha_beta_m;
+  b.yaw_rad = a.yaw_rad + 11.0 * kDegToRad;  // 11 deg: refused by the angle alone ...
+  b.place_beta_m = a.place_beta_m;          // ... even at one place (no lever arm)
+  CHECK_FALSE(PlacementsAgree(a, b, params));
+  b.yaw_rad = a.yaw_rad + 2.0 * kPi - 5.0 * kDegToRad;  // wraps to -5 deg
+  CHECK(PlacementsAgree(a, b, params));
+  b.valid = false;
+  CHECK_FALSE(PlacementsAgree(a, b, params));
+  CHECK(PlacementsAgree(a, a, params));
+}
+
+TEST_CASE("Place consensus: the look-alike place gives way to the cluster the other true place confirms") {
+  const Scene s;
+  const SequentialClusterSet set = ThreeClusters(1);
+  PlaceConsensusParams params;
+  auto c = RunPlaceConsensus(set, /*preferred=*/1, /*min_span_area=*/100, s.pa, s.pb, params);
+  REQUIRE(c.ok());
+  REQUIRE(c->support.size() == 3);
+  CHECK(c->support[0] == 40.0);  // itself and the other true place, 20 keyframes each
+  CHECK(c->support[1] == 20.0);  // only itself
+  CHECK(c->support[2] == 40.0);
+  CHECK(c->switched);
+  CHECK(c->chosen == 0);  // tie between the true places: the first
+  CHECK(c->reason.find("support 20") != std::string::npos);
+
+  params.switch_ratio = 2.5;  // 40 < 2.5 x 20: S* stays
+  c = RunPlaceConsensus(set, 1, 100, s.pa, s.pb, params);
+  REQUIRE(c.ok());
+  CHECK_FALSE(c->switched);
+  CHECK(c->chosen == 1);
+
+  params.switch_ratio = 2.0;
+  c = RunPlaceConsensus(set, 1, 401, s.pa, s.pb, params);  // the true places span 400 cells: not candidates
+  REQUIRE(c.ok());
+  CHECK_FALSE(c->switched);
+  CHECK(c->support[0] == 40.0);  // they still vote
+
+  c = RunPlaceConsensus(set, 0, 100, s.pa, s.pb, params);  // S* a true place already: nothing to change
+  REQUIRE(c.ok());
+  CHECK_FALSE(c->switched);
+  CHECK(c->chosen == 0);
+
+  // Errors name what is wrong.
+  CHECK(RunPlaceConsensus(set, 3, 100, s.pa, s.pb, params).status().message().find("preferred cluster 3 of 3") !=
+        std::string::npos);
+  std::vector<Eigen::Vector3d> short_pb(s.pb.begin(), s.pb.begin() + 50);
+  CHECK(RunPlaceConsensus(set, 1, 100, s.pa, short_pb, params).status().message().find("outside the 120 x 50") !=
+        std::string::npos);
+  std::vector<Eigen::Vector3d> nan_pa = s.pa;
+  nan_pa[12].x() = std::nan("");
+  CHECK(RunPlaceConsensus(set, 1, 100, nan_pa, s.pb, params).status().message().find("not finite (alpha 12") !=
+        std::string::npos);
+  params.switch_ratio = 0.5;
+  CHECK(RunPlaceConsensus(set, 1, 100, s.pa, s.pb, params).status().message().find("switch_ratio") !=
+        std::string::npos);
+  params.switch_ratio = 2.0;
+  params.agree_m = -1.0;
+  CHECK(RunPlaceConsensus(set, 1, 100, s.pa, s.pb, params).status().message().find("agree_m") != std::string::npos);
+}
+
+// Descriptors: alpha keyframe i is basis vector i; beta keyframe j sees alpha's place (10 + j, 40 + j) tilted by
+// 0.14 towards a basis vector of its own, and at j = 20..39 an exact copy of alpha's keyframe 15 + j.
+struct Descriptors {
+  static constexpr std::size_t kDim = 200;
+  std::vector<float> da, db;
+  Descriptors() : da(120 * kDim, 0.0f), db(60 * kDim, 0.0f) {
+    for (std::size_t i = 0; i < 120; ++i) da[i * kDim + i] = 1.0f;
+    const double norm = std::sqrt(0.99 * 0.99 + 0.14 * 0.14);
+    for (std::size_t j = 0; j < 60; ++j) {
+      if (j >= 20 && j < 40) {
+        db[j * kDim + 15 + j] = 1.0f;
+        continue;
+      }
+      db[j * kDim + (j < 20 ? 10 + j : 40 + j)] = static_cast<float>(0.99 / norm);
+      db[j * kDim + 120 + j] = static_cast<float>(0.14 / norm);
+    }
+  }
+};
+
+TEST_CASE("Cascade: with place consensus, stage A passes on a true place instead of the closer look-alike") {
+  const Scene s;
+  const Descriptors d;
+  CascadeRobotInput a, b;
+  a.descriptors = {Span<const float>(d.da), Descriptors::kDim, {}};
+  a.positions_m = Span<const Eigen::Vector3d>(s.pa);
+  b.descriptors = {Span<const float>(d.db), Descriptors::kDim, {}};
+  b.positions_m = Span<const Eigen::Vector3d>(s.pb);
+  ExchangeCascadeParams params;  // the paper's stage A: three 20 x 20 clusters at 0 and 0.14 <= tau_inter
+  params.stage_a.tau_inter = 0.2;
+  params.stage_a.tau_area = 100;
+  params.policy.min_scans_per_robot = 0;
+
+  auto off = RunExchangeCascade(a, b, params);  // off (the paper): the look-alike, mean distance 0
+  REQUIRE(off.ok());
+  REQUIRE(off->outcome == CascadeOutcome::kPolicy);
+  CHECK_FALSE(off->consensus_measured);
+  CHECK(off->stage_a.best.row_min == 35);
+  CHECK(off->stage_a.num_clusters == 3);
+
+  params.consensus_max_cells = 1000;
+  auto on = RunExchangeCascade(a, b, params);
+  REQUIRE(on.ok());
+  REQUIRE(on->outcome == CascadeOutcome::kPolicy);
+  REQUIRE(on->consensus_measured);
+  CHECK(on->consensus_switched);
+  CHECK(on->consensus_clusters_placed == 3);
+  CHECK(on->consensus_support_lowest_mean == 20.0);
+  CHECK(on->consensus_support_chosen == 40.0);
+  CHECK(on->stage_a.best.row_min == 10);
+  CHECK(on->stage_a.best.col_min == 0);
+  REQUIRE(on->stage_a.cells.size() == 20);
+  for (std::size_t k = 0; k < 20; ++k) {  // L_seq is the true place's cells, so every later stage works on them
+    CHECK(on->stage_a.cells[k].alpha_index == 10 + k);
+    CHECK(on->stage_a.cells[k].beta_index == k);
+  }
+  for (const SequentialLoopCell& l : on->stage_c.selected_loops) CHECK(l.alpha_index == 10 + l.beta_index);
+  CHECK(on->stage_a.clusters.clusters.empty());  // released after use
+
+  params.consensus_max_cells = 59;  // 60 cells below threshold: over the cap, stage A's own choice stands
+  auto capped = RunExchangeCascade(a, b, params);
+  REQUIRE(capped.ok());
+  CHECK_FALSE(capped->consensus_measured);
+  CHECK(capped->stage_a.best.row_min == 35);
+
+  params.consensus_max_cells = 1000;
+  params.consensus.switch_ratio = 0.0;
+  auto bad = RunExchangeCascade(a, b, params);
+  REQUIRE_FALSE(bad.ok());
+  CHECK(bad.status().message().find("switch_ratio") != std::string::npos);
+}
+
+}  // namespace
+}  // namespace commerge
