@@ -43,9 +43,9 @@ Eigen::Vector3d ToBetaFrame(const Eigen::Vector3d& p_alpha) {
   return r.transpose() * (p_alpha - kT);
 }
 
-struct Scene {
+struct ConsensusScene {
   std::vector<Eigen::Vector3d> pa, pb;
-  Scene() {
+  ConsensusScene() {
     for (std::size_t i = 0; i < 120; ++i) pa.push_back(AlphaPosition(i));
     for (std::size_t j = 0; j < 60; ++j) pb.push_back(ToBetaFrame(BetaInAlpha(j)));
   }
@@ -82,7 +82,7 @@ SequentialClusterSet ThreeClusters(std::size_t width) {
 }
 
 TEST_CASE("Place consensus: a cluster's placement is the transform its keyframe pairs imply") {
-  const Scene s;
+  const ConsensusScene s;
   const SequentialClusterSet set = ThreeClusters(1);
   PlaceConsensusParams params;
   for (const std::size_t k : {std::size_t{0}, std::size_t{2}}) {  // the true places: the true transform, exactly
@@ -150,7 +150,7 @@ TEST_CASE("Place consensus: placements agree within the drift tolerance, not acr
 }
 
 TEST_CASE("Place consensus: the look-alike place gives way to the cluster the other true place confirms") {
-  const Scene s;
+  const ConsensusScene s;
   const SequentialClusterSet set = ThreeClusters(1);
   PlaceConsensusParams params;
   auto c = RunPlaceConsensus(set, /*preferred=*/1, /*min_span_area=*/100, s.pa, s.pb, params);
@@ -218,7 +218,7 @@ struct Descriptors {
 };
 
 TEST_CASE("Cascade: with place consensus, stage A passes on a true place instead of the closer look-alike") {
-  const Scene s;
+  const ConsensusScene s;
   const Descriptors d;
   CascadeRobotInput a, b;
   a.descriptors = {Span<const float>(d.da), Descriptors::kDim, {}};
