@@ -10,7 +10,9 @@
 #   long       a --long-keyframes subset: every world x 2 robots x complete / partial, the simulator's defaults;
 #   real       ../shared/data/real/{hku_mb,hku2} split in halves, thirds and two overlapping windows (odometry
 #              from odom_poses.txt, reference from poses.txt), and KITTI 00 frames 0-10 / 5-16;
-#   quick      a CI slice: two generated scenarios and the hku2 halves;
+#   quick      a CI slice (the `heavy` test "recall: quick slice ..."): the simulator's default setting on the
+#              campus with five robots (moderate overlap, both ways, wobble 0.5 deg, 400 keyframes, seed 5; --seeds
+#              and --keyframes do not apply) and the hku2 halves;
 #   all        generated + long + real.
 # Per scenario one row: robots that truly share a place with robot 0's component (from ground truth,
 # core/eval/shared_place.hpp), robots merged (right and wrong: > 1 m or > 3 deg from the truth where the
@@ -52,7 +54,7 @@ while [ $# -gt 0 ]; do
     --send-all) send_all=1; shift ;;
     --only) only=$2; shift 2 ;;
     --shared-data) shared=$2; shift 2 ;;
-    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,/^set -euo/p' "$0" | sed '$d'; exit 0 ;;
     *) echo "bench_recall.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -146,13 +148,16 @@ real_splits() {  # $1 = folder under real/, $2 = scans
   run_scenario "$1-windows" avia "$dir:0-$a" "$dir:$b-$n"
 }
 
-echo "commerge recall benchmark: slice $slice, seeds $seeds, $keyframes keyframes (long: $long_keyframes)${run_args:+, run options: $run_args}"
+if [ "$slice" = quick ]; then
+  echo "commerge recall benchmark: slice quick (campus, 5 robots, 400 keyframes, seed 5; hku2 halves)${run_args:+, run options: $run_args}"
+else
+  echo "commerge recall benchmark: slice $slice, seeds $seeds, $keyframes keyframes (long: $long_keyframes)${run_args:+, run options: $run_args}"
+fi
 printf 'scenario\tother robots\tsharing robots\tmerged\twrong\tworst transform error\tworst e_rmse [m]\tA+B+C bytes\tstored send-all bytes\treduction %%\traw scan bytes\treduction vs raw %%\tunmerged pairs stopped at\tsend-all placed (worst e_rmse)\tworst error vs start poses\n'
 for seed in $seeds; do
   case "$slice" in
     quick)
-      generated "$keyframes" "$seed" urban 2 complete same 0
-      generated "$keyframes" "$seed" campus 3 moderate alternate 0.5 ;;
+      [ "$seed" = "${seeds%% *}" ] && generated 400 5 campus 5 moderate alternate 0.5 ;;
     generated|all)
       for world in $worlds; do
         for robots in 2 3 5; do

@@ -256,4 +256,27 @@ else()
   message(STATUS "CM-SKIP: ${CM_KITTI00} is absent: the KITTI 00 run test is not registered")
 endif()
 
+# The recall benchmark's quick slice with the default flags (profiling/bench_recall.sh --slice quick): the
+# simulator's default setting on the campus with five robots (the case of issue "Merge recall": 0 of 10 pairs
+# merged by the paper's stage A) and the real hku2 halves. Every robot that shares a place is merged and none is
+# wrong; the hku2 half lands within 0.3 m / 2 deg of the reference poses, judged where the robots met and by
+# the start poses.
+set(CM_HKU2 "${CM_SHARED_DATA_DIR}/real/hku2")
+if(EXISTS "${CM_HKU2}/poses.txt" AND NOT CMAKE_CROSSCOMPILING)
+  set(recall_quick "recall: quick slice (campus 5 robots with the simulator's defaults, hku2 halves) merges every robot that shares a place, none wrong")
+  cm_cli_test(NAME "${recall_quick}" RC 0 LABELS heavy
+              REGEX "summary: 2 scenarios; recall 5 of 5 robots that share a place \\(100\\.0 %\\); real splits: 1 of 1 robots merged; 0 wrong merges"
+              COMMAND bash "${PROJECT_SOURCE_DIR}/profiling/bench_recall.sh" --commerge $<TARGET_FILE:commerge> --slice quick
+                      --work "${CM_CLI_OUT}/recall-quick" --shared-data "${CM_SHARED_DATA_DIR}")
+  set_tests_properties("cli: ${recall_quick}" PROPERTIES FIXTURES_SETUP recall_quick)
+  add_test(NAME "cli: recall: the hku2 halves merge within 0.3 m and 2 deg of the reference poses"
+           COMMAND "${CMAKE_COMMAND}" "-DFILE=${CM_CLI_OUT}/recall-quick/hku2-halves/run/report/metrics.tsv"
+                   "-DEXPECT=robot.1.reachable=1|robot.1.merged=1|robot.1.wrong=0|robot.1.error_at_place_m<0.3|robot.1.error_at_place_deg<2|robot.1.error_m<0.3|robot.1.error_deg<2"
+                   -P "${CMAKE_CURRENT_SOURCE_DIR}/apps/check_metrics.cmake")
+  set_tests_properties("cli: recall: the hku2 halves merge within 0.3 m and 2 deg of the reference poses"
+                       PROPERTIES FIXTURES_REQUIRED recall_quick LABELS heavy)
+else()
+  message(STATUS "CM-SKIP: ${CM_HKU2} is absent or this build cross-compiles: the recall quick-slice tests are not registered")
+endif()
+
 include("${CMAKE_CURRENT_SOURCE_DIR}/apps/house_tests.cmake")
