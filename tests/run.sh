@@ -134,8 +134,9 @@ run_config() {
   cpu_mark "$dir/.cpu-1"
   case "$name" in
     # The host run holds the LCM missions, whose processes wait on the network and on timers: at one test per
-    # core the cores idle a quarter of the time (CPU 897 s in 619 s on 2 cores), so one more test runs at once.
-    host) ctest_args=(--test-dir "$dir" -j "$((jobs + 1))" --timeout 900) ;;
+    # core the cores idle a third of the time, at cores + 1 tests still a quarter (CPU 762 s in 516 s on 2
+    # cores), so two more tests than cores run at once (profiling/RESULTS.md "CI time").
+    host) ctest_args=(--test-dir "$dir" -j "$((jobs + 2))" --timeout 900) ;;
     ipc)
       if ! grep -qw avx2 /proc/cpuinfo || ! grep -qw fma /proc/cpuinfo; then
         echo "=== [ipc] built; tests skipped: this CPU lacks AVX2/FMA needed by -march=skylake ==="
