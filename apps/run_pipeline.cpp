@@ -366,6 +366,7 @@ void PrintRobots(RunJob* job) {
                                               : std::string()) +
                               ")") +
         ", " + std::to_string(m.stats().loops_refined) + " refined by GICP, " +
+        std::to_string(m.stats().loop_candidates_rejected) + " candidates refused by ICP, " +
         std::to_string(m.stats().loops_implausible) + " refused as implausible";
     std::printf("  robot %d  %-40s %zu scans -> %zu keyframes (%llu invalid descriptors), %llu loops%s, store %zu "
                 "scans %s (%llu evicted), %.1f s; ground truth: %s\n",

@@ -511,6 +511,8 @@ void WriteMetrics(const RunJob& job) {
     const LoopErrors& le = job.loop_errors[static_cast<std::size_t>(ri)];
     kv(p + "loops", std::to_string(job.robots[static_cast<std::size_t>(ri)].loops.size()));
     kv(p + "false_loops", std::to_string(le.checked < 0 ? -1 : le.wrong));
+    kv(p + "loop_candidates_refused",
+       std::to_string(job.robots[static_cast<std::size_t>(ri)].agent->mapper().stats().loop_candidates_rejected));
     if (le.checked > 0) {
       kv(p + "loop_error_median_m", Fmt("%.4f", le.median_m));
       kv(p + "loop_error_max_m", Fmt("%.4f", le.max_m));
