@@ -48,7 +48,7 @@ struct PlaceConsensusParams {
 /// InvalidArgument naming the field: a negative or non-finite tolerance, switch_ratio below 1.
 Status ValidatePlaceConsensusParams(const PlaceConsensusParams& params);
 
-/// Where one cluster puts robot beta's map frame in robot alpha's: p_alpha = R_z(yaw_rad) p_beta + t_alpha_beta_m.
+/// Where one cluster places robot beta's map frame in robot alpha's: p_alpha = R_z(yaw_rad) p_beta + t_alpha_beta_m.
 struct ClusterPlacement {
   bool valid = false;  ///< false when the cluster's keyframes span less than min_extent_m
   double yaw_rad = 0.0;
