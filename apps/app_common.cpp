@@ -158,6 +158,19 @@ void AddDescriptorFlags(CLI::App* cmd, DescriptorFlags* flags) {
                   " [keyframes]")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
+  cmd->add_option("--min-scan-points", flags->min_scan_points,
+                  "stored keyframe scans: a scan that keeps fewer points than this at 1 m voxels (the paper's "
+                  "Delta nu) is stored finer, in steps of 1/sqrt(2) down to 0.25 m, so small scenes and "
+                  "forward-looking sensors keep enough points to register (try 1000 with --min-submap-points 4000); "
+                  "0 = always 1 m (the paper) [points; ours]")
+      ->check(CLI::Range(0, 1000000))
+      ->capture_default_str();
+}
+
+AdaptiveVoxelParams StoredScanVoxel(const DescriptorFlags& flags) {
+  AdaptiveVoxelParams voxel;  // 1 m down to 0.25 m
+  voxel.min_points = flags.min_scan_points;
+  return voxel;
 }
 
 namespace {

@@ -63,7 +63,15 @@ struct DescriptorFlags {
   /// keeps a robot of fewer than 100 keyframes from ever closing a loop; ICP from the graph's estimate and the
   /// drift bound check every candidate).
   std::uint32_t tau_window_keyframes = 30;
+  /// --min-scan-points: a keyframe scan that keeps fewer points at 1 m voxels is stored finer
+  /// (RobotMapperParams::voxel.min_points; ours). Default 0 = the paper's 1 m: 1 000 (street scans of a spinning
+  /// sensor stay at 1 m, corridors, caves and a forward-looking sensor's cone go to 0.5 m) merged no more robots
+  /// in the recall benchmark, doubled the bytes of small scenes and let one more wrong corridor registration
+  /// through (profiling/RESULTS.md "Scene-scaled voxels").
+  std::size_t min_scan_points = 0;
 };
+/// The robot's stored-scan voxel parameters from the flags (RobotMapperParams::voxel).
+AdaptiveVoxelParams StoredScanVoxel(const DescriptorFlags& flags);
 void AddDescriptorFlags(CLI::App* cmd, DescriptorFlags* flags);
 
 /// The descriptor of one robot and what it is computed on.

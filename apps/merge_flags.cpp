@@ -47,6 +47,11 @@ const MergeFlag kMergeFlags[] = {
      "either robot look as alike to another place of the robot's own map (more than 20 m away) as to the other "
      "robot (repeated structure); 1 = off (the paper)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.max_ambiguous_fraction; }},
+    {"--min-ambiguous-support", "cascade.min_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
+     "a stage A cluster at an ambiguous place (--max-ambiguous-fraction) is passed on only when the place "
+     "consensus (--consensus-max-cells) confirms it with at least this summed weight of agreeing clusters, its "
+     "own included; 0 = off (the paper)",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.min_ambiguous_support; }},
     {"--consensus-max-cells", "cascade.consensus_max_cells", "cells", 0.0, 1e7, "ours",
      "place every stage A cluster from the robots' keyframe positions and pass on the qualifying cluster the "
      "other clusters agree with when the lowest-mean one has less than half its support (repeated places); "
@@ -60,6 +65,11 @@ const MergeFlag kMergeFlags[] = {
      "fewest scans asked of each robot per pair: L_K's keyframes plus the nearest other keyframes of stage A's "
      "loops (0 = exactly L_K's, the paper's policy)",
      FlagType::kUint32, [](MergeServerParams* p) -> void* { return &p->cascade.policy.min_scans_per_robot; }},
+    {"--min-submap-points", "min_submap_points", "points", 0.0, 1e7, "ours",
+     "when the smaller submap of a pair keeps fewer points than this at 1 m voxels (a small scene), voxelise "
+     "both finer, in steps of 1/sqrt(2) down to 0.25 m, while the smaller gains points (the robots' scans must hold "
+     "the detail: --min-scan-points; try 4000 with 1000 there); 0 = always 1 m (the paper)",
+     FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->min_submap_points; }},
     {"--max-widen-steps", "max_widen_steps", "steps", 0.0, 8.0, "ours",
      "when registration refuses a pair, ask again for up to twice its scans (more of stage A's keyframes) and "
      "register again, at most this many times per round (0 = the paper's single exchange)",

@@ -218,6 +218,7 @@ int CreateRobots(RunJob* job) {
     agent_params.mapper.descriptor_input = job->descriptor_input;
     agent_params.mapper.loop.max_descriptor_distance = job->tau_intra;
     agent_params.mapper.loop.window_keyframes = job->options.descriptor.tau_window_keyframes;
+    agent_params.mapper.voxel = StoredScanVoxel(job->options.descriptor);
     r.agent = std::make_unique<RobotAgent>(ri, agent_params, capacity, r.descriptor.get(), r.store.get());
   }
   return kExitOk;
@@ -367,7 +368,10 @@ void PrintRobots(RunJob* job) {
                               ")") +
         ", " + std::to_string(m.stats().loops_refined) + " refined by GICP, " +
         std::to_string(m.stats().loop_candidates_rejected) + " candidates refused by ICP, " +
-        std::to_string(m.stats().loops_implausible) + " refused as implausible";
+        std::to_string(m.stats().loops_implausible) + " refused as implausible" +
+        (m.stats().scans_stored_finer > 0
+             ? "; " + std::to_string(m.stats().scans_stored_finer) + " scans stored finer than 1 m (--min-scan-points)"
+             : std::string());
     std::printf("  robot %d  %-40s %zu scans -> %zu keyframes (%llu invalid descriptors), %llu loops%s, store %zu "
                 "scans %s (%llu evicted), %.1f s; ground truth: %s\n",
                 ri, r.data.name.c_str(), r.scans, m.num_keyframes(),

@@ -236,7 +236,8 @@ std::string PairText(const ModeOutcome& m, std::size_t i) {
   if (!p.attempted) return s + "not merged: " + p.reason;
   const RegistrationResult& g = p.registration;
   s += std::to_string(p.alpha_scans) + " + " + std::to_string(p.beta_scans) + " scans, submaps " +
-       std::to_string(p.alpha_submap_points) + " / " + std::to_string(p.beta_submap_points) + " points; " +
+       std::to_string(p.alpha_submap_points) + " / " + std::to_string(p.beta_submap_points) + " points at " +
+       Fmt("%.2f m", p.voxel_size_m) + "; " +
        RegistrationVerdictName(g.verdict) + " (coarse inliers " + std::to_string(g.num_coarse_inliers) + ", overlap " +
        Fmt("%.2f", g.overlap_ratio) + ", fitness " + Fmt("%.3f m", g.fitness_rmse_m) + "), " +
        Fmt("%.2f s", m.round.registration_s[i]);
@@ -513,6 +514,8 @@ void WriteMetrics(const RunJob& job) {
     kv(p + "false_loops", std::to_string(le.checked < 0 ? -1 : le.wrong));
     kv(p + "loop_candidates_refused",
        std::to_string(job.robots[static_cast<std::size_t>(ri)].agent->mapper().stats().loop_candidates_rejected));
+    kv(p + "scans_stored_finer",
+       std::to_string(job.robots[static_cast<std::size_t>(ri)].agent->mapper().stats().scans_stored_finer));
     if (le.checked > 0) {
       kv(p + "loop_error_median_m", Fmt("%.4f", le.median_m));
       kv(p + "loop_error_max_m", Fmt("%.4f", le.max_m));
@@ -528,6 +531,7 @@ void WriteMetrics(const RunJob& job) {
     const bool no_place = !shared.empty() && !shared[i].shared;
     const std::string stopped = StoppedAt(job, final_mode, i);
     kv(k + "stopped", no_place && stopped != "merged" ? "no shared place" : stopped);
+    if (p.attempted) kv(k + "submap_voxel_m", Fmt("%.3f", p.voxel_size_m));
     if (const ExchangeCascadeResult* c = job.server->cascade(p.alpha, p.beta); c && c->stage_a.found) {
       const SequentialCluster& best = c->stage_a.best;
       kv(k + "stage_a_keyframes", std::to_string(best.row_min) + "-" + std::to_string(best.row_max) + " " +

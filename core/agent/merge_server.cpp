@@ -30,6 +30,7 @@ ExchangeCascadeParams ServerCascadeDefaults() {
   p.verification_area_fraction = 0.5;
   p.max_ambiguous_fraction = 0.75;
   p.consensus_max_cells = kServerConsensusMaxCells;
+  p.min_ambiguous_support = 40.0;
   return p;
 }
 
@@ -85,6 +86,11 @@ Status ValidateMergeServerParams(const MergeServerParams& params) {
   if (!(params.submap_voxel_size_m >= 5e-3) || !std::isfinite(params.submap_voxel_size_m)) {
     return InvalidArgument("submap_voxel_size_m = " + std::to_string(params.submap_voxel_size_m) +
                            " must be finite and >= 0.005");
+  }
+  if (!(std::isfinite(params.min_submap_voxel_size_m) && params.min_submap_voxel_size_m >= 5e-3 &&
+        params.min_submap_voxel_size_m <= params.submap_voxel_size_m)) {
+    return InvalidArgument("min_submap_voxel_size_m = " + std::to_string(params.min_submap_voxel_size_m) +
+                           " must be in [0.005, submap_voxel_size_m = " + std::to_string(params.submap_voxel_size_m) + "]");
   }
   if (params.max_submap_points < 100) {
     return InvalidArgument("max_submap_points = " + std::to_string(params.max_submap_points) + " must be >= 100");
@@ -701,6 +707,36 @@ Result<PairMergeResult> MergeServer::MergePair(const PairSelection& pair, Regist
     const bool fits = alpha_points_.size() <= params_.max_submap_points && beta_points_.size() <= params_.max_submap_points;
     if (fits || attempt == 8) break;
     voxel *= 1.25;
+  }
+  if (voxel == params_.submap_voxel_size_m && params_.min_submap_points > 0) {
+    // Small scene: finer while the smaller submap gains (the scans may be stored no finer than the grid).
+    double coarser = voxel;
+    std::size_t smaller = std::min(alpha_points_.size(), beta_points_.size());
+    bool reverted = false;
+    for (int k = 1; smaller < params_.min_submap_points; ++k) {
+      const double finer = AdaptiveVoxelStep(params_.submap_voxel_size_m, k);
+      if (finer < params_.min_submap_voxel_size_m * (1.0 - 1e-9)) break;
+      out.alpha_scans = BuildSubmap(pair.alpha, Span<const std::uint32_t>(pair.alpha_keyframes), finer,
+                                    &alpha_points_, &alpha_origins_, &out.alpha_missing);
+      out.beta_scans = BuildSubmap(pair.beta, Span<const std::uint32_t>(pair.beta_keyframes), finer, &beta_points_,
+                                   &beta_origins_, &out.beta_missing);
+      const std::size_t now = std::min(alpha_points_.size(), beta_points_.size());
+      const bool fits =
+          alpha_points_.size() <= params_.max_submap_points && beta_points_.size() <= params_.max_submap_points;
+      if (!fits || 10 * now < 11 * smaller) {
+        reverted = true;
+        break;
+      }
+      coarser = finer;
+      smaller = now;
+    }
+    if (reverted) {
+      out.alpha_scans = BuildSubmap(pair.alpha, Span<const std::uint32_t>(pair.alpha_keyframes), coarser,
+                                    &alpha_points_, &alpha_origins_, &out.alpha_missing);
+      out.beta_scans = BuildSubmap(pair.beta, Span<const std::uint32_t>(pair.beta_keyframes), coarser, &beta_points_,
+                                   &beta_origins_, &out.beta_missing);
+    }
+    voxel = coarser;
   }
   out.alpha_submap_points = alpha_points_.size();
   out.beta_submap_points = beta_points_.size();

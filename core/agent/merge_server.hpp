@@ -58,6 +58,15 @@ struct MergeServerParams {
   double submap_voxel_size_m = 1.0;
   /// When a submap has more points, its voxel size grows by 25 % steps (at most 8) until it fits.
   std::size_t max_submap_points = 60000;
+  /// Small scenes (ours; 0 = the paper's one voxel size, the default): when the smaller submap of a pair keeps
+  /// fewer points than this at submap_voxel_size_m, both are voxelised finer by the ladder of AdaptiveVoxelParams
+  /// (steps of 1/sqrt(2), down to min_submap_voxel_size_m, while the smaller gains at least 10 % and both fit
+  /// max_submap_points). Useful only when the robots store such scenes finer too (RobotMapperParams::voxel).
+  /// 4 000 would leave ten street scans of a spinning sensor at 1 m (8 000 points and more) and take a courtyard
+  /// seen by a forward-looking sensor (1 000-2 500 at 1 m) finer; profiling/RESULTS.md "Scene-scaled voxels" has
+  /// what that did.
+  std::size_t min_submap_points = 0;
+  double min_submap_voxel_size_m = 0.25;
   /// Registration parameters are MakeSubmapRegistrationParams(voxel size used) with these gates.
   RegistrationGates gates;
   int registration_hypotheses = 2;

@@ -150,6 +150,52 @@ Result<VoxelGridStats> VoxelGrid::Downsample(Span<const PointXYZI> in, const Vox
   return stats;
 }
 
+Status ValidateAdaptiveVoxelParams(const AdaptiveVoxelParams& p) {
+  if (!(std::isfinite(p.voxel_size_m) && p.voxel_size_m > 0.0)) {
+    return InvalidArgument("adaptive voxel: voxel_size_m must be finite and > 0, got " + std::to_string(p.voxel_size_m));
+  }
+  if (!(std::isfinite(p.min_voxel_size_m) && p.min_voxel_size_m > 0.0 && p.min_voxel_size_m <= p.voxel_size_m)) {
+    return InvalidArgument("adaptive voxel: min_voxel_size_m = " + std::to_string(p.min_voxel_size_m) +
+                           " must be in (0, voxel_size_m = " + std::to_string(p.voxel_size_m) + "]");
+  }
+  return Status::Ok();
+}
+
+double AdaptiveVoxelStep(double voxel_size_m, int k) noexcept {
+  return voxel_size_m * std::pow(0.5, 0.5 * static_cast<double>(k));
+}
+
+Result<AdaptiveVoxelStats> DownsampleAdaptive(VoxelGrid* grid, Span<const PointXYZI> in,
+                                              const AdaptiveVoxelParams& params, std::vector<PointXYZI>* out,
+                                              std::vector<PointXYZI>* scratch) {
+  if (grid == nullptr || out == nullptr || scratch == nullptr) {
+    return InvalidArgument("adaptive voxel: grid, out and scratch must not be null");
+  }
+  if (Status s = ValidateAdaptiveVoxelParams(params); !s.ok()) return s;
+  AdaptiveVoxelStats stats;
+  VoxelGridParams v;
+  v.voxel_size_m = params.voxel_size_m;
+  auto first = grid->Downsample(in, v, out);
+  if (!first.ok()) return first.status();
+  stats.voxel_size_m = v.voxel_size_m;
+  stats.grid = *first;
+  // Relative tolerance: the ladder's sizes are computed, min_voxel_size_m is often one of them.
+  const double finest = params.min_voxel_size_m * (1.0 - 1e-9);
+  for (int k = 1; out->size() < params.min_points; ++k) {
+    v.voxel_size_m = AdaptiveVoxelStep(params.voxel_size_m, k);
+    if (v.voxel_size_m < finest) break;
+    auto finer = grid->Downsample(in, v, scratch);
+    if (!finer.ok()) return finer.status();
+    if (scratch->size() > params.max_points) break;
+    if (10 * scratch->size() < 11 * out->size()) break;  // under 10 % more: the input is no denser
+    std::swap(*out, *scratch);
+    stats.voxel_size_m = v.voxel_size_m;
+    stats.finer_steps = k;
+    stats.grid = *finer;
+  }
+  return stats;
+}
+
 Result<VoxelGridStats> VoxelDownsample(Span<const PointXYZI> in, const VoxelGridParams& params,
                                        std::vector<PointXYZI>* out) {
   VoxelGrid grid(in.size());

@@ -66,6 +66,39 @@ class VoxelGrid {
   std::array<std::array<std::uint32_t, kRadixBuckets>, kMaxRadixPasses> histograms_{};
 };
 
+/// Voxel size that follows the scene's scale (ours; the paper keeps one Delta nu = 1 m). A 1 m grid leaves a
+/// spinning sensor's street scan a few thousand points but a corridor, a courtyard or a forward-looking sensor's
+/// cone a few hundred, too few for FPFH and GICP. The sizes tried are voxel_size_m, voxel_size_m / sqrt(2),
+/// voxel_size_m / 2, ... down to min_voxel_size_m (each step about doubles the points of a surface); the first
+/// that keeps at least min_points is taken. A step is not taken when it would exceed max_points, or when it
+/// gains less than 10 % points (the input is no denser than the coarser grid: finer only costs bytes).
+/// min_points = 0 is the fixed grid.
+struct AdaptiveVoxelParams {
+  double voxel_size_m = 1.0;       ///< the coarsest size, tried first [m]
+  double min_voxel_size_m = 0.25;  ///< the finest size tried [m], in (0, voxel_size_m]
+  std::size_t min_points = 0;      ///< points wanted; 0: voxel_size_m only
+  std::size_t max_points = static_cast<std::size_t>(-1);  ///< a finer size with more points is not taken
+};
+
+Status ValidateAdaptiveVoxelParams(const AdaptiveVoxelParams& params);
+
+/// The k-th size of the ladder: voxel_size_m / sqrt(2)^k (k = 0 is voxel_size_m).
+double AdaptiveVoxelStep(double voxel_size_m, int k) noexcept;
+
+/// What DownsampleAdaptive chose.
+struct AdaptiveVoxelStats {
+  double voxel_size_m = 0.0;  ///< the size of the points returned
+  int finer_steps = 0;        ///< ladder steps below voxel_size_m taken
+  VoxelGridStats grid;        ///< of the returned grid
+};
+
+/// Downsamples `in` at the size chosen by AdaptiveVoxelParams into `*out`; `*scratch` holds the finer attempts
+/// (its contents are unspecified afterwards). No allocation once both vectors and the grid's workspace fit.
+/// Errors: invalid parameters, or those of VoxelGrid::Downsample.
+Result<AdaptiveVoxelStats> DownsampleAdaptive(VoxelGrid* grid, Span<const PointXYZI> in,
+                                              const AdaptiveVoxelParams& params, std::vector<PointXYZI>* out,
+                                              std::vector<PointXYZI>* scratch);
+
 /// One-shot VoxelGrid(in.size()).Downsample(in, params, out): allocates its workspace on every call.
 Result<VoxelGridStats> VoxelDownsample(Span<const PointXYZI> in, const VoxelGridParams& params,
                                        std::vector<PointXYZI>* out);

@@ -41,6 +41,12 @@ struct ExchangeCascadeParams {
   double max_ambiguous_fraction = 1.0;
   /// [m], >= 0: how far a keyframe of the robot's own map must be to count as another place.
   double ambiguity_far_m = 20.0;
+  /// Ours; 0 = off. [keyframes] An ambiguous cluster (above) whose place consensus support (the summed weight of
+  /// the clusters agreeing with it, its own included; needs consensus_max_cells > 0) is below this is not passed
+  /// on: at a repeated place only other clusters that agree on the same placement tell the true place from a
+  /// look-alike, and registration's gates cannot (a corridor aligns well with another corridor). The pair ends
+  /// kNoCandidate with the reason; no scans are asked for.
+  double min_ambiguous_support = 0.0;
   /// Ours; 0 = off (the paper). c > 0: when stage A has at most c cells below threshold, every cluster is placed
   /// from the robots' keyframe positions and S* gives way to the qualifying cluster the other clusters confirm
   /// (place_consensus.hpp).

@@ -82,11 +82,12 @@ struct BudgetRecordSizes {
   /// keyframe.
   static constexpr std::int64_t kPoseGraphBytesPerKeyframe = 5632;
   /// Per raw point of capacity: the voxel grid's workspace (32 B, for the joined cloud of the descriptor input
-  /// twice that: 64 B), the voxelised and encoded copies of a stored scan (22 B, when a stored scan may be as
-  /// large as a raw one), and the descriptor input (RobotMapper: the joined cloud of up to two raw scans 32 B,
-  /// the local map's points of at most one raw scan 16 B, the voxelised joined cloud 32 B), rounded up.
-  /// Measured worst case (stored = raw capacity, 10 m local map): 166 B (test_robot_mapper).
-  static constexpr std::int64_t kRawPointWorkBytes = 176;
+  /// twice that: 64 B), the voxelised and encoded copies of a stored scan and the finer attempt of the
+  /// scene-scaled voxel size (38 B, when a stored scan may be as large as a raw one), and the descriptor input
+  /// (RobotMapper: the joined cloud of up to two raw scans 32 B, the local map's points of at most one raw scan
+  /// 16 B, the voxelised joined cloud 32 B), rounded up. Measured worst case (stored = raw capacity, 10 m local
+  /// map, scene-scaled voxels on): 182 B (test_robot_mapper).
+  static constexpr std::int64_t kRawPointWorkBytes = 192;
   static constexpr std::int64_t kStoredPointBytes = 6;    ///< int16 centimetres x 3
   /// Loop check per point of the two scans: k-d trees and ICP scratch, plus the GICP refinement's neighbour
   /// lists (10 per point), normals, covariances and factors; ~330 B on 1 800-point VLP-16 scans (LoopVerifier

@@ -14,9 +14,7 @@ namespace commerge {
 Status ValidateRobotMapperParams(const RobotMapperParams& p) {
   if (Status s = ValidateKeyframerParams(p.keyframer); !s.ok()) return s;
   if (Status s = ValidateLoopDetectorParams(p.loop); !s.ok()) return s;
-  if (!(p.voxel.voxel_size_m > 0.0)) {
-    return InvalidArgument("robot mapper: voxel_size_m must be > 0, got " + std::to_string(p.voxel.voxel_size_m));
-  }
+  if (Status s = ValidateAdaptiveVoxelParams(p.voxel); !s.ok()) return Status(s.code(), "robot mapper: " + s.message());
   if (!(p.odometry_sigma_translation_m > 0.0) || !(p.odometry_sigma_rotation_rad > 0.0)) {
     return InvalidArgument("robot mapper: odometry_sigma_translation_m and odometry_sigma_rotation_rad must be > 0");
   }
@@ -59,6 +57,7 @@ RobotMapper::RobotMapper(const RobotMapperParams& params, const RobotMapperCapac
       graph_distance_(capacity.max_keyframes),
       descriptor_scratch_(descriptor->dimension()) {
   voxels_.reserve(capacity.max_points_per_stored_scan);
+  if (params.voxel.min_points > 0) voxel_scratch_.reserve(capacity.max_points_per_stored_scan);
   match_points_.reserve(capacity.max_points_per_stored_scan);
   T_odom_keyframes_.reserve(capacity.max_keyframes);
   encoded_.resize(EncodedScanBytes(capacity.max_points_per_stored_scan));
@@ -76,7 +75,8 @@ RobotMapper::RobotMapper(const RobotMapperParams& params, const RobotMapperCapac
 }
 
 std::size_t RobotMapper::scan_workspace_bytes() const {
-  return voxel_grid_.workspace_capacity_bytes() + voxels_.capacity() * sizeof(PointXYZI) + encoded_.capacity() +
+  return voxel_grid_.workspace_capacity_bytes() + (voxels_.capacity() + voxel_scratch_.capacity()) * sizeof(PointXYZI) +
+         encoded_.capacity() +
          descriptor_scratch_.capacity() * sizeof(float) + local_keyframes_.capacity() * sizeof(LocalKeyframe) +
          (local_points_.capacity() + local_cloud_.capacity() + local_scratch_.capacity()) * sizeof(PointXYZI);
 }
@@ -196,9 +196,13 @@ Result<KeyframeStep> RobotMapper::AddScan(Span<const PointXYZI> raw_scan, const 
   if (Status s = RememberForLocalMap(raw_scan, T_odom_sensor); !s.ok()) return s;
 
   // 3. Voxelised scan into the store.
-  auto vox = voxel_grid_.Downsample(raw_scan, params_.voxel, &voxels_);
+  AdaptiveVoxelParams voxel = params_.voxel;
+  voxel.max_points = std::min(voxel.max_points, capacity_.max_points_per_stored_scan);
+  auto vox = DownsampleAdaptive(&voxel_grid_, raw_scan, voxel, &voxels_, &voxel_scratch_);
   if (!vox.ok()) return vox.status();
   step.voxel_points = voxels_.size();
+  step.voxel_size_m = vox->voxel_size_m;
+  if (vox->finer_steps > 0) ++stats_.scans_stored_finer;
   if (voxels_.size() > capacity_.max_points_per_stored_scan) {
     step.store_status = ResourceExhausted("keyframe " + std::to_string(step.keyframe) + ": voxelised scan has " +
                                           std::to_string(voxels_.size()) + " points, max_points_per_stored_scan = " +

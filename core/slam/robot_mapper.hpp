@@ -4,7 +4,8 @@
 //   1. keyframe selection every keyframe_spacing_m (Delta d = 1 m) or keyframe_rotation_deg;
 //   2. the place descriptor on the RAW scan (the paper: SOLiD), or on its descriptor input (DescriptorInputParams,
 //      ours): the scan levelled by the odometry's gravity and joined by the keyframes of the last few metres;
-//   3. the scan voxelised to voxel_size_m (Delta nu = 1 m), encoded (int16 cm) into the fixed-size scan store;
+//   3. the scan voxelised to voxel_size_m (Delta nu = 1 m; finer in small scenes when voxel.min_points asks for
+//      it, AdaptiveVoxelParams), encoded (int16 cm) into the fixed-size scan store;
 //   4. a pose-graph node with an odometry edge;
 //   5. intra-robot loop closure: descriptor nearest neighbour outside tau_window, gate tau_intra, ICP check
 //      with tau_ICP; an accepted loop is an edge and triggers pose-graph optimisation, whose moved keyframes
@@ -44,7 +45,10 @@ struct DescriptorInputParams {
 struct RobotMapperParams {
   KeyframerParams keyframer;
   DescriptorInputParams descriptor_input;
-  VoxelGridParams voxel;  ///< Delta nu = 1.0 m
+  /// Stored scans: Delta nu = voxel.voxel_size_m = 1.0 m; with voxel.min_points > 0 (ours) a scan that keeps
+  /// fewer points is stored finer, down to voxel.min_voxel_size_m (max_points is the store's
+  /// max_points_per_stored_scan whatever is set here).
+  AdaptiveVoxelParams voxel;
   LoopDetectorParams loop;
   PoseGraphParams graph;
   /// Odometry uncertainty per keyframe step (information = diag(1/sigma^2)).
@@ -75,6 +79,7 @@ struct KeyframeStep {
   std::uint32_t keyframe = 0;      ///< index of the new keyframe (when is_keyframe)
   DescriptorInfo descriptor;       ///< valid == false: the keyframe's descriptor is never sent or matched
   std::size_t voxel_points = 0;    ///< points of the voxelised scan
+  double voxel_size_m = 0.0;       ///< its voxel size (RobotMapperParams::voxel)
   std::size_t encoded_bytes = 0;   ///< bytes of the encoded scan put into the store
   Status store_status;             ///< why the scan is not stored (the keyframe exists anyway)
   ScanPutInfo store;               ///< evictions / spills this keyframe caused
@@ -89,6 +94,7 @@ struct RobotMapperStats {
   std::uint64_t keyframes = 0;
   std::uint64_t invalid_descriptors = 0;
   std::uint64_t scans_not_stored = 0;
+  std::uint64_t scans_stored_finer = 0;  ///< keyframe scans voxelised finer than voxel.voxel_size_m
   std::uint64_t loops_accepted = 0;
   std::uint64_t loop_candidates_rejected = 0;  ///< descriptor candidates that failed the ICP check
   std::uint64_t loops_refined = 0;  ///< accepted loops whose transform GICP refined (LoopDetectorParams)
@@ -167,7 +173,7 @@ class RobotMapper {
   bool optimised_once_ = false;
   std::uint32_t last_optimisation_keyframe_ = 0;
   std::vector<float> descriptor_scratch_;
-  std::vector<PointXYZI> voxels_, match_points_;
+  std::vector<PointXYZI> voxels_, voxel_scratch_, match_points_;
   std::vector<LocalKeyframe> local_keyframes_;        ///< oldest first
   std::vector<PointXYZI> local_points_, local_cloud_, local_scratch_;
   double path_m_ = 0.0;                               ///< odometry path length up to the last keyframe

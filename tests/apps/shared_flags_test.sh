@@ -2,7 +2,8 @@
 # `commerge run` and `commerge server` share the merge server's flags (apps/merge_flags.hpp): each flag's help
 # entry (type, range, default, help text) must be the same in both, and the defaults must be the documented ones:
 # stage A ours (core/agent/merge_server.hpp ServerStageADefaults: neighbour rank 1, half window 4, tau_area 400
-# cells scaled by 0.3 for short missions, tau_inter 0.5 as a cap), tau_con the paper's 5 m.
+# cells scaled by 0.3 for short missions, tau_inter 0.5 as a cap), an ambiguous place needs a consensus support of
+# 40 keyframes, submaps at one voxel size unless asked (--min-submap-points 0), tau_con the paper's 5 m.
 # Usage: shared_flags_test.sh COMMERGE [EMULATOR...]   (the command that runs the commerge executable)
 set -euo pipefail
 entry() {  # $1 = help text, $2 = flag: the flag's line and its indented continuation lines
@@ -15,7 +16,9 @@ entry() {  # $1 = help text, $2 = flag: the flag's line and its indented continu
 run_help=$("$@" run --help)
 server_help=$("$@" server --help)
 status=0
-for flag in --tau-inter --tau-area --sequence-half-window --neighbour-rank --tau-area-fraction --tau-con-m --min-submap-scans --max-widen-steps; do
+flags=(--tau-inter --tau-area --sequence-half-window --neighbour-rank --tau-area-fraction --tau-con-m --min-submap-scans
+       --max-widen-steps --min-ambiguous-support --min-submap-points)
+for flag in "${flags[@]}"; do
   a=$(entry "$run_help" "$flag")
   b=$(entry "$server_help" "$flag")
   if [[ -z $a ]]; then echo "run --help lacks $flag"; status=1; continue; fi
@@ -24,11 +27,12 @@ for flag in --tau-inter --tau-area --sequence-half-window --neighbour-rank --tau
     status=1
   fi
 done
-for expect in "--tau-inter =0.5" "--tau-area =400" "--sequence-half-window =4" "--neighbour-rank =1" "--tau-area-fraction =0.3" "--tau-con-m =5"; do
+for expect in "--tau-inter =0.5" "--tau-area =400" "--sequence-half-window =4" "--neighbour-rank =1" "--tau-area-fraction =0.3" \
+              "--tau-con-m =5" "--min-ambiguous-support =40" "--min-submap-points =0"; do
   flag=${expect%% *}
   value=${expect#* }
   line=$(entry "$run_help" "$flag" | head -n 1)
   if [[ $line != *"$value" ]]; then echo "$flag: default is not the documented ${value#=}: $line"; status=1; fi
 done
-[[ $status -eq 0 ]] && echo "run and server share 8 merge flags with identical help and the documented defaults"
+[[ $status -eq 0 ]] && echo "run and server share ${#flags[@]} merge flags with identical help and the documented defaults"
 exit $status

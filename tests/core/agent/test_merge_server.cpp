@@ -468,6 +468,63 @@ TEST_CASE("Merge server builds a pair's submaps from received scans and register
   CHECK_FALSE(skipped->reason.empty());
 }
 
+namespace {
+
+// The street pair of the test above with scans stored at `scan_voxel_m`, merged by a server with `params`.
+PairMergeResult MergeStreetPair(const MergeServerParams& params, double scan_voxel_m, Eigen::Isometry3d* T_truth) {
+  StreetPairSpec spec = test::LightStreetSpec(41, test::YawOffset(70.0, 12.0, -6.0, 0.3));
+  spec.voxel_size_m = scan_voxel_m;
+  SyntheticSubmapPair pair;
+  REQUIRE(MakeStreetSubmapPair(spec, &pair).ok());
+  *T_truth = pair.T_target_source;
+  MergeServer server(2, 100, params);
+  std::mt19937 rng(3);
+  const auto d = RandomDescriptor(&rng);
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(0, 0, {d}, {Eigen::Vector3d::Zero()}, 0)).ok());
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(1, 0, {d}, {Eigen::Vector3d::Zero()}, 0)).ok());
+  for (const ScanChunk& c : ChunksOf(0, 0, EncodeForTest(pair.target.points), 1200)) REQUIRE(server.OnScanChunk(c).ok());
+  for (const ScanChunk& c : ChunksOf(1, 0, EncodeForTest(pair.source.points), 1200)) REQUIRE(server.OnScanChunk(c).ok());
+  PairSelection sel;
+  sel.alpha = 0;
+  sel.beta = 1;
+  sel.alpha_keyframes = {0};
+  sel.beta_keyframes = {0};
+  auto merged = server.MergePair(sel);
+  REQUIRE_MESSAGE(merged.ok(), merged.status().ToString());
+  REQUIRE(merged->attempted);
+  return *merged;
+}
+
+}  // namespace
+
+TEST_CASE("Merge server voxelises a small pair's submaps finer while the scans hold more detail, and registers them") {
+  Eigen::Isometry3d truth;
+  MergeServerParams fixed;
+  fixed.min_submap_points = 0;  // the paper: one voxel size
+  MergeServerParams wants_more;
+  wants_more.min_submap_points = 1000000;  // always below: finer down to the floor while points grow
+  const PairMergeResult at_1m = MergeStreetPair(fixed, 0.25, &truth);
+  const PairMergeResult finer = MergeStreetPair(wants_more, 0.25, &truth);
+  MESSAGE("scans at 0.25 m: submaps " << at_1m.alpha_submap_points << " / " << at_1m.beta_submap_points << " points at "
+                                      << at_1m.voxel_size_m << " m, " << finer.alpha_submap_points << " / "
+                                      << finer.beta_submap_points << " at " << finer.voxel_size_m << " m");
+  CHECK(at_1m.voxel_size_m == 1.0);
+  CHECK(finer.voxel_size_m == doctest::Approx(wants_more.min_submap_voxel_size_m));
+  CHECK(std::min(finer.alpha_submap_points, finer.beta_submap_points) >
+        3 * std::min(at_1m.alpha_submap_points, at_1m.beta_submap_points) / 2);
+  for (const PairMergeResult* r : {&at_1m, &finer}) {
+    REQUIRE(r->registration.success());
+    CHECK(test::TranslationErrorM(truth, r->registration.T_target_source) < 0.2);
+    CHECK(test::RotationErrorDeg(truth, r->registration.T_target_source) < 1.0);
+  }
+  // Scans stored at 1 m hold no finer detail: the ladder stops as soon as a step gains less than 10 %.
+  const PairMergeResult coarse_scans = MergeStreetPair(wants_more, 1.0, &truth);
+  MESSAGE("scans at 1 m: " << coarse_scans.alpha_submap_points << " / " << coarse_scans.beta_submap_points
+                           << " points at " << coarse_scans.voxel_size_m << " m");
+  CHECK(coarse_scans.voxel_size_m >= 0.5 - 1e-9);
+  REQUIRE(coarse_scans.registration.success());
+}
+
 TEST_CASE("Merge server widens a refused pair with stage A's keyframes nearest its selection, asking only for scans it lacks") {
   const int n = 40, shift = 5;
   const std::unique_ptr<MergeServer> owned = ShiftedPairServer(n, shift);

@@ -348,5 +348,144 @@ TEST_CASE("voxel grid on KITTI scans matches the reference and stays inside its 
   }
 }
 
+// ---- DownsampleAdaptive (the scene-scaled voxel size) ----
+
+// A flat square of side_m, one point every 0.05 m, at z = 0.5: at voxel v it occupies ceil(side_m / v)^2 voxels
+// whenever side_m / v is not an integer (and exactly (side_m / v)^2 otherwise).
+std::vector<PointXYZI> DensePlane(float side_m) {
+  std::vector<PointXYZI> pts;
+  const int n = static_cast<int>(std::lround(side_m / 0.05f));
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) pts.push_back({0.025f + 0.05f * static_cast<float>(i), 0.025f + 0.05f * static_cast<float>(j), 0.5f, 1.0f});
+  }
+  return pts;
+}
+
+// The rule of AdaptiveVoxelParams restated on the brute-force reference: the ladder v0 / sqrt(2)^k, the first
+// size that reaches min_points, no step above max_points or with less than 10 % more points.
+double ReferenceAdaptiveSize(const std::vector<PointXYZI>& in, const AdaptiveVoxelParams& p) {
+  double size = p.voxel_size_m;
+  std::size_t count = BruteForce(in, size).keys.size();
+  for (int k = 1; count < p.min_points; ++k) {
+    const double v = p.voxel_size_m / std::pow(std::sqrt(2.0), k);
+    if (v < p.min_voxel_size_m * (1.0 - 1e-9)) break;
+    const std::size_t finer = BruteForce(in, v).keys.size();
+    if (finer > p.max_points || static_cast<double>(finer) < 1.1 * static_cast<double>(count)) break;
+    size = v;
+    count = finer;
+  }
+  return size;
+}
+
+TEST_CASE("adaptive voxel: a 10 m plane goes finer until it has the points asked, by hand") {
+  const std::vector<PointXYZI> plane = DensePlane(10.0f);  // 40 000 points
+  VoxelGrid grid;
+  std::vector<PointXYZI> out, scratch;
+  struct Case {
+    std::size_t min_points, max_points;
+    double want_size_m;
+    std::size_t want_points;
+  };
+  // 1 m: 10 x 10; 0.707 m: 15 x 15; 0.5 m: 20 x 20; 0.354 m: 29 x 29; 0.25 m: 40 x 40.
+  for (const Case& c : {Case{0, 1000000, 1.0, 100}, Case{100, 1000000, 1.0, 100}, Case{101, 1000000, std::sqrt(0.5), 225},
+                        Case{300, 1000000, 0.5, 400}, Case{1000000, 1000000, 0.25, 1600},
+                        Case{1000, 500, 0.5, 400}}) {
+    CAPTURE(c.min_points);
+    CAPTURE(c.max_points);
+    AdaptiveVoxelParams p;
+    p.min_points = c.min_points;
+    p.max_points = c.max_points;
+    const auto stats = DownsampleAdaptive(&grid, plane, p, &out, &scratch);
+    REQUIRE_MESSAGE(stats.ok(), stats.status().ToString());
+    CHECK(stats->voxel_size_m == doctest::Approx(c.want_size_m));
+    CHECK(out.size() == c.want_points);
+    CHECK(stats->grid.num_voxels == c.want_points);
+    CHECK(stats->voxel_size_m == doctest::Approx(ReferenceAdaptiveSize(plane, p)));
+  }
+}
+
+TEST_CASE("adaptive voxel: a cloud no denser than the grid stays at the coarse size") {
+  // 200 points 2 m apart: every size of the ladder gives 200 voxels, so no step gains 10 %.
+  std::vector<PointXYZI> sparse;
+  for (int i = 0; i < 200; ++i) sparse.push_back({2.0f * static_cast<float>(i % 20) + 0.3f, 2.0f * static_cast<float>(i / 20) + 0.3f, 0.3f, 0.0f});
+  VoxelGrid grid;
+  std::vector<PointXYZI> out, scratch;
+  AdaptiveVoxelParams p;
+  p.min_points = 1000;
+  const auto stats = DownsampleAdaptive(&grid, sparse, p, &out, &scratch);
+  REQUIRE(stats.ok());
+  CHECK(stats->voxel_size_m == 1.0);
+  CHECK(stats->finer_steps == 0);
+  CHECK(out.size() == 200);
+}
+
+TEST_CASE("adaptive voxel matches the rule on the brute-force reference for random clouds, and its points") {
+  std::mt19937 rng(17);
+  VoxelGrid grid;
+  std::vector<PointXYZI> out, scratch;
+  for (int trial = 0; trial < 12; ++trial) {
+    CAPTURE(trial);
+    const float extent = 2.0f + 3.0f * static_cast<float>(trial);
+    const std::vector<PointXYZI> in =
+        trial % 2 == 0 ? UniformBox(rng, 3000, -extent, extent) : Clustered(rng, 3000);
+    AdaptiveVoxelParams p;
+    p.voxel_size_m = trial % 3 == 0 ? 2.0 : 1.0;
+    p.min_voxel_size_m = trial % 3 == 0 ? 0.3 : 0.25;
+    p.min_points = static_cast<std::size_t>(200 + 150 * trial);
+    p.max_points = trial % 4 == 1 ? 1500 : 100000;
+    const auto stats = DownsampleAdaptive(&grid, in, p, &out, &scratch);
+    REQUIRE_MESSAGE(stats.ok(), stats.status().ToString());
+    const double want = ReferenceAdaptiveSize(in, p);
+    CHECK(stats->voxel_size_m == doctest::Approx(want));
+    // The points returned are the plain grid at the chosen size.
+    const Reference ref = BruteForce(in, want);
+    REQUIRE(out.size() == ref.keys.size());
+    for (std::size_t i = 0; i < out.size(); ++i) REQUIRE(KeyOf(out[i], want) == ref.keys[i]);
+  }
+}
+
+TEST_CASE("adaptive voxel: invalid sizes and null buffers are errors naming the field") {
+  VoxelGrid grid;
+  std::vector<PointXYZI> out, scratch;
+  const std::vector<PointXYZI> in = DensePlane(2.0f);
+  AdaptiveVoxelParams p;
+  p.min_voxel_size_m = 2.0;  // above voxel_size_m
+  auto bad = DownsampleAdaptive(&grid, in, p, &out, &scratch);
+  REQUIRE_FALSE(bad.ok());
+  CHECK(bad.status().message().find("min_voxel_size_m") != std::string::npos);
+  p = AdaptiveVoxelParams{};
+  p.voxel_size_m = std::numeric_limits<double>::quiet_NaN();
+  bad = DownsampleAdaptive(&grid, in, p, &out, &scratch);
+  REQUIRE_FALSE(bad.ok());
+  CHECK(bad.status().message().find("voxel_size_m") != std::string::npos);
+  CHECK_FALSE(DownsampleAdaptive(&grid, in, AdaptiveVoxelParams{}, &out, nullptr).ok());
+}
+
+TEST_CASE("adaptive voxel on real scans: a KITTI street scan stays at 1 m, a Livox courtyard scan goes finer") {
+  CM_SHARED_DATA_OR_SKIP(kitti, "kitti/kitti00_frames0-15/velodyne");
+  CM_SHARED_DATA_OR_SKIP(hku2, "real/hku2/velodyne");
+  VoxelGrid grid;
+  std::vector<PointXYZI> out, scratch;
+  AdaptiveVoxelParams p;
+  p.min_points = 1000;  // the robots' default (--min-scan-points)
+  const auto street = platform::ReadKittiBin(kitti + "/000000.bin");
+  REQUIRE(street.ok());
+  auto stats = DownsampleAdaptive(&grid, street->points, p, &out, &scratch);
+  REQUIRE(stats.ok());
+  MESSAGE("KITTI 00 scan 0: " << out.size() << " points at " << stats->voxel_size_m << " m");
+  CHECK(stats->voxel_size_m == 1.0);
+  CHECK(out.size() >= 1000);
+  const auto courtyard = platform::ReadKittiBin(hku2 + "/000100.bin");
+  REQUIRE(courtyard.ok());
+  const std::size_t at_1m = BruteForce(courtyard->points, 1.0).keys.size();
+  stats = DownsampleAdaptive(&grid, courtyard->points, p, &out, &scratch);
+  REQUIRE(stats.ok());
+  MESSAGE("hku2 scan 100: " << at_1m << " points at 1 m, " << out.size() << " at " << stats->voxel_size_m << " m");
+  CHECK(at_1m < 1000);
+  CHECK(stats->voxel_size_m < 1.0);
+  CHECK(stats->voxel_size_m == doctest::Approx(ReferenceAdaptiveSize(courtyard->points, p)));
+  CHECK(out.size() > at_1m);
+}
+
 }  // namespace
 }  // namespace commerge

@@ -43,6 +43,28 @@ struct TwoRobots {
   DescriptorSetView B() const { return {Span<const float>(db), kPlaceDim, {}}; }
 };
 
+// TwoRobots where only the repeated place is shared: beta's keyframes 10..19 get basis vectors of their own, so
+// beta's 0..9 match alpha's 10..19 and, as closely, the look-alike 40..49.
+struct RepeatedPlaceOnly : TwoRobots {
+  RepeatedPlaceOnly() {
+    for (std::size_t j = 10; j < 20; ++j) {
+      for (std::size_t k = 0; k < kPlaceDim; ++k) db[j * kPlaceDim + k] = 0.0f;
+      db[j * kPlaceDim + 80 + j] = 1.0f;
+    }
+  }
+  CascadeRobotInput Alpha() const { return {A(), Span<const Eigen::Vector3d>(pa), {}}; }
+  CascadeRobotInput Beta() const { return {B(), Span<const Eigen::Vector3d>(pb), {}}; }
+};
+
+// The paper's stage A on a small cluster (10 x 10 cells), no padding of the policy.
+ExchangeCascadeParams SmallClusterParams() {
+  ExchangeCascadeParams params;
+  params.stage_a.tau_inter = 0.2;
+  params.stage_a.tau_area = 100;
+  params.policy.min_scans_per_robot = 0;
+  return params;
+}
+
 std::vector<SequentialLoopCell> TenLoops(std::size_t alpha_first, std::size_t beta_first) {
   std::vector<SequentialLoopCell> out;
   for (std::size_t k = 0; k < 10; ++k) out.push_back({alpha_first + k, beta_first + k, 0.1f});
@@ -110,21 +132,9 @@ TEST_CASE("Place ambiguity: wrong sizes, a bad distance and a loop outside the s
 }
 
 TEST_CASE("Cascade: a cluster whose place repeats in a robot's own map is flagged ambiguous above the fraction") {
-  TwoRobots r;
-  // Only the repeated place is shared: beta's keyframes 10..19 get basis vectors of their own.
-  for (std::size_t j = 10; j < 20; ++j) {
-    for (std::size_t k = 0; k < kPlaceDim; ++k) r.db[j * kPlaceDim + k] = 0.0f;
-    r.db[j * kPlaceDim + 80 + j] = 1.0f;
-  }
-  CascadeRobotInput a, b;
-  a.descriptors = r.A();
-  a.positions_m = Span<const Eigen::Vector3d>(r.pa);
-  b.descriptors = r.B();
-  b.positions_m = Span<const Eigen::Vector3d>(r.pb);
-  ExchangeCascadeParams params;  // the paper's stage A on a small cluster: cells at 0.14 <= tau_inter
-  params.stage_a.tau_inter = 0.2;
-  params.stage_a.tau_area = 100;
-  params.policy.min_scans_per_robot = 0;
+  const RepeatedPlaceOnly r;
+  const CascadeRobotInput a = r.Alpha(), b = r.Beta();
+  ExchangeCascadeParams params = SmallClusterParams();  // cells at 0.14 <= tau_inter
 
   auto res = RunExchangeCascade(a, b, params);  // off (the paper): not measured
   REQUIRE(res.ok());
@@ -157,6 +167,49 @@ TEST_CASE("Cascade: a cluster whose place repeats in a robot's own map is flagge
   auto bad = RunExchangeCascade(a, b, params);
   REQUIRE_FALSE(bad.ok());
   CHECK(bad.status().message().find("max_ambiguous_fraction") != std::string::npos);
+}
+
+TEST_CASE("Cascade: an ambiguous cluster that no other cluster confirms is not passed on below min_ambiguous_support") {
+  // Two 10 x 10 clusters that place beta 30 m apart: neither confirms the other, so each has the support of its
+  // own weight, min(10 rows, 10 columns) = 10 keyframes.
+  const RepeatedPlaceOnly r;
+  const CascadeRobotInput a = r.Alpha(), b = r.Beta();
+  ExchangeCascadeParams params = SmallClusterParams();
+  params.max_ambiguous_fraction = 0.75;
+  params.consensus_max_cells = 1000;
+
+  params.min_ambiguous_support = 10.0;  // at the support: passed on, flagged ambiguous
+  auto res = RunExchangeCascade(a, b, params);
+  REQUIRE(res.ok());
+  REQUIRE(res->consensus_measured);
+  CHECK(res->consensus_support_chosen == 10.0);
+  CHECK(res->ambiguous);
+  CHECK(res->outcome == CascadeOutcome::kPolicy);
+
+  params.min_ambiguous_support = 11.0;  // above it: no candidate, no scans, the reason says why
+  res = RunExchangeCascade(a, b, params);
+  REQUIRE(res.ok());
+  CHECK(res->outcome == CascadeOutcome::kNoCandidate);
+  CHECK(res->stage_c.selected_loops.empty());
+  CHECK(res->no_candidate_reason.find("support 10 keyframes < 11 (min_ambiguous_support)") != std::string::npos);
+  CHECK(res->no_candidate_reason.find("10 of 10 of robot alpha's keyframes") != std::string::npos);
+
+  params.max_ambiguous_fraction = 1.0;  // not measured, so not ambiguous: the rule does not apply
+  res = RunExchangeCascade(a, b, params);
+  REQUIRE(res.ok());
+  CHECK(res->outcome == CascadeOutcome::kPolicy);
+
+  params.max_ambiguous_fraction = 0.75;
+  params.consensus_max_cells = 0;  // no consensus, no support measured: the rule cannot apply
+  res = RunExchangeCascade(a, b, params);
+  REQUIRE(res.ok());
+  CHECK(res->ambiguous);
+  CHECK(res->outcome == CascadeOutcome::kPolicy);
+
+  params.min_ambiguous_support = -1.0;
+  auto bad = RunExchangeCascade(a, b, params);
+  REQUIRE_FALSE(bad.ok());
+  CHECK(bad.status().message().find("min_ambiguous_support") != std::string::npos);
 }
 
 }  // namespace

@@ -194,7 +194,8 @@ struct MapperFixture {
   RingOccupancyDescriptor ring;
   std::unique_ptr<ScanStore> store;
   std::unique_ptr<RobotMapper> mapper;
-  explicit MapperFixture(const DescriptorInputParams& input, std::size_t max_points_per_raw_scan = 20000) {
+  explicit MapperFixture(const DescriptorInputParams& input, std::size_t max_points_per_raw_scan = 20000,
+                         std::size_t min_stored_points = 0) {
     ScanStoreParams store_params;
     store_params.capacity_bytes = 1 << 20;
     store_params.max_scans = 100;
@@ -203,6 +204,7 @@ struct MapperFixture {
     store = std::move(*made);
     RobotMapperParams params;
     params.descriptor_input = input;
+    params.voxel.min_points = min_stored_points;
     RobotMapperCapacity capacity;
     capacity.max_keyframes = 50;
     capacity.max_points_per_raw_scan = max_points_per_raw_scan;
@@ -296,8 +298,8 @@ TEST_CASE("Robot mapper descriptor input: a forward-looking sensor's local map k
 
 TEST_CASE("Robot mapper descriptor input: the local map stays within the raw-scan work budget") {
   // Scans of about 1 250 points against a raw-scan capacity of 1 300: the local map keeps at most one raw scan
-  // of points (older keyframes are dropped first), and the whole scan workspace stays within the budget's
-  // kRawPointWorkBytes per raw point (core/memory/budget.hpp).
+  // of points (older keyframes are dropped first), and the whole scan workspace, with the scene-scaled stored
+  // voxels on, stays within the budget's kRawPointWorkBytes per raw point (core/memory/budget.hpp).
   const std::vector<Eigen::Vector3d> place = DescriptorTestPlace();
   std::size_t largest = 0;
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -310,7 +312,7 @@ TEST_CASE("Robot mapper descriptor input: the local map stays within the raw-sca
   windowed.level = true;
   windowed.local_map_window_m = 10.0;
   windowed.voxel_m = 0.05;  // fine voxels: the kept keyframes hold nearly all their points
-  MapperFixture local(windowed, capacity);
+  MapperFixture local(windowed, capacity, /*min_stored_points=*/1000);
   for (int k = 0; k <= 10; ++k) {
     T.translation() = Eigen::Vector3d(k, 0.0, 0.0);
     local.Add(SeenFrom(place, T), T);
@@ -318,4 +320,82 @@ TEST_CASE("Robot mapper descriptor input: the local map stays within the raw-sca
   const std::size_t budget = capacity * static_cast<std::size_t>(BudgetRecordSizes::kRawPointWorkBytes);
   MESSAGE("scan workspace " << local.mapper->scan_workspace_bytes() << " B, budget " << budget << " B");
   CHECK(local.mapper->scan_workspace_bytes() <= budget);
+}
+
+namespace {
+
+// A 6 x 4 x 2.5 m room around the sensor (walls, floor, ceiling; a point every 0.1 m), sensor frame.
+std::vector<PointXYZI> SmallRoomScan() {
+  std::vector<PointXYZI> scan;
+  auto add = [&scan](double x, double y, double z) {
+    scan.push_back({static_cast<float>(x), static_cast<float>(y), static_cast<float>(z), 1.0f});
+  };
+  for (double a = -3.0; a < 3.0; a += 0.1) {
+    for (double h = -1.2; h < 1.3; h += 0.1) {
+      add(a + 0.01, -1.99, h);
+      add(a + 0.01, 1.99, h);
+    }
+  }
+  for (double b = -2.0; b < 2.0; b += 0.1) {
+    for (double h = -1.2; h < 1.3; h += 0.1) {
+      add(-2.99, b + 0.01, h);
+      add(2.99, b + 0.01, h);
+    }
+  }
+  for (double a = -3.0; a < 3.0; a += 0.1) {
+    for (double b = -2.0; b < 2.0; b += 0.1) {
+      add(a + 0.01, b + 0.01, -1.21);
+      add(a + 0.01, b + 0.01, 1.29);
+    }
+  }
+  return scan;
+}
+
+// The ladder's first size (1 m / sqrt(2)^k, down to 0.25 m) at which the plain voxel grid keeps min_points.
+double FirstSizeWith(const std::vector<PointXYZI>& scan, std::size_t min_points) {
+  std::vector<PointXYZI> out;
+  for (int k = 0;; ++k) {
+    const double v = std::pow(0.5, 0.5 * k);
+    if (v < 0.25 - 1e-9) return std::pow(0.5, 0.5 * (k - 1));
+    REQUIRE(VoxelDownsample(Span<const PointXYZI>(scan), VoxelGridParams{v}, &out).ok());
+    if (out.size() >= min_points) return v;
+  }
+}
+
+}  // namespace
+
+TEST_CASE("Robot mapper stores a small room's scan finer than 1 m when asked, a street-sized scan at 1 m") {
+  const std::vector<PointXYZI> room = SmallRoomScan();
+  const std::vector<PointXYZI> street = SeenFrom(DescriptorTestPlace(), Eigen::Isometry3d::Identity());
+  std::vector<PointXYZI> at_1m, stored;
+  REQUIRE(VoxelDownsample(Span<const PointXYZI>(room), VoxelGridParams{1.0}, &at_1m).ok());
+  const std::size_t room_at_1m = at_1m.size();
+  REQUIRE(VoxelDownsample(Span<const PointXYZI>(street), VoxelGridParams{1.0}, &at_1m).ok());
+  const std::size_t street_at_1m = at_1m.size();
+  MESSAGE("room " << room_at_1m << " points at 1 m, street " << street_at_1m);
+  REQUIRE(room_at_1m < 1000);
+  REQUIRE(street_at_1m >= 1000);
+  for (std::size_t min_points : {std::size_t{0}, std::size_t{1000}}) {
+    CAPTURE(min_points);
+    MapperFixture f(DescriptorInputParams{}, 20000, min_points);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    auto room_step = f.mapper->AddScan(Span<const PointXYZI>(room), T);
+    T.translation().x() = 5.0;
+    auto street_step = f.mapper->AddScan(Span<const PointXYZI>(street), T);
+    REQUIRE(room_step.ok());
+    REQUIRE(street_step.ok());
+    REQUIRE(room_step->store_status.ok());
+    REQUIRE(street_step->store_status.ok());
+    const double want_room = min_points == 0 ? 1.0 : FirstSizeWith(room, min_points);
+    CHECK(room_step->voxel_size_m == doctest::Approx(want_room));
+    CHECK(street_step->voxel_size_m == 1.0);
+    // What the store holds is the plain voxel grid at that size.
+    std::vector<PointXYZI> want;
+    REQUIRE(VoxelDownsample(Span<const PointXYZI>(room), VoxelGridParams{want_room}, &want).ok());
+    auto got = f.store->GetPoints(room_step->keyframe, &stored);
+    REQUIRE(got.ok());
+    CHECK(stored.size() == want.size());
+    CHECK(room_step->voxel_points == want.size());
+    CHECK(f.mapper->stats().scans_stored_finer == (min_points == 0 ? 0u : 1u));
+  }
 }
