@@ -52,6 +52,11 @@ const MergeFlag kMergeFlags[] = {
      "consensus (--consensus-max-cells) confirms it with at least this summed weight of agreeing clusters, its "
      "own included; 0 = off (the paper)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.min_ambiguous_support; }},
+    {"--chain-check-support", "chain_check_support", "keyframes", 0.0, 1e7, "ours",
+     "a pair whose stage A cluster has less place-consensus support than this is not passed on when a third "
+     "robot, through two pairs supported at least this much, places the two maps elsewhere and no such robot "
+     "agrees; 0 = off (the paper)",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->chain_check_support; }},
     {"--consensus-max-cells", "cascade.consensus_max_cells", "cells", 0.0, 1e7, "ours",
      "place every stage A cluster from the robots' keyframe positions and pass on the qualifying cluster the "
      "other clusters agree with when the lowest-mean one has less than half its support (repeated places); "

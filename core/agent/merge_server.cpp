@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "core/cloud/scan_codec.hpp"
+#include "core/common/number_text.hpp"
 #include "core/geometry/se3.hpp"
 
 namespace commerge {
@@ -31,6 +32,14 @@ ExchangeCascadeParams ServerCascadeDefaults() {
   p.max_ambiguous_fraction = 0.75;
   p.consensus_max_cells = kServerConsensusMaxCells;
   p.min_ambiguous_support = 40.0;
+  return p;
+}
+
+PlaceConsensusParams ChainAgreementDefaults() {
+  PlaceConsensusParams p;
+  p.agree_m = 8.0;
+  p.agree_per_m = 0.05;
+  p.agree_deg = 20.0;
   return p;
 }
 
@@ -482,8 +491,37 @@ Status MergeServer::RunCascades() {
       pairs_.push_back(std::move(state));
     }
   }
+  ApplyPlaceCheck();
   NoteMemory();
   return Status::Ok();
+}
+
+void MergeServer::ApplyPlaceCheck() {
+  const double min_support = params_.chain_check_support;
+  if (min_support <= 0.0) return;
+  std::vector<PairPlacement> places;
+  places.reserve(pairs_.size());
+  for (const PairState& p : pairs_) {
+    const ExchangeCascadeResult& c = p.cascade;
+    places.push_back({p.alpha, p.beta, c.outcome == CascadeOutcome::kPolicy && c.consensus_measured,
+                      c.consensus_support_chosen, c.consensus_placement});
+  }
+  const std::vector<PlaceCheckVerdict> verdicts = commerge::CheckPlacesAcrossPairs(
+      Span<const PairPlacement>(places), max_robots(), min_support, params_.chain_agreement);
+  for (std::size_t i = 0; i < pairs_.size(); ++i) {
+    const PlaceCheckVerdict& v = verdicts[i];
+    if (!v.refused()) continue;
+    std::string via;
+    for (int c : v.via) via += (via.empty() ? "" : ", ") + std::to_string(c);
+    PairState& p = pairs_[i];
+    p.place_check_refused = true;
+    p.cascade.outcome = CascadeOutcome::kNoCandidate;
+    p.cascade.no_candidate_reason =
+        "place check: stage A's place (consensus support " + FormatNumber(places[i].support, 4) + " keyframes < " +
+        FormatNumber(min_support, 4) + ") disagrees with where robot" + (v.chains > 1 ? "s " : " ") + via + " place" +
+        (v.chains > 1 ? "" : "s") + " the two maps (--chain-check-support)";
+    p.cascade.policy = ExchangePolicy{};
+  }
 }
 
 std::vector<std::uint32_t> MergeServer::StoredKeyframes(int robot) const {
@@ -505,6 +543,11 @@ Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
     s.alpha = p.alpha;
     s.beta = p.beta;
     const auto& l_seq = p.cascade.stage_a.cells;
+    if (p.place_check_refused && mode != ExchangeMode::kSendAll) {
+      s.no_selection_reason = p.cascade.no_candidate_reason;
+      plan.pairs.push_back(std::move(s));
+      continue;
+    }
     switch (mode) {
       case ExchangeMode::kSendAll:
         // The baseline of shipping everything: each pair registers the two robots' complete stored maps

@@ -51,6 +51,10 @@ Result<ExchangeMode> ExchangeModeFromName(const std::string& name);
 /// --tau-area-fraction 0 --tau-inter 0.1).
 SequentialMatchParams ServerStageADefaults();
 ExchangeCascadeParams ServerCascadeDefaults();
+/// Tolerances of the place check across pairs (MergeServerParams::chain_check_support): a chain of two
+/// placements carries the keyframe-position error of both, so 8 m plus 5 % of the distance between the places
+/// and 20 deg of yaw (a look-alike place in the generated worlds was 35-94 m and 90 deg off).
+PlaceConsensusParams ChainAgreementDefaults();
 
 struct MergeServerParams {
   ExchangeCascadeParams cascade = ServerCascadeDefaults();
@@ -82,6 +86,14 @@ struct MergeServerParams {
   /// verification) or at an ambiguous place (the cascade's `ambiguous`) is never widened: its one registration
   /// decides.
   int max_widen_steps = 2;
+  /// Place check across pairs (ours; 0 = off, the paper). [keyframes] A pair whose stage A cluster has a place
+  /// consensus support below this is weakly supported. Through every third robot c whose pairs with both robots
+  /// are supported at least this much, the two placements compose into where c says robot beta's map lies in
+  /// robot alpha's; when at least one such chain exists and none agrees with the pair's own placement
+  /// (chain_agreement tolerances), the pair is not passed on ("place check" in its reason) and no scans are
+  /// asked for. A look-alike place is confirmed by nothing; a true one by every true chain.
+  double chain_check_support = 40.0;
+  PlaceConsensusParams chain_agreement = ChainAgreementDefaults();
 };
 
 Status ValidateMergeServerParams(const MergeServerParams& params);
@@ -258,6 +270,7 @@ class MergeServer {
     ExchangeCascadeResult cascade;
     StageCResult stage_ac;
     bool stage_ac_ran = false;
+    bool place_check_refused = false;  ///< the place check across pairs refused it (cascade's reason says why)
   };
   static std::uint64_t Key(int robot, std::uint32_t keyframe) {
     return (static_cast<std::uint64_t>(robot) << 32) | keyframe;
@@ -268,6 +281,8 @@ class MergeServer {
   Status CapacityError(int robot, std::uint32_t keyframe) const;
   Status EnsureKeyframe(int robot, std::uint32_t keyframe);
   const PairState* FindPair(int alpha, int beta) const;
+  /// The place check across pairs (chain_check_support) over pairs_, after every cascade of the round.
+  void ApplyPlaceCheck();
   /// One request per robot with the keyframes of `wanted[r]` (sorted and de-duplicated here; without the scans
   /// held when skip_held), ids from `request_id` upwards; adds their predicted bytes to the plan.
   void AddRequests(std::vector<std::vector<std::uint32_t>>* wanted, std::int32_t request_id, bool skip_held,

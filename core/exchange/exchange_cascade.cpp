@@ -57,6 +57,7 @@ Status ApplyPlaceConsensus(const CascadeRobotInput& alpha, const CascadeRobotInp
   result->consensus_measured = true;
   result->consensus_support_lowest_mean = consensus->support[preferred];
   result->consensus_support_chosen = consensus->support[consensus->chosen];
+  result->consensus_placement = consensus->placements[consensus->chosen];
   for (const ClusterPlacement& p : consensus->placements) result->consensus_clusters_placed += p.valid ? 1 : 0;
   if (!consensus->switched) return Status::Ok();
   result->consensus_switched = true;

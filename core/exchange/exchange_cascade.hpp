@@ -92,6 +92,8 @@ struct ExchangeCascadeResult {
   bool consensus_switched = false;
   double consensus_support_lowest_mean = 0.0;
   double consensus_support_chosen = 0.0;
+  /// Where the cluster passed on places robot beta's map in robot alpha's (from the keyframe positions).
+  ClusterPlacement consensus_placement;
   std::size_t consensus_clusters_placed = 0;  ///< clusters with a placement (the voters)
   std::string consensus_reason;
   SequentialMatchResult stage_a;     ///< L_seq = stage_a.cells (its cluster set is released after the consensus)

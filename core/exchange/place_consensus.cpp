@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "core/common/number_text.hpp"
 #include "core/geometry/angles.hpp"
@@ -109,6 +110,60 @@ bool PlacementsAgree(const ClusterPlacement& a, const ClusterPlacement& b, const
     if ((a.Apply(*p) - b.Apply(*p)).norm() > tolerance_m) return false;
   }
   return true;
+}
+
+ClusterPlacement InvertPlacement(const ClusterPlacement& alpha_beta) {
+  ClusterPlacement out;
+  out.valid = alpha_beta.valid;
+  out.yaw_rad = -alpha_beta.yaw_rad;
+  const double c = std::cos(out.yaw_rad), s = std::sin(out.yaw_rad);
+  const Eigen::Vector3d& t = alpha_beta.t_alpha_beta_m;
+  out.t_alpha_beta_m = -Eigen::Vector3d(c * t.x() - s * t.y(), s * t.x() + c * t.y(), t.z());
+  out.place_beta_m = alpha_beta.Apply(alpha_beta.place_beta_m);
+  out.rms_m = alpha_beta.rms_m;
+  out.weight = alpha_beta.weight;
+  return out;
+}
+
+ClusterPlacement ComposePlacements(const ClusterPlacement& a_b, const ClusterPlacement& b_c) {
+  ClusterPlacement out;
+  out.valid = a_b.valid && b_c.valid;
+  out.yaw_rad = WrappedRad(a_b.yaw_rad + b_c.yaw_rad);
+  out.t_alpha_beta_m = a_b.Apply(b_c.t_alpha_beta_m);
+  out.place_beta_m = b_c.place_beta_m;
+  out.rms_m = a_b.rms_m + b_c.rms_m;
+  out.weight = std::min(a_b.weight, b_c.weight);
+  return out;
+}
+
+std::vector<PlaceCheckVerdict> CheckPlacesAcrossPairs(Span<const PairPlacement> pairs, int num_robots,
+                                                      double min_support, const PlaceConsensusParams& agreement) {
+  std::vector<PlaceCheckVerdict> out(pairs.size());
+  // Robot `to`'s map in robot `from`'s from a strongly supported pair; invalid when there is none.
+  auto strong = [&](int from, int to) {
+    const int a = std::min(from, to), b = std::max(from, to);
+    for (const PairPlacement& p : pairs) {
+      if (p.alpha != a || p.beta != b) continue;
+      if (!p.placed || !p.placement.valid || p.support < min_support) break;
+      return from < to ? p.placement : InvertPlacement(p.placement);
+    }
+    return ClusterPlacement{};
+  };
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const PairPlacement& p = pairs[i];
+    PlaceCheckVerdict& v = out[i];
+    v.checked = p.placed && p.placement.valid && p.support < min_support;
+    if (!v.checked) continue;
+    for (int c = 0; c < num_robots; ++c) {
+      if (c == p.alpha || c == p.beta) continue;
+      const ClusterPlacement chain = ComposePlacements(strong(p.alpha, c), strong(c, p.beta));
+      if (!chain.valid) continue;
+      ++v.chains;
+      v.via.push_back(c);
+      if (PlacementsAgree(p.placement, chain, agreement)) ++v.agreeing;
+    }
+  }
+  return out;
 }
 
 Result<PlaceConsensus> RunPlaceConsensus(const SequentialClusterSet& set, std::size_t preferred,

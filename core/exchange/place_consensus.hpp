@@ -69,6 +69,38 @@ Result<ClusterPlacement> PlaceCluster(Span<const SequentialLoopCell> cells, cons
 /// Symmetric; false when either is invalid.
 bool PlacementsAgree(const ClusterPlacement& a, const ClusterPlacement& b, const PlaceConsensusParams& params);
 
+/// The placement of robot alpha's map in robot beta's (p_beta = R_z(-yaw) (p_alpha - t)); its place is the
+/// cluster's place seen in alpha's frame. Valid when `alpha_beta` is.
+ClusterPlacement InvertPlacement(const ClusterPlacement& alpha_beta);
+/// Robot c's map in robot a's through robot b: a_b after b_c (yaws add, t = R_z(yaw_ab) t_bc + t_ab); its place
+/// is b_c's (in c's frame), its weight the smaller. Valid when both are.
+ClusterPlacement ComposePlacements(const ClusterPlacement& a_b, const ClusterPlacement& b_c);
+
+/// One robot pair's place for the check across pairs: robot beta's map in robot alpha's (alpha < beta), from the
+/// cluster stage A passes on, and that cluster's consensus support; `placed` false when there is none.
+struct PairPlacement {
+  int alpha = 0, beta = 0;
+  bool placed = false;
+  double support = 0.0;
+  ClusterPlacement placement;
+};
+
+struct PlaceCheckVerdict {
+  bool checked = false;  ///< placed and support < min_support
+  int chains = 0;        ///< third robots joined to both by pairs of support >= min_support
+  int agreeing = 0;      ///< of those, the chains that agree with the pair's placement
+  std::vector<int> via;  ///< the third robots of the chains
+  bool refused() const { return checked && chains > 0 && agreeing == 0; }
+};
+
+/// The place check across pairs (ours): for each placed pair of support below min_support, every third robot c
+/// whose pairs with both robots are placed with support >= min_support gives a chain, alpha_c after c_beta
+/// (ComposePlacements, InvertPlacement for pairs stored the other way round); the pair is refused when it has
+/// a chain and agrees (PlacementsAgree with `agreement`) with none. Pairs of one (alpha, beta) appear at most
+/// once; robots are 0..num_robots-1. One verdict per pair, in order.
+std::vector<PlaceCheckVerdict> CheckPlacesAcrossPairs(Span<const PairPlacement> pairs, int num_robots,
+                                                      double min_support, const PlaceConsensusParams& agreement);
+
 struct PlaceConsensus {
   std::vector<ClusterPlacement> placements;  ///< per cluster of the set
   std::vector<double> support;               ///< per cluster: summed weight of the valid clusters agreeing with it

@@ -525,6 +525,75 @@ TEST_CASE("Merge server voxelises a small pair's submaps finer while the scans h
   REQUIRE(coarse_scans.registration.success());
 }
 
+TEST_CASE("Merge server: a weakly supported pair that robots matched to both place elsewhere asks for no scans") {
+  // Every map frame is the world frame. Robot 0 drives x = 0..99 (y = 0). Robot 2 passes robot 0's places 0..49,
+  // then new places. Robot 1 passes robot 2's new places (keyframes 0..49), then 22 places that look exactly like
+  // robot 0's 70..91 but lie 230 m away: pair 0-1's only cluster is that look-alike (support 22), while robots
+  // 0-2 and 2-1 share 50 keyframes each and place robot 1 at the identity.
+  std::mt19937 rng(11);
+  std::vector<std::array<float, kKeyframeDescriptorDim>> d0, d1, d2;
+  std::vector<Eigen::Vector3d> p0, p1, p2;
+  for (int i = 0; i < 100; ++i) {
+    d0.push_back(RandomDescriptor(&rng));
+    p0.emplace_back(i, 0.0, 0.0);
+  }
+  for (int i = 0; i < 100; ++i) {
+    d2.push_back(i < 50 ? d0[static_cast<std::size_t>(i)] : RandomDescriptor(&rng));
+    p2.push_back(i < 50 ? p0[static_cast<std::size_t>(i)] : Eigen::Vector3d(150.0 + i, 50.0, 0.0));
+  }
+  for (int i = 0; i < 72; ++i) {
+    d1.push_back(i < 50 ? d2[static_cast<std::size_t>(50 + i)] : d0[static_cast<std::size_t>(20 + i)]);
+    p1.push_back(i < 50 ? p2[static_cast<std::size_t>(50 + i)] : Eigen::Vector3d(250.0 + i, 100.0, 0.0));
+  }
+  auto run = [&](double chain_check_support) {
+    MergeServerParams params;
+    params.chain_check_support = chain_check_support;
+    auto server = std::make_unique<MergeServer>(3, 100, params);
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(0, 0, d0, p0, 2000)).ok());
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(1, 0, d1, p1, 2000)).ok());
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(2, 0, d2, p2, 2000)).ok());
+    REQUIRE(server->RunCascades().ok());
+    return server;
+  };
+  const auto off = run(0.0);
+  const ExchangeCascadeResult* lone = off->cascade(0, 1);
+  REQUIRE(lone != nullptr);
+  REQUIRE(lone->outcome == CascadeOutcome::kPolicy);  // without the check the look-alike goes on to registration
+  REQUIRE(lone->consensus_measured);
+  CHECK(lone->consensus_support_chosen < 40.0);
+  const ClusterPlacement& wrong = lone->consensus_placement;  // 230 m off where robots 0 and 1 really are
+  CHECK((wrong.Apply(wrong.place_beta_m) - wrong.place_beta_m).norm() > 200.0);
+  for (auto [a, b] : {std::pair<int, int>{0, 2}, std::pair<int, int>{1, 2}}) {
+    const ExchangeCascadeResult* c = off->cascade(a, b);
+    REQUIRE(c != nullptr);
+    REQUIRE(c->outcome == CascadeOutcome::kPolicy);
+    CHECK(c->consensus_support_chosen >= 40.0);
+    // Near the truth (the identity) where they met; the cluster's few cells past the shared stretch (the sequence
+    // smoothing carries the diagonal on) pull the fit by metres, not by hundreds.
+    const ClusterPlacement& placement = c->consensus_placement;
+    CHECK((placement.Apply(placement.place_beta_m) - placement.place_beta_m).norm() < 10.0);
+  }
+
+  const auto on = run(40.0);
+  const ExchangeCascadeResult* refused = on->cascade(0, 1);
+  REQUIRE(refused != nullptr);
+  CHECK(refused->outcome == CascadeOutcome::kNoCandidate);
+  CHECK(refused->no_candidate_reason.find("place check") == 0);
+  CHECK(refused->no_candidate_reason.find("robot 2 places the two maps") != std::string::npos);
+  CHECK(on->cascade(0, 2)->outcome == CascadeOutcome::kPolicy);
+  CHECK(on->cascade(1, 2)->outcome == CascadeOutcome::kPolicy);
+  for (ExchangeMode mode : {ExchangeMode::kStageA, ExchangeMode::kStageAB, ExchangeMode::kStageAC, ExchangeMode::kStageABC}) {
+    auto plan = on->Plan(mode);
+    REQUIRE(plan.ok());
+    for (const PairSelection& s : plan->pairs) {
+      if (s.alpha != 0 || s.beta != 1) continue;
+      CHECK(s.alpha_keyframes.empty());
+      CHECK(s.beta_keyframes.empty());
+      CHECK(s.no_selection_reason.find("place check") == 0);
+    }
+  }
+}
+
 TEST_CASE("Merge server widens a refused pair with stage A's keyframes nearest its selection, asking only for scans it lacks") {
   const int n = 40, shift = 5;
   const std::unique_ptr<MergeServer> owned = ShiftedPairServer(n, shift);

@@ -269,5 +269,110 @@ TEST_CASE("Cascade: with place consensus, stage A passes on a true place instead
   CHECK(bad.status().message().find("switch_ratio") != std::string::npos);
 }
 
+// ---- Placements composed and the place check across pairs ----
+
+// Robot r's map in the world: yaw and translation about z (ground truth of the check's tests).
+struct PlanarPose {
+  double yaw_deg;
+  Eigen::Vector3d t;
+  Eigen::Isometry3d T() const {
+    Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+    out.linear() = Eigen::AngleAxisd(yaw_deg * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    out.translation() = t;
+    return out;
+  }
+};
+
+// The placement of robot b's map in robot a's that the ground truth implies, with its place at `place_b`.
+ClusterPlacement TruePlacement(const PlanarPose& a, const PlanarPose& b, const Eigen::Vector3d& place_b) {
+  const Eigen::Isometry3d T_a_b = a.T().inverse() * b.T();
+  ClusterPlacement p;
+  p.valid = true;
+  p.yaw_rad = std::atan2(T_a_b.linear()(1, 0), T_a_b.linear()(0, 0));
+  p.t_alpha_beta_m = T_a_b.translation();
+  p.place_beta_m = place_b;
+  p.weight = 20.0;
+  return p;
+}
+
+TEST_CASE("Placements: inverse and composition act as the isometries they stand for") {
+  const PlanarPose a{20.0, {3.0, -4.0, 0.5}}, b{-75.0, {-40.0, 12.0, 1.0}}, c{160.0, {7.0, 90.0, -0.3}};
+  const ClusterPlacement a_b = TruePlacement(a, b, {1.0, 2.0, 0.0});
+  const ClusterPlacement b_c = TruePlacement(b, c, {-5.0, 8.0, 0.0});
+  const ClusterPlacement a_c = ComposePlacements(a_b, b_c);
+  const ClusterPlacement b_a = InvertPlacement(a_b);
+  const Eigen::Isometry3d T_a_c = a.T().inverse() * c.T(), T_b_a = b.T().inverse() * a.T();
+  for (const Eigen::Vector3d& x : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(12.5, -3.0, 1.0), Eigen::Vector3d(-80, 40, 2)}) {
+    CHECK((a_c.Apply(x) - T_a_c * x).norm() < 1e-9);
+    CHECK((b_a.Apply(x) - T_b_a * x).norm() < 1e-9);
+    CHECK((b_a.Apply(a_b.Apply(x)) - x).norm() < 1e-9);
+  }
+  CHECK(a_c.valid);
+  CHECK(a_c.place_beta_m == b_c.place_beta_m);
+  CHECK((b_a.place_beta_m - a_b.Apply(a_b.place_beta_m)).norm() < 1e-12);
+  ClusterPlacement none;
+  CHECK_FALSE(ComposePlacements(a_b, none).valid);
+  CHECK_FALSE(InvertPlacement(none).valid);
+}
+
+TEST_CASE("Place check across pairs: a weak pair is refused only when strong chains exist and none agrees") {
+  // Four robots; pairs placed from the ground truth unless made wrong (a look-alike 35 m away, turned 90 deg).
+  const std::vector<PlanarPose> world = {{0.0, {0, 0, 0}}, {90.0, {60, 20, 0}}, {-30.0, {-10, 80, 0}},
+                                         {180.0, {120, -40, 0}}};
+  const Eigen::Vector3d place(5.0, 5.0, 0.0);
+  auto pair = [&](int a, int b, double support, bool wrong = false) {
+    PairPlacement p{a, b, true, support, TruePlacement(world[static_cast<std::size_t>(a)],
+                                                       world[static_cast<std::size_t>(b)], place)};
+    if (wrong) {
+      p.placement.yaw_rad += 90.0 * kDegToRad;
+      p.placement.t_alpha_beta_m += Eigen::Vector3d(35.0, 0.0, 0.0);
+    }
+    return p;
+  };
+  const PlaceConsensusParams agreement = [] {
+    PlaceConsensusParams p;
+    p.agree_m = 8.0;
+    p.agree_deg = 20.0;
+    return p;
+  }();
+  auto check = [&](const std::vector<PairPlacement>& pairs) {
+    return CheckPlacesAcrossPairs(Span<const PairPlacement>(pairs), 4, 40.0, agreement);
+  };
+
+  // The weak pair 0-1 is right: the chain through robot 2 (pairs 0-2 and 1-2, stored alpha < beta) agrees.
+  auto v = check({pair(0, 1, 22), pair(0, 2, 100), pair(1, 2, 80)});
+  CHECK(v[0].checked);
+  CHECK(v[0].chains == 1);
+  CHECK(v[0].agreeing == 1);
+  CHECK_FALSE(v[0].refused());
+  CHECK_FALSE(v[1].checked);  // strong pairs are not checked
+  // The weak pair at a look-alike place: the chain through robot 2 disagrees, so it is refused.
+  v = check({pair(0, 1, 22, true), pair(0, 2, 100), pair(1, 2, 80)});
+  CHECK(v[0].refused());
+  REQUIRE(v[0].via.size() == 1);
+  CHECK(v[0].via[0] == 2);
+  // No chain of strong pairs (1-2 weak): nothing to compare with, the pair stays.
+  v = check({pair(0, 1, 22, true), pair(0, 2, 100), pair(1, 2, 30)});
+  CHECK(v[0].chains == 0);
+  CHECK_FALSE(v[0].refused());
+  // Two chains, one through a wrong strong pair (2-1 at a look-alike): the right weak pair agrees with the other.
+  v = check({pair(0, 1, 22), pair(0, 2, 100), pair(1, 2, 80, true), pair(0, 3, 90), pair(1, 3, 70)});
+  CHECK(v[0].chains == 2);
+  CHECK(v[0].agreeing == 1);
+  CHECK_FALSE(v[0].refused());
+  // Both chains right, the weak pair wrong: refused through both.
+  v = check({pair(0, 1, 22, true), pair(0, 2, 100), pair(1, 2, 80), pair(0, 3, 90), pair(1, 3, 70)});
+  CHECK(v[0].chains == 2);
+  CHECK(v[0].refused());
+  // A pair without a placement (no cluster, or one too short to place) is neither checked nor a chain leg.
+  std::vector<PairPlacement> unplaced = {pair(0, 1, 22, true), pair(0, 2, 100), pair(1, 2, 80)};
+  unplaced[2].placed = false;
+  v = check(unplaced);
+  CHECK(v[0].chains == 0);
+  unplaced[0].placement.valid = false;
+  v = check(unplaced);
+  CHECK_FALSE(v[0].checked);
+}
+
 }  // namespace
 }  // namespace commerge
