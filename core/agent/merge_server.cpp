@@ -101,6 +101,13 @@ Status ValidateMergeServerParams(const MergeServerParams& params) {
     return InvalidArgument("min_submap_voxel_size_m = " + std::to_string(params.min_submap_voxel_size_m) +
                            " must be in [0.005, submap_voxel_size_m = " + std::to_string(params.submap_voxel_size_m) + "]");
   }
+  if (!(std::isfinite(params.chain_check_support) && params.chain_check_support >= 0.0)) {
+    return InvalidArgument("chain_check_support = " + std::to_string(params.chain_check_support) +
+                           " must be finite and >= 0");
+  }
+  if (Status s = ValidatePlaceConsensusParams(params.chain_agreement); !s.ok()) {
+    return Status(s.code(), "chain_agreement: " + s.message());
+  }
   if (params.max_submap_points < 100) {
     return InvalidArgument("max_submap_points = " + std::to_string(params.max_submap_points) + " must be >= 100");
   }

@@ -582,6 +582,13 @@ TEST_CASE("Merge server: a weakly supported pair that robots matched to both pla
   CHECK(refused->no_candidate_reason.find("robot 2 places the two maps") != std::string::npos);
   CHECK(on->cascade(0, 2)->outcome == CascadeOutcome::kPolicy);
   CHECK(on->cascade(1, 2)->outcome == CascadeOutcome::kPolicy);
+  MergeServerParams bad;
+  bad.chain_check_support = -1.0;
+  CHECK(ValidateMergeServerParams(bad).message().find("chain_check_support") != std::string::npos);
+  bad = MergeServerParams{};
+  bad.chain_agreement.agree_deg = std::nan("");
+  CHECK(ValidateMergeServerParams(bad).message().find("chain_agreement: place consensus: agree_deg") !=
+        std::string::npos);
   for (ExchangeMode mode : {ExchangeMode::kStageA, ExchangeMode::kStageAB, ExchangeMode::kStageAC, ExchangeMode::kStageABC}) {
     auto plan = on->Plan(mode);
     REQUIRE(plan.ok());
