@@ -748,45 +748,35 @@ Result<PairMergeResult> MergeServer::MergePair(const PairSelection& pair, Regist
     return out;
   }
   // Both submaps at one voxel size; grown until both fit max_submap_points.
+  auto build_both = [&](double voxel_size_m) {
+    out.alpha_scans = BuildSubmap(pair.alpha, Span<const std::uint32_t>(pair.alpha_keyframes), voxel_size_m,
+                                  &alpha_points_, &alpha_origins_, &out.alpha_missing);
+    out.beta_scans = BuildSubmap(pair.beta, Span<const std::uint32_t>(pair.beta_keyframes), voxel_size_m,
+                                 &beta_points_, &beta_origins_, &out.beta_missing);
+    return alpha_points_.size() <= params_.max_submap_points && beta_points_.size() <= params_.max_submap_points;
+  };
   double voxel = params_.submap_voxel_size_m;
+  bool grown = false;
   for (int attempt = 0;; ++attempt) {
-    out.alpha_scans = BuildSubmap(pair.alpha, Span<const std::uint32_t>(pair.alpha_keyframes), voxel, &alpha_points_,
-                                  &alpha_origins_, &out.alpha_missing);
-    out.beta_scans = BuildSubmap(pair.beta, Span<const std::uint32_t>(pair.beta_keyframes), voxel, &beta_points_,
-                                 &beta_origins_, &out.beta_missing);
-    const bool fits = alpha_points_.size() <= params_.max_submap_points && beta_points_.size() <= params_.max_submap_points;
-    if (fits || attempt == 8) break;
+    if (build_both(voxel) || attempt == 8) break;
     voxel *= 1.25;
+    grown = true;
   }
-  if (voxel == params_.submap_voxel_size_m && params_.min_submap_points > 0) {
+  if (!grown && params_.min_submap_points > 0) {
     // Small scene: finer while the smaller submap gains (the scans may be stored no finer than the grid).
-    double coarser = voxel;
     std::size_t smaller = std::min(alpha_points_.size(), beta_points_.size());
-    bool reverted = false;
     for (int k = 1; smaller < params_.min_submap_points; ++k) {
       const double finer = AdaptiveVoxelStep(params_.submap_voxel_size_m, k);
       if (finer < params_.min_submap_voxel_size_m * (1.0 - 1e-9)) break;
-      out.alpha_scans = BuildSubmap(pair.alpha, Span<const std::uint32_t>(pair.alpha_keyframes), finer,
-                                    &alpha_points_, &alpha_origins_, &out.alpha_missing);
-      out.beta_scans = BuildSubmap(pair.beta, Span<const std::uint32_t>(pair.beta_keyframes), finer, &beta_points_,
-                                   &beta_origins_, &out.beta_missing);
+      const bool fits = build_both(finer);
       const std::size_t now = std::min(alpha_points_.size(), beta_points_.size());
-      const bool fits =
-          alpha_points_.size() <= params_.max_submap_points && beta_points_.size() <= params_.max_submap_points;
       if (!fits || 10 * now < 11 * smaller) {
-        reverted = true;
+        build_both(voxel);  // back to the last size taken
         break;
       }
-      coarser = finer;
+      voxel = finer;
       smaller = now;
     }
-    if (reverted) {
-      out.alpha_scans = BuildSubmap(pair.alpha, Span<const std::uint32_t>(pair.alpha_keyframes), coarser,
-                                    &alpha_points_, &alpha_origins_, &out.alpha_missing);
-      out.beta_scans = BuildSubmap(pair.beta, Span<const std::uint32_t>(pair.beta_keyframes), coarser, &beta_points_,
-                                   &beta_origins_, &out.beta_missing);
-    }
-    voxel = coarser;
   }
   out.alpha_submap_points = alpha_points_.size();
   out.beta_submap_points = beta_points_.size();
