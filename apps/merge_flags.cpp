@@ -52,6 +52,11 @@ const MergeFlag kMergeFlags[] = {
      "consensus (--consensus-max-cells) confirms it with at least this summed weight of agreeing clusters, its "
      "own included; 0 = off (the paper)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.min_ambiguous_support; }},
+    {"--widen-ambiguous-support", "widen_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
+     "a pair at an ambiguous place (--max-ambiguous-fraction) whose stage A cluster the place consensus confirms "
+     "with at least this summed weight may be widened like any other (--max-widen-steps); 0 = an ambiguous pair "
+     "is never widened",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->widen_ambiguous_support; }},
     {"--chain-check-support", "chain_check_support", "keyframes", 0.0, 1e7, "ours",
      "a pair whose stage A cluster has less place-consensus support than this is not passed on when a third "
      "robot, through two pairs supported at least this much, places the two maps elsewhere and no such robot "

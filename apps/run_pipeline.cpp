@@ -25,6 +25,7 @@
 #include "apps/merge_flags.hpp"
 #include "apps/run_job.hpp"
 #include "core/common/bytes.hpp"
+#include "core/common/number_text.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/exchange/exchange_policy.hpp"
 #include "core/geometry/se3.hpp"
@@ -410,7 +411,13 @@ int RunCascades(RunJob* job) {
       }
       if (c->stage_c.any_endpoint_fallback) padded += " (stage C over the loops with one endpoint selected: none had both)";
       if (c->verification) padded += " (to verify: stage A's " + c->verification_reason + ", --verify-area-fraction)";
-      if (c->ambiguous) padded += " (ambiguous place, registered once: " + c->ambiguity_reason + ", --max-ambiguous-fraction)";
+      if (AmbiguousClusterConfirmed(*c, job->server->params())) {
+        padded += " (ambiguous place: " + c->ambiguity_reason + ", --max-ambiguous-fraction; confirmed by " +
+                  FormatNumber(c->consensus_support_chosen, 4) + " keyframes of place consensus, may be widened, " +
+                  "--widen-ambiguous-support)";
+      } else if (c->ambiguous) {
+        padded += " (ambiguous place, registered once: " + c->ambiguity_reason + ", --max-ambiguous-fraction)";
+      }
       if (c->consensus_switched) padded += " (place consensus: " + c->consensus_reason + ", --consensus-max-cells)";
       std::printf("  pair %d-%d: %s; L_seq %zu loops (%zu x %zu keyframes; span %llu cells, next cluster %llu), stage B %zu + %zu scans (%s), |L_K| = %zu%s; "
                   "A %.3f s, B %.3f s, C %.3f s%s%s\n",

@@ -91,6 +91,11 @@ Result<ExchangeMode> ExchangeModeFromName(const std::string& name) {
   return InvalidArgument("unknown exchange mode '" + name + "' (send-all, A, A+B, A+C, A+B+C)");
 }
 
+bool AmbiguousClusterConfirmed(const ExchangeCascadeResult& cascade, const MergeServerParams& params) {
+  return cascade.ambiguous && params.widen_ambiguous_support > 0.0 && cascade.consensus_measured &&
+         cascade.consensus_support_chosen >= params.widen_ambiguous_support;
+}
+
 Status ValidateMergeServerParams(const MergeServerParams& params) {
   if (!(params.submap_voxel_size_m >= 5e-3) || !std::isfinite(params.submap_voxel_size_m)) {
     return InvalidArgument("submap_voxel_size_m = " + std::to_string(params.submap_voxel_size_m) +
@@ -103,6 +108,10 @@ Status ValidateMergeServerParams(const MergeServerParams& params) {
   }
   if (!(std::isfinite(params.chain_check_support) && params.chain_check_support >= 0.0)) {
     return InvalidArgument("chain_check_support = " + std::to_string(params.chain_check_support) +
+                           " must be finite and >= 0");
+  }
+  if (!(std::isfinite(params.widen_ambiguous_support) && params.widen_ambiguous_support >= 0.0)) {
+    return InvalidArgument("widen_ambiguous_support = " + std::to_string(params.widen_ambiguous_support) +
                            " must be finite and >= 0");
   }
   if (Status s = ValidatePlaceConsensusParams(params.chain_agreement); !s.ok()) {
@@ -670,8 +679,9 @@ Result<ExchangePlan> MergeServer::WidenPlan(const ExchangePlan& plan, Span<const
     if (!p || sel.alpha_keyframes.empty() || sel.beta_keyframes.empty()) continue;
     // A cluster below tau_area (the cascade's `verification`) or at an ambiguous place gets one registration and
     // no more scans: asking again until something aligns is how a repeated structure (an aliased corridor) got
-    // merged.
-    if (p->cascade.verification || p->cascade.ambiguous) continue;
+    // merged. An ambiguous cluster that the place consensus confirms strongly is widened all the same.
+    if (p->cascade.verification) continue;
+    if (p->cascade.ambiguous && !AmbiguousClusterConfirmed(p->cascade, params_)) continue;
     const Span<const SequentialLoopCell> l_seq(p->cascade.stage_a.cells);
     PairSelection w = sel;
     const auto grow = [](std::vector<std::uint32_t>* keyframes, std::vector<std::uint32_t> pool) {

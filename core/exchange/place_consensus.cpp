@@ -112,6 +112,15 @@ bool PlacementsAgree(const ClusterPlacement& a, const ClusterPlacement& b, const
   return true;
 }
 
+PlacementGap GapToPlacement(const ClusterPlacement& placement, const Eigen::Isometry3d& T_alpha_beta) {
+  PlacementGap gap;
+  gap.distance_m = (T_alpha_beta * placement.place_beta_m - placement.Apply(placement.place_beta_m)).norm();
+  // Yaw of T: the heading of its image of the x axis, projected on the horizontal plane.
+  const Eigen::Vector3d x = T_alpha_beta.linear() * Eigen::Vector3d::UnitX();
+  gap.yaw_deg = std::abs(WrappedRad(std::atan2(x.y(), x.x()) - placement.yaw_rad)) / kDegToRad;
+  return gap;
+}
+
 ClusterPlacement InvertPlacement(const ClusterPlacement& alpha_beta) {
   ClusterPlacement out;
   out.valid = alpha_beta.valid;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
@@ -75,6 +76,14 @@ ClusterPlacement InvertPlacement(const ClusterPlacement& alpha_beta);
 /// Robot c's map in robot a's through robot b: a_b after b_c (yaws add, t = R_z(yaw_ab) t_bc + t_ab); its place
 /// is b_c's (in c's frame), its weight the smaller. Valid when both are.
 ClusterPlacement ComposePlacements(const ClusterPlacement& a_b, const ClusterPlacement& b_c);
+
+/// How far a registered transform (p_alpha = T_alpha_beta p_beta) lies from a placement at the placement's place:
+/// the distance between the two images of place_beta_m, and the difference of the yaws (T's about the vertical).
+struct PlacementGap {
+  double distance_m = 0.0;
+  double yaw_deg = 0.0;  ///< in [0, 180]
+};
+PlacementGap GapToPlacement(const ClusterPlacement& placement, const Eigen::Isometry3d& T_alpha_beta);
 
 /// One robot pair's place for the check across pairs: robot beta's map in robot alpha's (alpha < beta), from the
 /// cluster stage A passes on, and that cluster's consensus support; `placed` false when there is none.

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <iterator>
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
@@ -802,12 +803,21 @@ TEST_CASE("Merge server does not widen a refused pair whose stage A cluster was 
   CHECK(widened_pairs(2000) == 0);  // 1225 of 2000 cells: verified once, never widened
 }
 
-TEST_CASE("Merge server does not widen a refused pair whose place is ambiguous in a robot's own map") {
+TEST_CASE("Merge server widens a refused pair at an ambiguous place only when the place consensus confirms it") {
   // ShiftedPairBatches(40, 5) with alpha's keyframes 30..39 made copies of 5..14 and moved 100 m on: stage A's
   // cluster (alpha 5..29 with beta 0..24) then holds 10 places alpha saw twice, far apart, of 25.
-  const auto widened_pairs = [](double max_ambiguous_fraction) {
+  struct Outcome {
+    bool ambiguous = false;
+    bool selected = false;
+    double support = 0.0;
+    std::size_t widened = 0;
+  };
+  const auto run = [](double max_ambiguous_fraction, double widen_ambiguous_support) {
     MergeServerParams params = PaperStageA(200);  // the copies' own cluster with beta (10 x 10) does not qualify
     params.cascade.max_ambiguous_fraction = max_ambiguous_fraction;
+    params.cascade.min_ambiguous_support = 0.0;
+    params.widen_ambiguous_support = widen_ambiguous_support;
+    REQUIRE(ValidateMergeServerParams(params).ok());
     MergeServer server(2, 100, params);
     std::vector<KeyframeBatch> batches = ShiftedPairBatches(40, 5);
     std::vector<std::uint8_t>& records = batches[0].records;
@@ -826,19 +836,46 @@ TEST_CASE("Merge server does not widen a refused pair whose place is ambiguous i
     }
     for (const KeyframeBatch& b : batches) REQUIRE(server.OnKeyframeBatch(b).ok());
     REQUIRE(server.RunCascades().ok());
-    REQUIRE(server.cascade(0, 1) != nullptr);
-    REQUIRE(server.cascade(0, 1)->stage_a.found);
-    CHECK(server.cascade(0, 1)->ambiguous == (max_ambiguous_fraction < 0.2));
+    const ExchangeCascadeResult* c = server.cascade(0, 1);
+    REQUIRE(c != nullptr);
+    REQUIRE(c->stage_a.found);
+    Outcome o;
+    o.ambiguous = c->ambiguous;
+    o.support = c->consensus_measured ? c->consensus_support_chosen : -1.0;
+    CHECK(AmbiguousClusterConfirmed(*c, params) ==
+          (c->ambiguous && widen_ambiguous_support > 0.0 && o.support >= widen_ambiguous_support));
     auto plan = server.Plan(ExchangeMode::kStageABC);
     REQUIRE(plan.ok());
     REQUIRE(plan->pairs.size() == 1);
+    o.selected = !plan->pairs[0].alpha_keyframes.empty() && !plan->pairs[0].beta_keyframes.empty();
     const PairMergeResult refused = Refused(0, 1);
     auto wider = server.WidenPlan(*plan, Span<const PairMergeResult>(&refused, 1), 1);
     REQUIRE(wider.ok());
-    return wider->pairs.size();
+    o.widened = wider->pairs.size();
+    return o;
   };
-  CHECK(widened_pairs(1.0) == 1);  // not measured: widened as any refused pair
-  CHECK(widened_pairs(0.1) == 0);  // 10 of alpha's 25 cluster keyframes ambiguous, above 0.1: registered once
+  const Outcome plain = run(1.0, 0.0);
+  CHECK_FALSE(plain.ambiguous);
+  REQUIRE(plain.selected);
+  CHECK(plain.widened == 1);  // not measured: widened as any refused pair
+
+  // 10 of alpha's 25 cluster keyframes ambiguous, above 0.1: registered once unless the consensus confirms it.
+  const Outcome once = run(0.1, 0.0);
+  CHECK(once.ambiguous);
+  REQUIRE(once.selected);
+  CHECK(once.widened == 0);
+  // The place consensus measured the cluster: every loop of the shifted pair places beta's map the same way, so
+  // the cluster's support is at least its own 25 loops.
+  REQUIRE(once.support >= 25.0);
+  CHECK(run(0.1, once.support).widened == 1);        // confirmed at exactly the support asked
+  CHECK(run(0.1, once.support + 1.0).widened == 0);  // one keyframe short
+  CHECK(run(1.0, once.support + 1.0).widened == 1);  // not ambiguous: the support is not asked for
+
+  MergeServerParams bad = PaperStageA(200);
+  for (double v : {-1.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    bad.widen_ambiguous_support = v;
+    CHECK_FALSE(ValidateMergeServerParams(bad).ok());
+  }
 }
 
 TEST_CASE("Merge server does not widen a refused pair whose robots merged pairs already join") {

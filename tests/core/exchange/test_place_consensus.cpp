@@ -315,6 +315,32 @@ TEST_CASE("Placements: inverse and composition act as the isometries they stand 
   CHECK_FALSE(InvertPlacement(none).valid);
 }
 
+TEST_CASE("Placements: the gap of a registered transform is its offset at the place and its yaw difference") {
+  const PlanarPose a{20.0, {3.0, -4.0, 0.5}}, b{-75.0, {-40.0, 12.0, 1.0}};
+  const Eigen::Vector3d place(6.0, -2.0, 0.0);
+  const ClusterPlacement a_b = TruePlacement(a, b, place);
+  const Eigen::Isometry3d T_a_b = a.T().inverse() * b.T();
+  const PlacementGap same = GapToPlacement(a_b, T_a_b);
+  CHECK(same.distance_m < 1e-9);
+  CHECK(same.yaw_deg < 1e-9);
+  // A registration turned by 30 deg about the place and then moved 5 m: 5 m and 30 deg off at the place.
+  for (double turn_deg : {30.0, -150.0, 179.0}) {
+    CAPTURE(turn_deg);
+    Eigen::Isometry3d about_place = Eigen::Isometry3d::Identity();
+    const Eigen::Vector3d q = T_a_b * place;  // the place in a's frame
+    about_place.translate(q + Eigen::Vector3d(3.0, 4.0, 0.0));
+    about_place.rotate(Eigen::AngleAxisd(turn_deg * kDegToRad, Eigen::Vector3d::UnitZ()));
+    about_place.translate(-q);
+    const PlacementGap gap = GapToPlacement(a_b, about_place * T_a_b);
+    CHECK(gap.distance_m == doctest::Approx(5.0).epsilon(1e-9));
+    CHECK(gap.yaw_deg == doctest::Approx(std::abs(turn_deg)).epsilon(1e-9));
+  }
+  // Roll of a few degrees (a wobbling sensor) leaves the yaw difference near zero.
+  Eigen::Isometry3d tilted = T_a_b;
+  tilted.rotate(Eigen::AngleAxisd(3.0 * kDegToRad, Eigen::Vector3d::UnitX()));
+  CHECK(GapToPlacement(a_b, tilted).yaw_deg < 0.5);
+}
+
 TEST_CASE("Place check across pairs: a weak pair is refused only when strong chains exist and none agrees") {
   // Four robots; pairs placed from the ground truth unless made wrong (a look-alike 35 m away, turned 90 deg).
   const std::vector<PlanarPose> world = {{0.0, {0, 0, 0}}, {90.0, {60, 20, 0}}, {-30.0, {-10, 80, 0}},
