@@ -1,19 +1,24 @@
 #!/usr/bin/env bash
-# Usage: profiling/bench_recall.sh [--commerge BUILD/commerge] [--work DIR] [--slice quick|generated|long|real|all]
+# Usage: profiling/bench_recall.sh [--commerge BUILD/commerge] [--work DIR] [--slice quick|generated|long|livox|real|all]
 #                                  [--seeds "11 12"] [--keyframes 800] [--long-keyframes 3000] [--run-args "ARGS"]
 #                                  [--worlds "urban campus indoor cave"] [--reuse-data] [--shared-data DIR]
-#                                  [--send-all] [--only REGEX]
+#                                  [--send-all] [--only REGEX] [--drop-data]
+#                                  [--baseline-commerge BIN] [--baseline-run-args "ARGS"]
 # Merge recall of `commerge run` with its default flags (only --lidar, and the data's own description:
 # keyframe spacing of generated data, odometry and reference files of real data), scenario by scenario:
 #   generated  every world x 2, 3 and 5 robots x complete / moderate / partial overlap x same / alternating
 #              directions x roll-pitch wobble 0 and the simulator's default, --keyframes per robot, per seed;
 #   long       a --long-keyframes subset: every world x 2 robots x complete / partial, the simulator's defaults;
+#   livox      the simulator's forward-looking Livox model (70 deg cone, non-repetitive; run as --lidar avia):
+#              every world x 2 and 3 robots x complete / moderate / partial x same / alternating directions,
+#              wobble 0.5 deg, --keyframes per robot, per seed (a forward-looking sensor is as hard for the
+#              descriptor as the real Livox sequences; the spinning VLP-16 of `generated` is easier);
 #   real       ../shared/data/real/{hku_mb,hku2} split in halves, thirds and two overlapping windows (odometry
 #              from odom_poses.txt, reference from poses.txt), and KITTI 00 frames 0-10 / 5-16;
 #   quick      a CI slice (the `heavy` test "recall: quick slice ..."): the simulator's default setting on the
 #              campus with five robots (moderate overlap, both ways, wobble 0.5 deg, 400 keyframes, seed 5; --seeds
 #              and --keyframes do not apply) and the hku2 halves;
-#   all        generated + long + real.
+#   all        generated + long + livox + real.
 # Per scenario one row: robots that truly share a place with robot 0's component (from ground truth,
 # core/eval/shared_place.hpp), robots merged (right and wrong: > 1 m or > 3 deg from the truth where the
 # robot met a placed robot, core/eval TruthAtSharedPlace), the worst such error, the worst e_rmse, bytes of
@@ -28,6 +33,14 @@
 # --only runs just the scenarios whose name matches the extended regular expression (a before/after subset).
 # --send-all also runs mode send-all (each pair registers the two complete stored maps) and adds its column:
 # robots placed / other robots and the worst e_rmse, what shipping everything buys.
+# --drop-data deletes each generated scenario's data once its run is done (0.7-1.8 GB per scenario at 800
+# keyframes: the whole matrix does not fit on most disks); the rows and run reports stay. Without it the data
+# stays for --reuse-data.
+# --baseline-commerge / --baseline-run-args: every scenario runs a second time on the same data, with that
+# binary (default: --commerge) and those options instead of --run-args, before the data is dropped; its rows are
+# printed with " (baseline)" after the name, kept in WORK/baseline.tsv (reports in WORK/NAME/baseline), and a
+# second summary line says what the baseline measured: a before / after over the whole matrix without keeping
+# its data.
 set -euo pipefail
 bin=build/commerge
 work=${TMPDIR:-/tmp}/commerge-recall
@@ -41,6 +54,10 @@ reuse=0
 shared=""
 send_all=0
 only=""
+drop_data=0
+base_bin=""
+base_args=""
+baseline=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --commerge) bin=$2; shift 2 ;;
@@ -54,38 +71,55 @@ while [ $# -gt 0 ]; do
     --reuse-data) reuse=1; shift ;;
     --send-all) send_all=1; shift ;;
     --only) only=$2; shift 2 ;;
+    --drop-data) drop_data=1; shift ;;
+    --baseline-commerge) base_bin=$2; baseline=1; shift 2 ;;
+    --baseline-run-args) base_args=$2; baseline=1; shift 2 ;;
     --shared-data) shared=$2; shift 2 ;;
     -h|--help) sed -n '2,/^set -euo/p' "$0" | sed '$d'; exit 0 ;;
     *) echo "bench_recall.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
-case "$slice" in quick|generated|long|real|all) ;; *) echo "bench_recall.sh: --slice: quick, generated, long, real or all" >&2; exit 2 ;; esac
+case "$slice" in quick|generated|long|livox|real|all) ;; *) echo "bench_recall.sh: --slice: quick, generated, long, livox, real or all" >&2; exit 2 ;; esac
 [ -x "$bin" ] || { echo "bench_recall.sh: $bin is not an executable (use --commerge)" >&2; exit 2; }
+[ -n "$base_bin" ] || base_bin=$bin
+[ -x "$base_bin" ] || { echo "bench_recall.sh: $base_bin is not an executable (--baseline-commerge)" >&2; exit 2; }
 here=$(cd "$(dirname "$0")" && pwd)
 [ -n "$shared" ] || shared=${COMMERGE_SHARED_DATA:-$here/../../shared/data}
 mkdir -p "$work"
 rows="$work/rows.tsv"
+base_rows="$work/baseline.tsv"
 : > "$rows"
+[ "$baseline" = 0 ] || : > "$base_rows"
 failures=0
 get() { awk -F'\t' -v k="$1" '$1 == k { print $2 }' "$2"; }
 
-# One `commerge run`; appends its row (and prints it). $1 = name, $2 = lidar preset, then dataset specs; extra
-# run options in the array `opts`.
+# One scenario: the baseline run (when asked for), then the run measured. $1 = name, $2 = lidar preset, then
+# dataset specs; extra run options in the array `opts`.
 run_scenario() {
-  local name=$1 lidar=$2
-  shift 2
-  if [ -n "$only" ] && ! [[ "$name" =~ $only ]]; then return; fi
-  local out="$work/$name/run"
+  if [ -n "$only" ] && ! [[ "$1" =~ $only ]]; then return; fi
+  if [ "$baseline" = 1 ]; then
+    run_one "$base_bin" "$base_args" baseline "$base_rows" " (baseline)" "$@"
+  fi
+  run_one "$bin" "$run_args" run "$rows" "" "$@"
+}
+
+# One `commerge run`; appends its row to a rows file (and prints it). $1 = binary, $2 = its extra options, $3 =
+# report folder under WORK/NAME, $4 = rows file, $5 = what the printed name gets after it, $6 = name, $7 = lidar
+# preset, then dataset specs.
+run_one() {
+  local run_bin=$1 args=$2 sub=$3 rows_file=$4 label=$5 name=$6 lidar=$7
+  shift 7
+  local out="$work/$name/$sub" log="$work/$name.$sub.log"
   set +e
   local modes=(A+B+C)
   [ "$send_all" = 1 ] && modes=(send-all A+B+C)
-  "$bin" run "$@" --lidar "$lidar" --modes "${modes[@]}" --no-report --no-progress --out "$out" "${opts[@]}" $run_args \
-      > "$work/$name.run.log" 2>&1
+  "$run_bin" run "$@" --lidar "$lidar" --modes "${modes[@]}" --no-report --no-progress --out "$out" "${opts[@]}" $args \
+      > "$log" 2>&1
   local rc=$?
   set -e
   local m="$out/report/metrics.tsv"
   if [ ! -f "$m" ] || [ -z "$(get robots "$m")" ]; then
-    printf '%s\trun failed (exit %d, see %s)\n' "$name" "$rc" "$work/$name.run.log" | tee -a "$rows"
+    printf '%s\trun failed (exit %d, see %s)\n' "$name$label" "$rc" "$log" | tee -a "$rows_file"
     failures=$((failures + 1))
     return
   fi
@@ -112,27 +146,30 @@ run_scenario() {
   total=$(get mode.A+B+C.total_bytes "$m"); stored=$(get stored_send_all_bytes "$m"); raw=$(get raw_keyframe_scan_bytes "$m")
   local send_all_col=-
   if [ "$send_all" = 1 ]; then send_all_col="$(get mode.send-all.robots_merged "$m") ($(get mode.send-all.worst_rmse_m "$m") m)"; fi
-  printf '%s\t%d\t%d\t%d\t%d\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$((robots - 1))" "$reachable" "$merged" "$wrong" \
+  printf '%s\t%d\t%d\t%d\t%d\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name$label" "$((robots - 1))" "$reachable" "$merged" "$wrong" \
       "$(printf '%.2f m / %.2f deg' "$worst_m" "$worst_deg")" "$(get mode.A+B+C.worst_rmse_m "$m")" "$total" "$stored" \
       "$(awk -v a="$stored" -v b="$total" 'BEGIN { printf "%.2f", 100 * (1 - b / a) }')" "$raw" \
       "$(awk -v a="$raw" -v b="$total" 'BEGIN { printf "%.3f", 100 * (1 - b / a) }')" "${stops:--}" "$send_all_col" \
-      "$(printf '%.2f m' "$worst_start_m")" | tee -a "$rows"
+      "$(printf '%.2f m' "$worst_start_m")" | tee -a "$rows_file"
 }
 
-generated() {  # $1 = keyframes, $2 = seed, $3 = world, $4 = robots, $5 = overlap, $6 = direction, $7 = wobble
-  local kf=$1 seed=$2 world=$3 robots=$4 overlap=$5 direction=$6 wobble=$7
-  local name="$world-${robots}r-$overlap-$direction-w$wobble-k$kf-s$seed"
+generated() {  # $1 = keyframes, $2 = seed, $3 = world, $4 = robots, $5 = overlap, $6 = direction, $7 = wobble,
+               # $8 = the simulator's lidar (default vlp16; livox runs with the avia preset and gets it in its name)
+  local kf=$1 seed=$2 world=$3 robots=$4 overlap=$5 direction=$6 wobble=$7 sim_lidar=${8:-vlp16}
+  local name="$world-${robots}r-$overlap-$direction-w$wobble-k$kf-s$seed" run_lidar=vlp-16
+  if [ "$sim_lidar" = livox ]; then name="$world-${robots}r-$overlap-$direction-w$wobble-livox-k$kf-s$seed"; run_lidar=avia; fi
   local data="$work/$name/data"
   if [ -n "$only" ] && ! [[ "$name" =~ $only ]]; then return; fi
   if [ "$reuse" = 0 ] || [ ! -f "$data/robot_$((robots - 1))/poses.txt" ]; then
-    "$bin" sim --world "$world" --robots "$robots" --overlap "$overlap" --keyframes "$kf" --lidar vlp16 --seed "$seed" \
+    "$bin" sim --world "$world" --robots "$robots" --overlap "$overlap" --keyframes "$kf" --lidar "$sim_lidar" --seed "$seed" \
         --threads 2 --direction "$direction" --wobble-deg "$wobble" --out "$data" --force > "$work/$name.sim.log" 2>&1
   fi
   local dirs=()
   for ((r = 0; r < robots; r++)); do dirs+=("$data/robot_$r"); done
   # The simulator writes one scan per metre: a keyframe every 0.9 m keeps every scan despite odometry noise.
   opts=(--keyframe-spacing-m 0.9 --max-keyframes $((kf + 100)))
-  run_scenario "$name" vlp-16 "${dirs[@]}"
+  run_scenario "$name" "$run_lidar" "${dirs[@]}"
+  if [ "$drop_data" = 1 ]; then rm -rf "$data"; fi
 }
 
 real_splits() {  # $1 = folder under real/, $2 = scans
@@ -154,6 +191,7 @@ if [ "$slice" = quick ]; then
 else
   echo "commerge recall benchmark: slice $slice, seeds $seeds, $keyframes keyframes (long: $long_keyframes)${run_args:+, run options: $run_args}"
 fi
+[ "$baseline" = 0 ] || echo "baseline: $base_bin${base_args:+, run options: $base_args}"
 printf 'scenario\tother robots\tsharing robots\tmerged\twrong\tworst transform error\tworst e_rmse [m]\tA+B+C bytes\tstored send-all bytes\treduction %%\traw scan bytes\treduction vs raw %%\tunmerged pairs stopped at\tsend-all placed (worst e_rmse)\tworst error vs start poses\n'
 for seed in $seeds; do
   case "$slice" in
@@ -170,6 +208,15 @@ for seed in $seeds; do
         done
       done ;;
   esac
+  if [ "$slice" = livox ] || [ "$slice" = all ]; then
+    for world in $worlds; do
+      for robots in 2 3; do
+        for overlap in complete moderate partial; do
+          for direction in same alternate; do generated "$keyframes" "$seed" "$world" "$robots" "$overlap" "$direction" 0.5 livox; done
+        done
+      done
+    done
+  fi
   if [ "$slice" = long ] || [ "$slice" = all ]; then
     for world in $worlds; do
       for overlap in complete partial; do generated "$long_keyframes" "$seed" "$world" 2 "$overlap" alternate 0.5; done
@@ -184,7 +231,9 @@ if [ "$slice" = real ] || [ "$slice" = all ] || [ "$slice" = quick ]; then
     run_scenario kitti00-0-10-5-16 hdl-64e "$shared/kitti/kitti00_frames0-15:0-10" "$shared/kitti/kitti00_frames0-15:5-16"
   fi
 fi
-awk -F'\t' '
+# One summary line of a rows file; $1 = what the line starts with.
+summarise() {
+  awk -F'\t' -v label="$1" '
   NF >= 13 { reach += $3; merged += $4; wrong += $5; n++; red[n] = $10; raw[n] = $12
              if ($1 ~ /^(hku|kitti)/) { real_robots += $2; real_merged += $4 } }
   function median(a, k,   i, j, t) {
@@ -192,8 +241,11 @@ awk -F'\t' '
     return k % 2 ? a[(k + 1) / 2] : (a[k / 2] + a[k / 2 + 1]) / 2
   }
   END {
-    if (n == 0) { print "summary: no scenario ran"; exit }
-    printf "summary: %d scenarios; recall %d of %d robots that share a place (%.1f %%); real splits: %d of %d robots merged; %d wrong merges; median reduction %.2f %% vs stored send-all, %.3f %% vs raw scans\n",
-           n, merged, reach, reach ? 100 * merged / reach : 100, real_merged, real_robots, wrong, median(red, n), median(raw, n)
-  }' "$rows"
+    if (n == 0) { print label ": no scenario ran"; exit }
+    printf "%s: %d scenarios; recall %d of %d robots that share a place (%.1f %%); real splits: %d of %d robots merged; %d wrong merges; median reduction %.2f %% vs stored send-all, %.3f %% vs raw scans\n",
+           label, n, merged, reach, reach ? 100 * merged / reach : 100, real_merged, real_robots, wrong, median(red, n), median(raw, n)
+  }' "$2"
+}
+summarise summary "$rows"
+[ "$baseline" = 0 ] || summarise "baseline summary" "$base_rows"
 [ "$failures" -eq 0 ] || { echo "bench_recall.sh: $failures run(s) failed" >&2; exit 1; }
