@@ -11,8 +11,8 @@
 #   long       a --long-keyframes subset: every world x 2 robots x complete / partial, the simulator's defaults;
 #   livox      the simulator's forward-looking Livox model (70 deg cone, non-repetitive; run as --lidar avia):
 #              every world x 2 and 3 robots x complete / moderate / partial x same / alternating directions,
-#              wobble 0.5 deg, --keyframes per robot, per seed (a forward-looking sensor is as hard for the
-#              descriptor as the real Livox sequences; the spinning VLP-16 of `generated` is easier);
+#              wobble 0.5 deg, --keyframes per robot, per seed (a forward-looking sensor like the real
+#              sequences'; profiling/RESULTS.md "Descriptor distances" compares both sensors with the real data);
 #   real       ../shared/data/real/{hku_mb,hku2} split in halves, thirds and two overlapping windows (odometry
 #              from odom_poses.txt, reference from poses.txt), and KITTI 00 frames 0-10 / 5-16;
 #   quick      a CI slice (the `heavy` test "recall: quick slice ..."): the simulator's default setting on the
