@@ -54,8 +54,8 @@ const MergeFlag kMergeFlags[] = {
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.min_ambiguous_support; }},
     {"--widen-ambiguous-support", "widen_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
      "a pair at an ambiguous place (--max-ambiguous-fraction) whose stage A cluster the place consensus confirms "
-     "with at least this summed weight may be widened like any other (--max-widen-steps); 0 = an ambiguous pair "
-     "is never widened",
+     "with at least this summed weight may be widened like any other (--max-widen-steps); 0 = off: an ambiguous "
+     "pair is never widened (measured with 100: more robots merged and one more wrong)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->widen_ambiguous_support; }},
     {"--chain-check-support", "chain_check_support", "keyframes", 0.0, 1e7, "ours",
      "a pair whose stage A cluster has less place-consensus support than this is not passed on when a third "

@@ -84,14 +84,17 @@ struct MergeServerParams {
   /// once more; at most this many times per pair and round (0 = the paper's single exchange). A refused pair costs
   /// the extra scans; a pair that merged costs nothing. A pair whose cluster is below tau_area (the cascade's
   /// verification) or at an ambiguous place (the cascade's `ambiguous`) is never widened: its one registration
-  /// decides, unless widen_ambiguous_support allows it.
+  /// decides, unless widen_ambiguous_support allows it (off by default).
   int max_widen_steps = 2;
-  /// Ours; 0 = off (an ambiguous cluster is never widened). [keyframes] An ambiguous cluster whose place consensus
-  /// support (ExchangeCascadeResult::consensus_support_chosen) reaches this is widened like any other: corridors
-  /// and rooms that repeat make true clusters ambiguous too, and a cluster that a hundred keyframes of other
-  /// clusters place the same way is not a look-alike. Look-alike clusters in the recall benchmark had a support of
-  /// 22-49 (those below 40 end at stage A, ExchangeCascadeParams::min_ambiguous_support); 100 is twice the top.
-  double widen_ambiguous_support = 100.0;
+  /// Ours; 0 = off, the default (an ambiguous cluster is never widened). [keyframes] An ambiguous cluster whose
+  /// place consensus support (ExchangeCascadeResult::consensus_support_chosen) reaches this is widened like any
+  /// other: corridors and rooms that repeat make true clusters ambiguous too, and a cluster that a hundred
+  /// keyframes of other clusters place the same way is not a look-alike (look-alikes in the recall benchmark had a
+  /// support of 22-49). Off by default: with 100 the indoor world gained 3 robots on seed 11 but a true cluster of
+  /// seed 12, widened twice, passed registration's gates with the corridor turned 180 deg (profiling/RESULTS.md
+  /// "Widening confirmed ambiguous places"); the widened registration would have to agree with the cluster's
+  /// placement first.
+  double widen_ambiguous_support = 0.0;
   /// Place check across pairs (ours; 0 = off, the paper). [keyframes] A pair whose stage A cluster has a place
   /// consensus support below this is weakly supported. Through every third robot c whose pairs with both robots
   /// are supported at least this much, the two placements compose into where c says robot beta's map lies in
