@@ -129,8 +129,9 @@ struct RobotVerdict {
   bool reachable = false;
   bool merged = false;
   TransformError error;  ///< of T_world_map against the transform of the true start poses (merged, has_gt)
-  /// Against the truth where it met another placed robot (core/eval TruthAtSharedPlace; the partner whose
-  /// shared places agree best); judged_at_place is false when it shares no place with a placed robot.
+  /// Against the truth where it met another placed robot (core/eval TruthAtSharedPlace, fitted at the keyframes
+  /// their registration used when those lie at a shared place, else over every shared place; the partner that
+  /// agrees best); judged_at_place is false when it shares no place with a placed robot.
   TransformError error_at_place;
   bool judged_at_place = false;
   int place_partner = -1;  ///< the robot of error_at_place

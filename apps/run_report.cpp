@@ -60,9 +60,24 @@ std::vector<SharedPlace> SharedPlaces(const RunJob& job, const ModeOutcome& m) {
   return out;
 }
 
-// Placed robot r against every other placed robot q it meets: the reported T_q_r = T_world_q^-1 T_world_r at the
-// places they share, against the truth there (TruthAtSharedPlace). The best-agreeing partner decides (a robot
-// is placed right when it fits where it met one placed robot; drift makes it disagree elsewhere).
+// Robot r's keyframes whose scans the registered pair of r and q used (empty when the pair did not merge).
+std::vector<std::uint32_t> RegisteredKeyframes(const ModeOutcome& m, int r, int q) {
+  for (std::size_t i = 0; i < m.round.pairs.size() && i < m.round.plan.pairs.size(); ++i) {
+    const PairMergeResult& p = m.round.pairs[i];
+    if (!((p.alpha == r && p.beta == q) || (p.alpha == q && p.beta == r))) continue;
+    if (!p.attempted || !p.registration.success()) return {};
+    const PairSelection& sel = m.round.plan.pairs[i];
+    return p.alpha == r ? sel.alpha_keyframes : sel.beta_keyframes;
+  }
+  return {};
+}
+
+// Placed robot r against every other placed robot q it meets: the reported T_q_r = T_world_q^-1 T_world_r
+// against the truth where they met (TruthAtSharedPlace): at the keyframes whose scans their registration used when
+// it merged and at least 3 of those lie at a shared place, else over every place they share. Odometry drifts,
+// so no rigid transform fits every shared place; a merge is right when it fits the place it was made at. A merge
+// at a look-alike place stays far from the truth at any of r's keyframes (the truth pairs keyframes by their true
+// positions). The best-agreeing partner decides.
 void JudgeAtSharedPlace(const RunJob& job, const ModeOutcome& m, int r, RobotVerdict& v) {
   const SharedPlaceParams params = SharedPlaceFor(job);
   const Trajectories& tr = job.trajectories[static_cast<std::size_t>(r)];
@@ -70,9 +85,15 @@ void JudgeAtSharedPlace(const RunJob& job, const ModeOutcome& m, int r, RobotVer
   for (int q = 0; q < job.num_robots(); ++q) {
     if (q == r || !m.round.in_world(q)) continue;
     const Trajectories& tq = job.trajectories[static_cast<std::size_t>(q)];
-    const Result<SharedPlaceTruth> truth = TruthAtSharedPlace(
-        Span<const Eigen::Isometry3d>(tq.estimated), Span<const Eigen::Isometry3d>(tq.ground_truth),
-        Span<const Eigen::Isometry3d>(tr.estimated), Span<const Eigen::Isometry3d>(tr.ground_truth), params);
+    const auto truth_at = [&](Span<const std::uint32_t> keyframes) {
+      return TruthAtSharedPlace(
+          Span<const Eigen::Isometry3d>(tq.estimated), Span<const Eigen::Isometry3d>(tq.ground_truth),
+          Span<const Eigen::Isometry3d>(tr.estimated), Span<const Eigen::Isometry3d>(tr.ground_truth), params, 3,
+          keyframes);
+    };
+    const std::vector<std::uint32_t> registered = RegisteredKeyframes(m, r, q);
+    Result<SharedPlaceTruth> truth = truth_at(Span<const std::uint32_t>(registered));
+    if (!registered.empty() && !truth.ok()) truth = truth_at({});
     if (!truth.ok()) continue;
     const TransformError e =
         ErrorAtSharedPlace(m.round.T_world_map(q).inverse() * m.round.T_world_map(r), *truth);

@@ -21,7 +21,8 @@
 #   all        generated + long + livox + real.
 # Per scenario one row: robots that truly share a place with robot 0's component (from ground truth,
 # core/eval/shared_place.hpp), robots merged (right and wrong: > 1 m or > 3 deg from the truth where the
-# robot met a placed robot, core/eval TruthAtSharedPlace), the worst such error, the worst e_rmse, bytes of
+# robot met a placed robot, core/eval TruthAtSharedPlace, at the keyframes their registration used), the worst
+# such error, the worst e_rmse, bytes of
 # A+B+C against sending every stored scan and against every raw keyframe scan, the stage that stopped each pair
 # that shares a place and was not merged, and the worst translation error against the transform of the true
 # start poses (what drift adds). Then one summary line: recall, real splits merged, wrong merges, median byte

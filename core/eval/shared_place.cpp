@@ -99,7 +99,7 @@ std::vector<bool> ReachableFromRobot0(int robots, const std::vector<bool>& share
 Result<SharedPlaceTruth> TruthAtSharedPlace(Span<const Eigen::Isometry3d> ref_est, Span<const Eigen::Isometry3d> ref_gt,
                                             Span<const Eigen::Isometry3d> other_est,
                                             Span<const Eigen::Isometry3d> other_gt, const SharedPlaceParams& params,
-                                            std::size_t min_keyframe_pairs) {
+                                            std::size_t min_keyframe_pairs, Span<const std::uint32_t> other_keyframes) {
   if (Status s = ValidateSharedPlaceParams(params); !s.ok()) return s;
   if (ref_est.size() != ref_gt.size()) return InvalidArgument("ref_est and ref_gt differ in size");
   if (other_est.size() != other_gt.size()) return InvalidArgument("other_est and other_gt differ in size");
@@ -108,10 +108,19 @@ Result<SharedPlaceTruth> TruthAtSharedPlace(Span<const Eigen::Isometry3d> ref_es
       if (!T.matrix().allFinite()) return InvalidArgument("TruthAtSharedPlace: a pose has a non-finite entry");
     }
   }
+  std::vector<bool> judged(other_gt.size(), other_keyframes.empty());
+  for (std::uint32_t k : other_keyframes) {
+    if (k >= other_gt.size()) {
+      return InvalidArgument("TruthAtSharedPlace: keyframe " + std::to_string(k) + " of the other robot is outside its " +
+                             std::to_string(other_gt.size()) + " poses");
+    }
+    judged[k] = true;
+  }
   const double r2 = params.radius_m * params.radius_m;
   std::vector<Eigen::Isometry3d> source, target;  // other's estimated poses, and where they belong in ref's map
   SharedPlaceTruth truth;
   for (std::size_t i = 0; i < other_gt.size(); ++i) {
+    if (!judged[i]) continue;
     std::size_t best = ref_gt.size();
     double best_d2 = r2;
     for (std::size_t j = 0; j < ref_gt.size(); ++j) {

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -66,10 +67,14 @@ struct SharedPlaceTruth {
 /// it equals the transform between the two robots' true start poses. Errors (InvalidArgument naming the
 /// input): estimated and ground-truth sizes differ; a non-finite pose; invalid params; NotFound when fewer than
 /// min_keyframe_pairs keyframes of other are at a place of ref.
+/// `other_keyframes` (optional) restricts the fit to those keyframes of other, for example the scans a merge
+/// registered: odometry drifts, so no one rigid transform fits every shared place, and a merge is judged at the
+/// place it was made. An index outside other's poses is InvalidArgument.
 Result<SharedPlaceTruth> TruthAtSharedPlace(Span<const Eigen::Isometry3d> ref_est, Span<const Eigen::Isometry3d> ref_gt,
                                             Span<const Eigen::Isometry3d> other_est,
                                             Span<const Eigen::Isometry3d> other_gt, const SharedPlaceParams& params,
-                                            std::size_t min_keyframe_pairs = 3);
+                                            std::size_t min_keyframe_pairs = 3,
+                                            Span<const std::uint32_t> other_keyframes = {});
 
 /// Error of `T_ref_other` (an estimate of truth.T_ref_other) at the shared place: translation_m is the distance
 /// between where the two transforms put truth.p_other_place, rotation_deg the angle between their rotations.

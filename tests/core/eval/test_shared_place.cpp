@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "core/eval/shared_place.hpp"
@@ -157,6 +158,43 @@ TEST_CASE("Truth at the shared place: a robot that drifted before the meeting is
   CHECK(off.translation_m == doctest::Approx((start_truth * centroid - local_truth * centroid).norm()).epsilon(1e-9));
   CHECK(off.translation_m > 1.0);
   CHECK(off.rotation_deg == doctest::Approx(2.0).epsilon(1e-6));
+}
+
+TEST_CASE("Truth at the shared place: restricted to a merge's keyframes it is the transform where the merge was made") {
+  // Other drives ref's lane x = 0..80 the other way round, then 10 keyframes on a lane 50 m away; its odometry
+  // drifts in two steps: keyframes 0..39 (x = 79..40) are D1 off the truth, keyframes 40.. D2. No rigid
+  // transform fits both halves.
+  const auto ref_gt = Lane(0, 80, 0, 0);
+  std::vector<Eigen::Isometry3d> other_gt;
+  for (const Eigen::Isometry3d& T : Lane(0, 80, 1, 180)) other_gt.insert(other_gt.begin(), T);
+  for (const Eigen::Isometry3d& T : Lane(0, 10, 50, 0)) other_gt.push_back(T);
+  const Eigen::Isometry3d T_gt_other = other_gt.front();
+  const Eigen::Isometry3d D1 = Pose(0.2, -0.1, 0.0, 0.3), D2 = Pose(1.8, 1.1, 0.0, 3.0);
+  std::vector<Eigen::Isometry3d> other_est = InMapFrame(other_gt, T_gt_other);
+  for (std::size_t i = 0; i < other_est.size(); ++i) other_est[i] = (i < 40 ? D1 : D2) * other_est[i];
+  SharedPlaceParams p;
+  const auto truth_at = [&](const std::vector<std::uint32_t>& keyframes) {
+    return TruthAtSharedPlace(Poses(ref_gt), Poses(ref_gt), Poses(other_est), Poses(other_gt), p, 3,
+                              Span<const std::uint32_t>(keyframes));
+  };
+  std::vector<std::uint32_t> second_half, far_lane;
+  for (std::uint32_t k = 50; k < 70; ++k) second_half.push_back(k);
+  for (std::uint32_t k = 80; k < 90; ++k) far_lane.push_back(k);
+  const Result<SharedPlaceTruth> local = truth_at(second_half), all = truth_at({});
+  REQUIRE(local.ok());
+  REQUIRE(all.ok());
+  CHECK(local->keyframe_pairs == 20);
+  CHECK(all->keyframe_pairs == 80);
+  // Where the merge was made the truth is the second half's transform exactly (other_est = D2 other's map there).
+  const Eigen::Isometry3d at_second_half = T_gt_other * D2.inverse();
+  CHECK(ErrorAtSharedPlace(at_second_half, *local).translation_m < 1e-9);
+  CHECK(ErrorAtSharedPlace(at_second_half, *local).rotation_deg < 1e-7);
+  // Over every shared place the same transform is judged against a compromise of both halves (about half of
+  // the 2.7 deg between D1 and D2).
+  CHECK(ErrorAtSharedPlace(at_second_half, *all).rotation_deg > 1.0);
+  // Keyframes at no shared place, and keyframes beyond other's poses.
+  CHECK(truth_at(far_lane).status().code() == StatusCode::kNotFound);
+  CHECK(truth_at({5, 90}).status().code() == StatusCode::kInvalidArgument);
 }
 
 TEST_CASE("Truth at the shared place: too few keyframes at a shared place and bad input are errors") {
