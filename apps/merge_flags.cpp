@@ -43,9 +43,9 @@ const MergeFlag kMergeFlags[] = {
      "below tau_area is passed on)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.verification_area_fraction; }},
     {"--max-ambiguous-fraction", "cascade.max_ambiguous_fraction", "", 0.0, 1.0, "ours",
-     "register a pair once, never widened, when more than this fraction of its stage A cluster's keyframes of "
-     "either robot look as alike to another place of the robot's own map (more than 20 m away) as to the other "
-     "robot (repeated structure); 1 = off (the paper)",
+     "register a pair once, never widened (unless --widen-ambiguous-support), when more than this fraction of "
+     "its stage A cluster's keyframes of either robot look as alike to another place of the robot's own map "
+     "(more than 20 m away) as to the other robot (repeated structure); 1 = off (the paper)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.max_ambiguous_fraction; }},
     {"--min-ambiguous-support", "cascade.min_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
      "a stage A cluster at an ambiguous place (--max-ambiguous-fraction) is passed on only when the place "
@@ -54,8 +54,9 @@ const MergeFlag kMergeFlags[] = {
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.min_ambiguous_support; }},
     {"--widen-ambiguous-support", "widen_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
      "a pair at an ambiguous place (--max-ambiguous-fraction) whose stage A cluster the place consensus confirms "
-     "with at least this summed weight may be widened like any other (--max-widen-steps); 0 = off: an ambiguous "
-     "pair is never widened (measured with 100: more robots merged and one more wrong)",
+     "with at least this summed weight may be widened like any other (--max-widen-steps), and is merged only "
+     "where that consensus places it (within the tolerances by which two clusters agree); 0 = off: an ambiguous "
+     "pair is never widened",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->widen_ambiguous_support; }},
     {"--chain-check-support", "chain_check_support", "keyframes", 0.0, 1e7, "ours",
      "a pair whose stage A cluster has less place-consensus support than this is not passed on when a third "

@@ -570,7 +570,9 @@ void WriteMetrics(const RunJob& job) {
                                                 Fmt("%.0f", c->consensus_support_chosen));
         if (c->consensus_switched) kv(k + "stage_a_consensus_switched", "1");
       }
-      if (p.attempted && p.registration.success() && c->consensus_placement.valid) {
+      const bool has_transform = p.registration.success() ||
+                                 p.registration.verdict == RegistrationVerdict::kOffConfirmedPlace;
+      if (p.attempted && has_transform && c->consensus_placement.valid) {
         const PlacementGap gap = GapToPlacement(c->consensus_placement, p.registration.T_target_source);
         kv(k + "registration_vs_placement_m_deg", Fmt("%.2f", gap.distance_m) + " " + Fmt("%.1f", gap.yaw_deg));
       }

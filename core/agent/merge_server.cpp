@@ -96,6 +96,15 @@ bool AmbiguousClusterConfirmed(const ExchangeCascadeResult& cascade, const Merge
          cascade.consensus_support_chosen >= params.widen_ambiguous_support;
 }
 
+bool RegistrationAtConfirmedPlace(const ExchangeCascadeResult& cascade, const MergeServerParams& params,
+                                  const Eigen::Isometry3d& T_alpha_beta, PlacementGap* gap) {
+  if (gap) *gap = PlacementGap{};
+  if (!AmbiguousClusterConfirmed(cascade, params) || !cascade.consensus_placement.valid) return true;
+  const PlacementGap measured = GapToPlacement(cascade.consensus_placement, T_alpha_beta);
+  if (gap) *gap = measured;
+  return measured.distance_m <= params.cascade.consensus.agree_m && measured.yaw_deg <= params.cascade.consensus.agree_deg;
+}
+
 Status ValidateMergeServerParams(const MergeServerParams& params) {
   if (!(params.submap_voxel_size_m >= 5e-3) || !std::isfinite(params.submap_voxel_size_m)) {
     return InvalidArgument("submap_voxel_size_m = " + std::to_string(params.submap_voxel_size_m) +
@@ -808,7 +817,21 @@ Result<PairMergeResult> MergeServer::MergePair(const PairSelection& pair, Regist
   if (!result.ok()) return result.status();
   out.attempted = true;
   out.registration = *result;
-  if (!result->success()) out.reason = RegistrationVerdictName(result->verdict);
+  if (!result->success()) {
+    out.reason = RegistrationVerdictName(result->verdict);
+    return out;
+  }
+  // A pair at a confirmed ambiguous place may have been widened until something aligned: it merges only where
+  // its place consensus puts it. The transform stays in the result for the report.
+  const PairState* state = FindPair(pair.alpha, pair.beta);
+  PlacementGap gap;
+  if (state && !RegistrationAtConfirmedPlace(state->cascade, params_, result->T_target_source, &gap)) {
+    out.registration.verdict = RegistrationVerdict::kOffConfirmedPlace;
+    out.reason = std::string(RegistrationVerdictName(out.registration.verdict)) + " (" + FormatNumber(gap.distance_m, 3) +
+                 " m and " + FormatNumber(gap.yaw_deg, 3) + " deg from the place consensus's placement, tolerance " +
+                 FormatNumber(params_.cascade.consensus.agree_m, 3) + " m and " +
+                 FormatNumber(params_.cascade.consensus.agree_deg, 3) + " deg)";
+  }
   return out;
 }
 

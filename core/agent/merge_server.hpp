@@ -84,17 +84,16 @@ struct MergeServerParams {
   /// once more; at most this many times per pair and round (0 = the paper's single exchange). A refused pair costs
   /// the extra scans; a pair that merged costs nothing. A pair whose cluster is below tau_area (the cascade's
   /// verification) or at an ambiguous place (the cascade's `ambiguous`) is never widened: its one registration
-  /// decides, unless widen_ambiguous_support allows it (off by default).
+  /// decides, unless widen_ambiguous_support allows it.
   int max_widen_steps = 2;
-  /// Ours; 0 = off, the default (an ambiguous cluster is never widened). [keyframes] An ambiguous cluster whose
-  /// place consensus support (ExchangeCascadeResult::consensus_support_chosen) reaches this is widened like any
-  /// other: corridors and rooms that repeat make true clusters ambiguous too, and a cluster that a hundred
-  /// keyframes of other clusters place the same way is not a look-alike (look-alikes in the recall benchmark had a
-  /// support of 22-49). Off by default: with 100 the indoor world gained 3 robots on seed 11 but a true cluster of
-  /// seed 12, widened twice, passed registration's gates with the corridor turned 180 deg (profiling/RESULTS.md
-  /// "Widening confirmed ambiguous places"); the widened registration would have to agree with the cluster's
-  /// placement first.
-  double widen_ambiguous_support = 0.0;
+  /// Ours; 0 = off (an ambiguous cluster is never widened). [keyframes] An ambiguous cluster whose place
+  /// consensus support (ExchangeCascadeResult::consensus_support_chosen) reaches this is widened like any other:
+  /// corridors and rooms that repeat make true clusters ambiguous too, and a cluster that a hundred keyframes of
+  /// other clusters place the same way is not a look-alike (look-alikes in the recall benchmark had a support of
+  /// 22-49). Such a pair is merged only where its consensus places it (RegistrationAtConfirmedPlace): widened
+  /// twice, a true cluster once passed registration's gates with the corridor turned 180 deg
+  /// (profiling/RESULTS.md "Widening confirmed ambiguous places").
+    double widen_ambiguous_support = 100.0;
   /// Place check across pairs (ours; 0 = off, the paper). [keyframes] A pair whose stage A cluster has a place
   /// consensus support below this is weakly supported. Through every third robot c whose pairs with both robots
   /// are supported at least this much, the two placements compose into where c says robot beta's map lies in
@@ -110,6 +109,14 @@ Status ValidateMergeServerParams(const MergeServerParams& params);
 /// The cascade flagged the pair's cluster ambiguous and the place consensus confirms it with at least
 /// widen_ambiguous_support keyframes (> 0): the server may widen it like any other pair.
 bool AmbiguousClusterConfirmed(const ExchangeCascadeResult& cascade, const MergeServerParams& params);
+
+/// The place check of a confirmed ambiguous pair (ours): when AmbiguousClusterConfirmed holds and the chosen
+/// cluster has a valid placement, a registered T_alpha_beta (p_alpha = T p_beta) is accepted only within
+/// cascade.consensus.agree_m of the placement at its place and agree_deg of its yaw (GapToPlacement), the
+/// tolerances by which two clusters agree; otherwise MergePair refuses it (RegistrationVerdict::kOffConfirmedPlace).
+/// True for every other pair. `gap`, when given, gets the gap if one was measured (else zeros).
+bool RegistrationAtConfirmedPlace(const ExchangeCascadeResult& cascade, const MergeServerParams& params,
+                                  const Eigen::Isometry3d& T_alpha_beta, PlacementGap* gap = nullptr);
 
 /// The server's copy of one robot's keyframes.
 struct RobotKeyframeDb {

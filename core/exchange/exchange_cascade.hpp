@@ -38,7 +38,7 @@ struct ExchangeCascadeParams {
   /// ambiguous (the robot's own map has a keyframe more than ambiguity_far_m away whose descriptor is as close as
   /// the other robot's match, place_ambiguity.hpp), the result is flagged `ambiguous`: the pair is registered
   /// once, never widened (MergeServer::WidenPlan) unless the place consensus confirms it
-  /// (MergeServerParams::widen_ambiguous_support, off by default). In [0, 1].
+  /// (MergeServerParams::widen_ambiguous_support). In [0, 1].
   double max_ambiguous_fraction = 1.0;
   /// [m], >= 0: how far a keyframe of the robot's own map must be to count as another place.
   double ambiguity_far_m = 20.0;

@@ -6,8 +6,9 @@
 // stage A's best cluster was twice a place the robots never shared, and registration, refused at first and then
 // widened until something aligned, merged the maps 130 m off: there 94-96 % of the cluster's keyframes were
 // ambiguous, but so were 82-95 % of true clusters, so ambiguity alone cannot refuse a pair. The cascade flags a
-// cluster above ExchangeCascadeParams::max_ambiguous_fraction and the server registers it once, never widened
-// (MergeServerParams::widen_ambiguous_support, off by default, would widen those the place consensus confirms);
+// cluster above ExchangeCascadeParams::max_ambiguous_fraction and the server registers it once, never widened,
+// unless the place consensus confirms it (MergeServerParams::widen_ambiguous_support: then only a registration
+// where the consensus places it is accepted);
 // on the generated streets true clusters stay at or below 61 %, on the real sequences at 0.
 #pragma once
 

@@ -55,6 +55,7 @@ const char* RegistrationVerdictName(RegistrationVerdict verdict) noexcept {
     case RegistrationVerdict::kOverlapTooLow: return "overlap too low";
     case RegistrationVerdict::kDegenerate: return "degenerate";
     case RegistrationVerdict::kCoarseFineDisagree: return "coarse and fine disagree";
+    case RegistrationVerdict::kOffConfirmedPlace: return "off the confirmed place";
   }
   return "unknown";
 }

@@ -103,6 +103,9 @@ enum class RegistrationVerdict : std::uint8_t {
   kOverlapTooLow,             ///< overlap_ratio, directional_overlap or their product below its gate
   kDegenerate,                ///< the information leaves a translation direction unconstrained
   kCoarseFineDisagree,        ///< the fine stage moved the coarse estimate too far
+  /// Set by the merge server after Register, never by it: the transform of a pair at a confirmed ambiguous place
+  /// lies away from where the place consensus puts it (RegistrationAtConfirmedPlace in merge_server.hpp).
+  kOffConfirmedPlace,
 };
 
 /// "success", "non-finite input", "too few points", ... (stable, for logs and tables).

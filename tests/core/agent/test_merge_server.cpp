@@ -22,6 +22,7 @@
 #include "core/agent/server_link.hpp"
 #include "core/cloud/scan_codec.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
+#include "core/geometry/angles.hpp"
 
 using namespace commerge;
 using commerge::test::ChunksOf;
@@ -803,9 +804,33 @@ TEST_CASE("Merge server does not widen a refused pair whose stage A cluster was 
   CHECK(widened_pairs(2000) == 0);  // 1225 of 2000 cells: verified once, never widened
 }
 
+namespace {
+
+// ShiftedPairBatches(40, 5) with alpha's keyframes 30..39 made copies of 5..14 and moved 100 m on: stage A's
+// cluster (alpha 5..29 with beta 0..24) then holds 10 places alpha saw twice, far apart, of 25.
+std::vector<KeyframeBatch> AmbiguousShiftedPairBatches() {
+  std::vector<KeyframeBatch> batches = ShiftedPairBatches(40, 5);
+  std::vector<std::uint8_t>& records = batches[0].records;
+  for (std::uint32_t k = 30; k < 40; ++k) {
+    auto copy = DecodeKeyframeRecord(
+        Span<const std::uint8_t>(records.data() + (k - 25) * kKeyframeRecordBytes, kKeyframeRecordBytes));
+    auto moved_or = DecodeKeyframeRecord(
+        Span<const std::uint8_t>(records.data() + k * kKeyframeRecordBytes, kKeyframeRecordBytes));
+    REQUIRE(copy.ok());
+    REQUIRE(moved_or.ok());
+    KeyframeRecord moved = *moved_or;
+    moved.descriptor = copy->descriptor;
+    moved.T_map_sensor.translation().x() += 100.0;
+    REQUIRE(EncodeKeyframeRecord(moved, Span<std::uint8_t>(records.data() + k * kKeyframeRecordBytes,
+                                                          kKeyframeRecordBytes)).ok());
+  }
+  return batches;
+}
+
+}  // namespace
+
 TEST_CASE("Merge server widens a refused pair at an ambiguous place only when the place consensus confirms it") {
-  // ShiftedPairBatches(40, 5) with alpha's keyframes 30..39 made copies of 5..14 and moved 100 m on: stage A's
-  // cluster (alpha 5..29 with beta 0..24) then holds 10 places alpha saw twice, far apart, of 25.
+  // AmbiguousShiftedPairBatches: 10 of the cluster's 25 alpha keyframes are places alpha saw twice.
   struct Outcome {
     bool ambiguous = false;
     bool selected = false;
@@ -819,22 +844,7 @@ TEST_CASE("Merge server widens a refused pair at an ambiguous place only when th
     params.widen_ambiguous_support = widen_ambiguous_support;
     REQUIRE(ValidateMergeServerParams(params).ok());
     MergeServer server(2, 100, params);
-    std::vector<KeyframeBatch> batches = ShiftedPairBatches(40, 5);
-    std::vector<std::uint8_t>& records = batches[0].records;
-    for (std::uint32_t k = 30; k < 40; ++k) {
-      auto copy = DecodeKeyframeRecord(
-          Span<const std::uint8_t>(records.data() + (k - 25) * kKeyframeRecordBytes, kKeyframeRecordBytes));
-      auto moved_or = DecodeKeyframeRecord(
-          Span<const std::uint8_t>(records.data() + k * kKeyframeRecordBytes, kKeyframeRecordBytes));
-      REQUIRE(copy.ok());
-      REQUIRE(moved_or.ok());
-      KeyframeRecord moved = *moved_or;
-      moved.descriptor = copy->descriptor;
-      moved.T_map_sensor.translation().x() += 100.0;
-      REQUIRE(EncodeKeyframeRecord(moved, Span<std::uint8_t>(records.data() + k * kKeyframeRecordBytes,
-                                                            kKeyframeRecordBytes)).ok());
-    }
-    for (const KeyframeBatch& b : batches) REQUIRE(server.OnKeyframeBatch(b).ok());
+    for (const KeyframeBatch& b : AmbiguousShiftedPairBatches()) REQUIRE(server.OnKeyframeBatch(b).ok());
     REQUIRE(server.RunCascades().ok());
     const ExchangeCascadeResult* c = server.cascade(0, 1);
     REQUIRE(c != nullptr);
@@ -876,6 +886,147 @@ TEST_CASE("Merge server widens a refused pair at an ambiguous place only when th
     bad.widen_ambiguous_support = v;
     CHECK_FALSE(ValidateMergeServerParams(bad).ok());
   }
+}
+
+TEST_CASE("Place check of a confirmed ambiguous pair: a transform is accepted within the tolerances of agreement") {
+  MergeServerParams params;
+  REQUIRE(params.widen_ambiguous_support > 0.0);
+  const double tol_m = params.cascade.consensus.agree_m;
+  const double tol_deg = params.cascade.consensus.agree_deg;
+  ExchangeCascadeResult c;
+  c.ambiguous = true;
+  c.consensus_measured = true;
+  c.consensus_support_chosen = params.widen_ambiguous_support;
+  c.consensus_placement.valid = true;
+  c.consensus_placement.yaw_rad = 30.0 * kDegToRad;
+  c.consensus_placement.t_alpha_beta_m = Eigen::Vector3d(5.0, 3.0, 0.0);
+  c.consensus_placement.place_beta_m = Eigen::Vector3d(-10.0, 3.0, 0.0);
+  // The placement as an isometry, and the same turned by theta about the place (which it leaves where it was).
+  Eigen::Isometry3d T_p = Eigen::Isometry3d::Identity();
+  T_p.linear() = Eigen::AngleAxisd(c.consensus_placement.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_p.translation() = c.consensus_placement.t_alpha_beta_m;
+  const auto turned = [&](double theta_deg) {
+    Eigen::Isometry3d about = Eigen::Isometry3d::Identity();
+    about.translate(c.consensus_placement.place_beta_m);
+    about.rotate(Eigen::AngleAxisd(theta_deg * kDegToRad, Eigen::Vector3d::UnitZ()));
+    about.translate(-c.consensus_placement.place_beta_m);
+    return T_p * about;
+  };
+  const auto shifted = [&](double d_m) {
+    Eigen::Isometry3d T = T_p;
+    T.translation() += Eigen::Vector3d(0.6, -0.8, 0.0) * d_m;
+    return T;
+  };
+  PlacementGap gap;
+  CHECK(RegistrationAtConfirmedPlace(c, params, T_p, &gap));
+  CHECK(gap.distance_m < 1e-9);
+  CHECK(gap.yaw_deg < 1e-9);
+  CHECK(RegistrationAtConfirmedPlace(c, params, shifted(0.95 * tol_m), &gap));
+  CHECK(gap.distance_m == doctest::Approx(0.95 * tol_m));
+  CHECK_FALSE(RegistrationAtConfirmedPlace(c, params, shifted(1.05 * tol_m), &gap));
+  CHECK(gap.distance_m == doctest::Approx(1.05 * tol_m));
+  CHECK(RegistrationAtConfirmedPlace(c, params, turned(-0.95 * tol_deg), &gap));
+  CHECK(gap.yaw_deg == doctest::Approx(0.95 * tol_deg));
+  CHECK(gap.distance_m < 1e-9);
+  CHECK_FALSE(RegistrationAtConfirmedPlace(c, params, turned(1.05 * tol_deg), &gap));
+  CHECK_FALSE(RegistrationAtConfirmedPlace(c, params, turned(180.0), &gap));
+  CHECK(gap.yaw_deg == doctest::Approx(180.0));
+
+  // Every other pair is not checked: the same 180 deg turn passes.
+  const Eigen::Isometry3d T_off = turned(180.0);
+  ExchangeCascadeResult other = c;
+  other.ambiguous = false;
+  CHECK(RegistrationAtConfirmedPlace(other, params, T_off, &gap));
+  CHECK(gap.yaw_deg == 0.0);
+  other = c;
+  other.consensus_support_chosen = params.widen_ambiguous_support - 1.0;
+  CHECK(RegistrationAtConfirmedPlace(other, params, T_off));
+  other = c;
+  other.consensus_placement.valid = false;
+  CHECK(RegistrationAtConfirmedPlace(other, params, T_off));
+  MergeServerParams off = params;
+  off.widen_ambiguous_support = 0.0;
+  CHECK(RegistrationAtConfirmedPlace(c, off, T_off));
+}
+
+TEST_CASE("Merge server refuses a registration at a confirmed ambiguous place that lies away from its placement") {
+  // Stage A's cluster of AmbiguousShiftedPairBatches pairs alpha keyframe j + 5 at (j + 5, 0, 0) with beta keyframe
+  // j at (-j, 3, 0): its placement turns beta's map 180 deg and moves it by (5, 3, 0).
+  SyntheticSubmapPair street;
+  REQUIRE(MakeStreetSubmapPair(test::LightStreetSpec(41, test::YawOffset(70.0, 12.0, -6.0, 0.3)), &street).ok());
+  // The fixture's geometry, independently of the consensus: beta's (-j, 3, 0) lands on alpha's (j + 5, 0, 0).
+  Eigen::Isometry3d T_fixture = Eigen::Isometry3d::Identity();
+  T_fixture.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_fixture.translation() = Eigen::Vector3d(5.0, 3.0, 0.0);
+  const auto merge = [&](const Eigen::Isometry3d& T_alpha_beta, double widen_ambiguous_support,
+                         Eigen::Isometry3d* T_placement) {
+    MergeServerParams params = PaperStageA(200);
+    params.cascade.max_ambiguous_fraction = 0.1;
+    params.cascade.min_ambiguous_support = 0.0;
+    params.widen_ambiguous_support = widen_ambiguous_support;
+    MergeServer server(2, 100, params);
+    for (const KeyframeBatch& b : AmbiguousShiftedPairBatches()) REQUIRE(server.OnKeyframeBatch(b).ok());
+    REQUIRE(server.RunCascades().ok());
+    const ExchangeCascadeResult* c = server.cascade(0, 1);
+    REQUIRE(c != nullptr);
+    REQUIRE(c->ambiguous);
+    REQUIRE(c->consensus_placement.valid);
+    CHECK(AmbiguousClusterConfirmed(*c, params) == (widen_ambiguous_support > 0.0));
+    T_placement->setIdentity();
+    T_placement->linear() = Eigen::AngleAxisd(c->consensus_placement.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    T_placement->translation() = c->consensus_placement.t_alpha_beta_m;
+    // Alpha's keyframe 10 and beta's keyframe 5 (a loop of the cluster) hold the street pair's scans, placed so
+    // that alpha's map = T_alpha_beta beta's map: beta's scan is the source, alpha's the target moved by
+    // T_alpha_beta after the pair's own truth undone. Alpha's keyframe moves with its scan (a pose update after
+    // the cascade, as a loop closure would send), so registration sees the same scene from the same viewpoints
+    // whatever T_alpha_beta is.
+    const Eigen::Isometry3d T_map_alpha10 = T_alpha_beta * T_fixture.inverse() * Eigen::Translation3d(10.0, 0.0, 0.0);
+    const Eigen::Isometry3d T_map_beta5(Eigen::Translation3d(-5.0, 3.0, 0.0));
+    PoseUpdate update;
+    update.robot_id = 0;
+    update.keyframes = {10};
+    update.T_map_sensor = {T_map_alpha10};
+    REQUIRE(server.OnPoseUpdate(update).ok());
+    const Eigen::Isometry3d T_target = T_map_alpha10.inverse() * T_alpha_beta * street.T_target_source.inverse();
+    for (const ScanChunk& ch : ChunksOf(0, 10, EncodeForTest(test::Transformed(street.target.points, T_target)), 1200)) {
+      REQUIRE(server.OnScanChunk(ch).ok());
+    }
+    for (const ScanChunk& ch : ChunksOf(1, 5, EncodeForTest(test::Transformed(street.source.points, T_map_beta5.inverse())), 1200)) {
+      REQUIRE(server.OnScanChunk(ch).ok());
+    }
+    PairSelection sel;
+    sel.alpha = 0;
+    sel.beta = 1;
+    sel.alpha_keyframes = {10};
+    sel.beta_keyframes = {5};
+    auto merged = server.MergePair(sel);
+    REQUIRE(merged.ok());
+    REQUIRE(merged->attempted);
+    return *merged;
+  };
+  Eigen::Isometry3d T_placement;
+  const PairMergeResult at_place = merge(T_fixture, 1.0, &T_placement);
+  CHECK(test::TranslationErrorM(T_fixture, T_placement) < 0.5);
+  CHECK(test::RotationErrorDeg(T_fixture, T_placement) < 2.0);
+  REQUIRE(at_place.registration.success());
+  CHECK(test::TranslationErrorM(T_fixture, at_place.registration.T_target_source) < 0.2);
+
+  // The same scans with alpha's turned 180 deg about the place: registration's gates pass, the place check does not.
+  Eigen::Isometry3d about = Eigen::Isometry3d::Identity();
+  about.translate(Eigen::Vector3d(-12.0, 3.0, 0.0));
+  about.rotate(Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitZ()));
+  about.translate(Eigen::Vector3d(12.0, -3.0, 0.0));
+  const Eigen::Isometry3d T_turned = T_fixture * about;
+  const PairMergeResult off_place = merge(T_turned, 1.0, &T_placement);
+  CHECK(off_place.registration.verdict == RegistrationVerdict::kOffConfirmedPlace);
+  CHECK_FALSE(off_place.registration.success());
+  CHECK(off_place.reason.find("off the confirmed place") == 0);
+  CHECK(test::TranslationErrorM(T_turned, off_place.registration.T_target_source) < 0.2);
+  CHECK(test::RotationErrorDeg(T_turned, off_place.registration.T_target_source) < 1.0);
+  // Without the widening of confirmed ambiguous places there is no such check: the turned transform merges.
+  const PairMergeResult unchecked = merge(T_turned, 0.0, &T_placement);
+  REQUIRE(unchecked.registration.success());
+  CHECK(test::TranslationErrorM(T_turned, unchecked.registration.T_target_source) < 0.2);
 }
 
 TEST_CASE("Merge server does not widen a refused pair whose robots merged pairs already join") {
