@@ -53,6 +53,17 @@ std::unique_ptr<MergeServer> ShiftedPairServer(int n, int shift) {
   return server;
 }
 
+// Robot alpha's and robot beta's keyframes selected for one registration.
+PairSelection Selection(int alpha, int beta, std::vector<std::uint32_t> alpha_keyframes,
+                        std::vector<std::uint32_t> beta_keyframes) {
+  PairSelection sel;
+  sel.alpha = alpha;
+  sel.beta = beta;
+  sel.alpha_keyframes = std::move(alpha_keyframes);
+  sel.beta_keyframes = std::move(beta_keyframes);
+  return sel;
+}
+
 PairMergeResult Refused(int alpha, int beta, RegistrationVerdict verdict = RegistrationVerdict::kOverlapTooLow) {
   PairMergeResult r;
   r.alpha = alpha;
@@ -486,12 +497,7 @@ PairMergeResult MergeStreetPair(const MergeServerParams& params, double scan_vox
   REQUIRE(server.OnKeyframeBatch(MakeBatch(1, 0, {d}, {Eigen::Vector3d::Zero()}, 0)).ok());
   for (const ScanChunk& c : ChunksOf(0, 0, EncodeForTest(pair.target.points), 1200)) REQUIRE(server.OnScanChunk(c).ok());
   for (const ScanChunk& c : ChunksOf(1, 0, EncodeForTest(pair.source.points), 1200)) REQUIRE(server.OnScanChunk(c).ok());
-  PairSelection sel;
-  sel.alpha = 0;
-  sel.beta = 1;
-  sel.alpha_keyframes = {0};
-  sel.beta_keyframes = {0};
-  auto merged = server.MergePair(sel);
+  auto merged = server.MergePair(Selection(0, 1, {0}, {0}));
   REQUIRE_MESSAGE(merged.ok(), merged.status().ToString());
   REQUIRE(merged->attempted);
   return *merged;
@@ -994,12 +1000,7 @@ TEST_CASE("Merge server refuses a registration at a confirmed ambiguous place th
     for (const ScanChunk& ch : ChunksOf(1, 5, EncodeForTest(test::Transformed(street.source.points, T_map_beta5.inverse())), 1200)) {
       REQUIRE(server.OnScanChunk(ch).ok());
     }
-    PairSelection sel;
-    sel.alpha = 0;
-    sel.beta = 1;
-    sel.alpha_keyframes = {10};
-    sel.beta_keyframes = {5};
-    auto merged = server.MergePair(sel);
+    auto merged = server.MergePair(Selection(0, 1, {10}, {5}));
     REQUIRE(merged.ok());
     REQUIRE(merged->attempted);
     return *merged;
