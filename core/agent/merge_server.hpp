@@ -92,8 +92,9 @@ struct MergeServerParams {
   /// other clusters place the same way is not a look-alike (look-alikes in the recall benchmark had a support of
   /// 22-49). Such a pair is merged only where its consensus places it (RegistrationAtConfirmedPlace): widened
   /// twice, a true cluster once passed registration's gates with the corridor turned 180 deg
-  /// (profiling/RESULTS.md "Widening confirmed ambiguous places").
-    double widen_ambiguous_support = 100.0;
+  /// (profiling/RESULTS.md "Widening confirmed ambiguous places"; with the check, "Confirmed ambiguous places
+  /// checked against their placement").
+  double widen_ambiguous_support = 100.0;
   /// Place check across pairs (ours; 0 = off, the paper). [keyframes] A pair whose stage A cluster has a place
   /// consensus support below this is weakly supported. Through every third robot c whose pairs with both robots
   /// are supported at least this much, the two placements compose into where c says robot beta's map lies in
