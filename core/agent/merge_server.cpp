@@ -822,7 +822,7 @@ Result<PairMergeResult> MergeServer::MergePair(const PairSelection& pair, Regist
     return out;
   }
   // A pair at a confirmed ambiguous place may have been widened until something aligned: it merges only where
-  // its place consensus puts it. The transform stays in the result for the report.
+  // its place consensus places it. The transform stays in the result for the report.
   const PairState* state = FindPair(pair.alpha, pair.beta);
   PlacementGap gap;
   if (state && !RegistrationAtConfirmedPlace(state->cascade, params_, result->T_target_source, &gap)) {

@@ -89,8 +89,9 @@ struct MergeServerParams {
   /// Ours; 0 = off (an ambiguous cluster is never widened). [keyframes] An ambiguous cluster whose place
   /// consensus support (ExchangeCascadeResult::consensus_support_chosen) reaches this is widened like any other:
   /// corridors and rooms that repeat make true clusters ambiguous too, and a cluster that a hundred keyframes of
-  /// other clusters place the same way is not a look-alike (look-alikes in the recall benchmark had a support of
-  /// 22-49). Such a pair is merged only where its consensus places it (RegistrationAtConfirmedPlace): widened
+  /// other clusters place the same way is not a look-alike. Look-alike clusters in the recall benchmark had a
+  /// support of 22-49 (those below 40 end at stage A, ExchangeCascadeParams::min_ambiguous_support); 100 is twice
+  /// the top. Such a pair is merged only where its consensus places it (RegistrationAtConfirmedPlace): widened
   /// twice, a true cluster once passed registration's gates with the corridor turned 180 deg
   /// (profiling/RESULTS.md "Widening confirmed ambiguous places"; with the check, "Confirmed ambiguous places
   /// checked against their placement").

@@ -8,8 +8,8 @@
 // ambiguous, but so were 82-95 % of true clusters, so ambiguity alone cannot refuse a pair. The cascade flags a
 // cluster above ExchangeCascadeParams::max_ambiguous_fraction and the server registers it once, never widened,
 // unless the place consensus confirms it (MergeServerParams::widen_ambiguous_support: then only a registration
-// where the consensus places it is accepted);
-// on the generated streets true clusters stay at or below 61 %, on the real sequences at 0.
+// where the consensus places it is accepted); on the generated streets true clusters stay at or below 61 %, on
+// the real sequences at 0.
 #pragma once
 
 #include <cstddef>

@@ -104,7 +104,7 @@ enum class RegistrationVerdict : std::uint8_t {
   kDegenerate,                ///< the information leaves a translation direction unconstrained
   kCoarseFineDisagree,        ///< the fine stage moved the coarse estimate too far
   /// Set by the merge server after Register, never by it: the transform of a pair at a confirmed ambiguous place
-  /// lies away from where the place consensus puts it (RegistrationAtConfirmedPlace in merge_server.hpp).
+  /// lies away from where the place consensus places it (RegistrationAtConfirmedPlace in merge_server.hpp).
   kOffConfirmedPlace,
 };
 

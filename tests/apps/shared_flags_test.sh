@@ -3,9 +3,9 @@
 # entry (type, range, default, help text) must be the same in both, and the defaults must be the documented ones:
 # stage A ours (core/agent/merge_server.hpp ServerStageADefaults: neighbour rank 1, half window 4, tau_area 400
 # cells scaled by 0.3 for short missions, tau_inter 0.5 as a cap), an ambiguous place needs a consensus support of
-# 40 keyframes to be registered and 100 to be widened (--widen-ambiguous-support 100), a pair checked against chains
-# through a third robot 40,
-# submaps at one voxel size unless asked (--min-submap-points 0), tau_con the paper's 5 m.
+# 40 keyframes to be registered and 100 to be widened (--widen-ambiguous-support 100), a pair checked against
+# chains through a third robot 40, submaps at one voxel size unless asked (--min-submap-points 0), tau_con the
+# paper's 5 m.
 # Usage: shared_flags_test.sh COMMERGE [EMULATOR...]   (the command that runs the commerge executable)
 set -euo pipefail
 entry() {  # $1 = help text, $2 = flag: the flag's line and its indented continuation lines
