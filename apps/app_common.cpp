@@ -183,6 +183,11 @@ bool NonRepetitive(const std::string& lidar) {
 
 }  // namespace
 
+double ColocationHeadingDeg(const std::string& lidar) {
+  Result<LidarSensor> sensor = LidarSensorFor(lidar);
+  return sensor.ok() ? std::min(180.0, ScanTraits(*sensor).horizontal_fov_deg) : 180.0;
+}
+
 double DefaultTauIntra(const std::string& descriptor, const std::string& lidar) {
   if (descriptor == "ring") return 0.15;
   return NonRepetitive(lidar) ? 0.01 : 0.05;

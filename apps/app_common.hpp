@@ -88,6 +88,10 @@ DescriptorInputParams RingDescriptorInput(const std::string& lidar);
 /// SOLiD the paper's table (0.05 spinning, 0.01 non-repetitive); ring 0.15 (measured: true revisits' nearest
 /// neighbours lie below 0.11 in 9 of 10 cases, false ones above 0.2 in 9 of 10; the ICP check decides).
 double DefaultTauIntra(const std::string& descriptor, const std::string& lidar);
+/// [deg] Headings within which two keyframes at one place see the same scene: a forward-looking sensor's
+/// horizontal field of view (avia 70.4), 180 (any) for a spinning one or an unknown name. The server's
+/// descriptor agreement (MergeServerParams::colocation) takes it.
+double ColocationHeadingDeg(const std::string& lidar);
 /// Builds the descriptor named by the flags for a robot with `lidar`. Errors name the flag and value.
 Result<RobotDescriptor> MakeRobotDescriptor(const DescriptorFlags& flags, const std::string& lidar);
 

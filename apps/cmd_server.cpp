@@ -43,6 +43,7 @@ struct ServerOptions {
   std::string out_dir = "commerge-server-out";
   std::string mode = "A+B+C";
   std::string lcm_url;
+  std::string lidar = "hdl-64e";  ///< the robots' --lidar: heading tolerance of descriptor agreement
   double round_interval_s = 10.0;
   double round_quiet_s = 3.0;
   double request_timeout_s = 60.0;
@@ -119,6 +120,11 @@ int ServerProcess::Configure() {
   mode_ = *mode;
   server_params_ = o_.server;
   server_params_.max_submap_points = static_cast<std::size_t>(setup_.config.max_submap_points);
+  if (Result<LidarSensor> sensor = LidarSensorFor(o_.lidar); !sensor.ok()) {
+    std::fprintf(stderr, "%s: --lidar: %s\n", kTag, sensor.status().message().c_str());
+    return kExitUsage;
+  }
+  server_params_.colocation.max_heading_deg = ColocationHeadingDeg(o_.lidar);
   link_params_.mode = mode_;
   link_params_.round_interval_s = o_.round_interval_s;
   link_params_.round_quiet_s = o_.round_quiet_s;
@@ -443,6 +449,9 @@ Command AddServerCommand(CLI::App& root) {
                                        "every round)")->capture_default_str();
   cmd->add_option("--mode", o->mode, "exchange mode: send-all, A, A+B, A+C, A+B+C")->capture_default_str();
   cmd->add_option("--lcm-url", o->lcm_url, "LCM provider URL (default: LCM_DEFAULT_URL)");
+  cmd->add_option("--lidar", o->lidar, "the robots' --lidar preset (hdl-64e, vlp-16, os1-64, os1-128, os2-128, avia, "
+                  "aeva): a forward-looking sensor's field of view limits which keyframes see one scene "
+                  "(--max-colocated-chance)")->capture_default_str();
   cmd->add_option("--round-interval-s", o->round_interval_s, "merge rounds start at most this often [s]")
       ->capture_default_str();
   cmd->add_option("--round-quiet-s", o->round_quiet_s, "start a round when new keyframes arrived and the robots "

@@ -81,6 +81,15 @@ const MergeFlag kMergeFlags[] = {
      "both finer, in steps of 1/sqrt(2) down to 0.25 m, while the smaller gains points (the robots' scans must hold "
      "the detail: --min-scan-points; try 4000 with 1000 there); 0 = always 1 m (the paper)",
      FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->min_submap_points; }},
+    {"--max-colocated-chance", "max_colocated_chance", "", 0.0, 1.0, "ours",
+     "refuse a registration that places keyframes of the two robots together (away from stage A's cluster; "
+     "within 3 m and, for a forward-looking --lidar, its field of view of heading) whose descriptors rank among "
+     "each other's nearest no better than this median chance (0 = the co-located keyframe is the nearest, 0.5 = "
+     "strangers); 0 = off",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->max_colocated_chance; }},
+    {"--min-colocated-keyframes", "min_colocated_keyframes", "keyframes", 0.0, 1e7, "ours",
+     "--max-colocated-chance judges a registration only when it places at least this many keyframes together",
+     FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->min_colocated_keyframes; }},
     {"--max-widen-steps", "max_widen_steps", "steps", 0.0, 8.0, "ours",
      "when registration refuses a pair, ask again for up to twice its scans (more of stage A's keyframes) and "
      "register again, at most this many times per round (0 = the paper's single exchange)",

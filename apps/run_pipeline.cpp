@@ -147,6 +147,7 @@ int SetUpRun(RunJob* job) {
 
   MergeServerParams server_params = o.server;
   server_params.max_submap_points = static_cast<std::size_t>(job->memory.config.max_submap_points);
+  server_params.colocation.max_heading_deg = ColocationHeadingDeg(o.sensor);
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) return Fail(*job, kExitUsage, st.message());
   job->server = std::make_unique<MergeServer>(
       job->num_robots(), static_cast<std::size_t>(job->memory.config.max_keyframes_per_robot), server_params);

@@ -571,10 +571,14 @@ void WriteMetrics(const RunJob& job) {
         if (c->consensus_switched) kv(k + "stage_a_consensus_switched", "1");
       }
       const bool has_transform = p.registration.success() ||
-                                 p.registration.verdict == RegistrationVerdict::kOffConfirmedPlace;
+                                 p.registration.verdict == RegistrationVerdict::kOffConfirmedPlace ||
+                                 p.registration.verdict == RegistrationVerdict::kDescriptorsDisagree;
       if (p.attempted && has_transform && c->consensus_placement.valid) {
         const PlacementGap gap = GapToPlacement(c->consensus_placement, p.registration.T_target_source);
         kv(k + "registration_vs_placement_m_deg", Fmt("%.2f", gap.distance_m) + " " + Fmt("%.1f", gap.yaw_deg));
+      }
+      if (p.attempted && p.colocated_chance >= 0.0) {
+        kv(k + "colocated_keyframes_chance", std::to_string(p.colocated_keyframes) + " " + Fmt("%.3f", p.colocated_chance));
       }
     }
     if (shared.empty()) continue;

@@ -126,6 +126,13 @@ Status ValidateMergeServerParams(const MergeServerParams& params) {
   if (Status s = ValidatePlaceConsensusParams(params.chain_agreement); !s.ok()) {
     return Status(s.code(), "chain_agreement: " + s.message());
   }
+  if (!(params.max_colocated_chance >= 0.0) || params.max_colocated_chance > 1.0) {
+    return InvalidArgument("max_colocated_chance = " + std::to_string(params.max_colocated_chance) +
+                           " must be in [0, 1] (0 = off)");
+  }
+  if (Status s = ValidateTransformAgreementParams(params.colocation); !s.ok()) {
+    return Status(s.code(), "colocation: " + s.message());
+  }
   if (params.max_submap_points < 100) {
     return InvalidArgument("max_submap_points = " + std::to_string(params.max_submap_points) + " must be >= 100");
   }
@@ -831,8 +838,35 @@ Result<PairMergeResult> MergeServer::MergePair(const PairSelection& pair, Regist
                  " m and " + FormatNumber(gap.yaw_deg, 3) + " deg from the place consensus's placement, tolerance " +
                  FormatNumber(params_.cascade.consensus.agree_m, 3) + " m and " +
                  FormatNumber(params_.cascade.consensus.agree_deg, 3) + " deg)";
+    return out;
+  }
+  if (state) MeasureColocation(*state, &out);
+  if (params_.max_colocated_chance > 0.0 && out.colocated_keyframes >= params_.min_colocated_keyframes &&
+      out.colocated_chance >= params_.max_colocated_chance) {
+    out.registration.verdict = RegistrationVerdict::kDescriptorsDisagree;
+    out.reason = std::string(RegistrationVerdictName(out.registration.verdict)) + " (" +
+                 std::to_string(out.colocated_keyframes) + " keyframes of robot " + std::to_string(pair.beta) +
+                 " placed on robot " + std::to_string(pair.alpha) + "'s away from stage A's cluster, median chance " +
+                 FormatNumber(out.colocated_chance, 3) + " >= " + FormatNumber(params_.max_colocated_chance, 3) + ")";
   }
   return out;
+}
+
+void MergeServer::MeasureColocation(const PairState& state, PairMergeResult* result) const {
+  const RobotKeyframeDb& A = robots_[static_cast<std::size_t>(result->alpha)];
+  const RobotKeyframeDb& B = robots_[static_cast<std::size_t>(result->beta)];
+  auto colocated = ColocatedKeyframes(
+      {Span<const float>(A.descriptors), Span<const std::uint8_t>(A.valid), Span<const Eigen::Isometry3d>(A.T_map_sensor)},
+      {Span<const float>(B.descriptors), Span<const std::uint8_t>(B.valid), Span<const Eigen::Isometry3d>(B.T_map_sensor)},
+      kKeyframeDescriptorDim, result->registration.T_target_source, params_.colocation);
+  if (!colocated.ok()) return;
+  // Stage A's cluster is where the descriptors chose the place: only the rest of the co-located keyframes is
+  // independent evidence.
+  const SequentialMatchResult& a = state.cascade.stage_a;
+  const std::uint32_t from = a.found ? static_cast<std::uint32_t>(a.best.col_min) : 1;
+  const std::uint32_t to = a.found ? static_cast<std::uint32_t>(a.best.col_max) : 0;
+  result->colocated_chance =
+      MedianChance(Span<const ColocatedKeyframe>(*colocated), from, to, &result->colocated_keyframes);
 }
 
 Result<FrameSolution> MergeServer::SolveFrames(Span<const PairMergeResult> pairs) const {

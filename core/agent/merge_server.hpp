@@ -30,6 +30,7 @@
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 #include "core/exchange/exchange_cascade.hpp"
+#include "core/exchange/transform_agreement.hpp"
 #include "core/merge/frame_solver.hpp"
 #include "core/registration/submap_registration.hpp"
 
@@ -104,6 +105,16 @@ struct MergeServerParams {
   /// asked for. A look-alike place is confirmed by nothing; a true one by every true chain.
   double chain_check_support = 40.0;
   PlaceConsensusParams chain_agreement = ChainAgreementDefaults();
+  /// Descriptor agreement under the registered transform (ours, not in the paper; transform_agreement.hpp): a
+  /// registration that places at least min_colocated_keyframes of robot beta's keyframes outside stage A's
+  /// cluster on top of robot alpha's (colocation: within near_m, headings within the sensor's field of view),
+  /// where the median chance that the best of them ranks as well by descriptor among all of alpha's keyframes
+  /// is max_colocated_chance or more, is refused (RegistrationVerdict::kDescriptorsDisagree): at a true shared
+  /// place co-located keyframes are each other's near neighbours (median chance 0.00-0.08 on the real and
+  /// generated merges), a look-alike joins the robots where they are strangers (about 0.5). 0 = off.
+  double max_colocated_chance = 0.0;
+  std::size_t min_colocated_keyframes = 20;
+  TransformAgreementParams colocation;
 };
 
 Status ValidateMergeServerParams(const MergeServerParams& params);
@@ -166,6 +177,10 @@ struct PairMergeResult {
   /// > 0: this round could not register the pair for missing scans (reason says why); the result is the one
   /// that round verified for the same two robot sessions (ServerLink keeps it; see KeepVerifiedPairs).
   int kept_from_round = 0;
+  /// Descriptor agreement of a registered transform (max_colocated_chance): beta keyframes outside stage A's
+  /// cluster it places on top of alpha's, and their median chance (-1 when not measured).
+  std::size_t colocated_keyframes = 0;
+  double colocated_chance = -1.0;
 };
 
 /// Replaces the selection of every pair in `pairs` that `adopted` has (matched by robot pair) with that one.
@@ -303,6 +318,8 @@ class MergeServer {
   Status CapacityError(int robot, std::uint32_t keyframe) const;
   Status EnsureKeyframe(int robot, std::uint32_t keyframe);
   const PairState* FindPair(int alpha, int beta) const;
+  /// Fills result's colocated_keyframes / colocated_chance for its registered transform (max_colocated_chance).
+  void MeasureColocation(const PairState& state, PairMergeResult* result) const;
   /// The place check across pairs (chain_check_support) over pairs_, after every cascade of the round.
   void ApplyPlaceCheck();
   /// One request per robot with the keyframes of `wanted[r]` (sorted and de-duplicated here; without the scans

@@ -56,6 +56,7 @@ const char* RegistrationVerdictName(RegistrationVerdict verdict) noexcept {
     case RegistrationVerdict::kDegenerate: return "degenerate";
     case RegistrationVerdict::kCoarseFineDisagree: return "coarse and fine disagree";
     case RegistrationVerdict::kOffConfirmedPlace: return "off the confirmed place";
+    case RegistrationVerdict::kDescriptorsDisagree: return "descriptors disagree where it joins the robots";
   }
   return "unknown";
 }

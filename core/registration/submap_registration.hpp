@@ -106,6 +106,10 @@ enum class RegistrationVerdict : std::uint8_t {
   /// Set by the merge server after Register, never by it: the transform of a pair at a confirmed ambiguous place
   /// lies away from where the place consensus places it (RegistrationAtConfirmedPlace in merge_server.hpp).
   kOffConfirmedPlace,
+  /// Set by the merge server after Register, never by it: where the transform places keyframes of the two robots
+  /// together (away from stage A's cluster), their descriptors are no nearer than chance
+  /// (MergeServerParams::max_colocated_chance in merge_server.hpp).
+  kDescriptorsDisagree,
 };
 
 /// "success", "non-finite input", "too few points", ... (stable, for logs and tables).

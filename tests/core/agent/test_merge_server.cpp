@@ -1066,3 +1066,107 @@ TEST_CASE("Merge server does not widen a refused pair whose robots merged pairs 
   CHECK(wider->pairs[0].beta == 1);
   CHECK(wider->pairs[0].alpha_keyframes.size() == 2 * plan->pairs[0].alpha_keyframes.size());
 }
+
+namespace {
+
+// Two robots on one road: alpha's keyframe i at (i, 0, 0); beta's keyframe j where T_alpha_beta places it on
+// alpha's (j + 10, 0.5, 0). Beta's first 30 keyframes carry alpha's descriptors (stage A's cluster: beta 0..29
+// with alpha 10..39); the next 30 either look like alpha's at the same place (a second stretch of the road,
+// descriptors near but above tau_inter, so outside the cluster) or like nothing alpha saw. Alpha's keyframe 15
+// and beta's keyframe 5 hold the street pair's scans, placed so that registration finds T_alpha_beta.
+PairMergeResult MergeRoadPair(bool rest_agrees, const MergeServerParams& params, const Eigen::Isometry3d& T_alpha_beta) {
+  SyntheticSubmapPair street;
+  REQUIRE(MakeStreetSubmapPair(test::LightStreetSpec(41, test::YawOffset(70.0, 12.0, -6.0, 0.3)), &street).ok());
+  std::mt19937 rng(11);
+  std::vector<std::array<float, kKeyframeDescriptorDim>> da, db;
+  std::vector<Eigen::Vector3d> pa, pb;
+  for (int i = 0; i < 60; ++i) {
+    da.push_back(RandomDescriptor(&rng));
+    pa.emplace_back(i, 0.0, 0.0);
+  }
+  for (int j = 0; j < 60; ++j) {
+    std::array<float, kKeyframeDescriptorDim> d = RandomDescriptor(&rng);
+    if (j < 30) {
+      d = da[static_cast<std::size_t>(j + 10)];
+    } else if (rest_agrees && j + 10 < 60) {
+      double n = 0.0;
+      for (std::size_t k = 0; k < d.size(); ++k) {
+        d[k] = 0.6f * da[static_cast<std::size_t>(j + 10)][k] + 0.4f * d[k];
+        n += static_cast<double>(d[k]) * static_cast<double>(d[k]);
+      }
+      for (float& v : d) v = static_cast<float>(static_cast<double>(v) / std::sqrt(n));
+    }
+    db.push_back(d);
+    pb.push_back(T_alpha_beta.inverse() * Eigen::Vector3d(j + 10.0, 0.5, 0.0));
+  }
+  auto server = std::make_unique<MergeServer>(2, 100, params);
+  REQUIRE(server->OnKeyframeBatch(MakeBatch(0, 0, da, pa, 3000)).ok());
+  REQUIRE(server->OnKeyframeBatch(MakeBatch(1, 0, db, pb, 3000)).ok());
+  REQUIRE(server->RunCascades().ok());
+  const ExchangeCascadeResult* c = server->cascade(0, 1);
+  REQUIRE(c != nullptr);
+  REQUIRE(c->stage_a.found);
+  CHECK(c->stage_a.best.col_min == 0);
+  CHECK(c->stage_a.best.col_max == 29);
+  // Beta's keyframe 5 sees the street's source scan from where T_alpha_beta puts it relative to alpha's keyframe 15
+  // (street.T_target_source apart), so the two submaps meet exactly under T_alpha_beta.
+  const Eigen::Isometry3d T_map_alpha15(Eigen::Translation3d(15.0, 0.0, 0.0));
+  PoseUpdate update;
+  update.robot_id = 1;
+  update.keyframes = {5};
+  update.T_map_sensor = {T_alpha_beta.inverse() * T_map_alpha15 * street.T_target_source};
+  REQUIRE(server->OnPoseUpdate(update).ok());
+  for (const ScanChunk& ch : ChunksOf(0, 15, EncodeForTest(street.target.points), 1200)) REQUIRE(server->OnScanChunk(ch).ok());
+  for (const ScanChunk& ch : ChunksOf(1, 5, EncodeForTest(street.source.points), 1200)) REQUIRE(server->OnScanChunk(ch).ok());
+  auto merged = server->MergePair(Selection(0, 1, {15}, {5}));
+  REQUIRE_MESSAGE(merged.ok(), merged.status().ToString());
+  REQUIRE(merged->attempted);
+  return *merged;
+}
+
+}  // namespace
+
+TEST_CASE("Merge server refuses a registration where the keyframes it places together have unlike descriptors") {
+  const Eigen::Isometry3d T_alpha_beta = test::YawOffset(30.0, 5.0, 2.0, 0.0);
+  MergeServerParams params = PaperStageA(100);
+  params.max_colocated_chance = 0.3;
+  REQUIRE(ValidateMergeServerParams(params).ok());
+
+  // The rest of beta's road looks like alpha's at the same place: merged, and the keyframes the transform puts
+  // together outside the cluster (beta 30..51, 0.5 m aside of alpha's road, within 3 m of alpha's 38..59) are
+  // each other's nearest.
+  const PairMergeResult agrees = MergeRoadPair(true, params, T_alpha_beta);
+  REQUIRE(agrees.registration.success());
+  CHECK(test::TranslationErrorM(T_alpha_beta, agrees.registration.T_target_source) < 0.2);
+  CHECK(agrees.colocated_keyframes == 22);
+  CHECK(agrees.colocated_chance == doctest::Approx(0.0));
+
+  // The rest looks like nothing alpha saw there: the same registration is refused, its transform kept.
+  const PairMergeResult strangers = MergeRoadPair(false, params, T_alpha_beta);
+  CHECK(strangers.registration.verdict == RegistrationVerdict::kDescriptorsDisagree);
+  CHECK_FALSE(strangers.registration.success());
+  CHECK(strangers.reason.find("descriptors disagree") == 0);
+  CHECK(test::TranslationErrorM(T_alpha_beta, strangers.registration.T_target_source) < 0.2);
+  CHECK(strangers.colocated_keyframes == 22);
+  CHECK(strangers.colocated_chance > 0.3);
+  CHECK(strangers.colocated_chance < 0.9);
+
+  // Too few keyframes placed together to judge, or the check off: merged, the measure still reported.
+  MergeServerParams few = params;
+  few.min_colocated_keyframes = 23;
+  CHECK(MergeRoadPair(false, few, T_alpha_beta).registration.success());
+  MergeServerParams off = params;
+  off.max_colocated_chance = 0.0;
+  const PairMergeResult unchecked = MergeRoadPair(false, off, T_alpha_beta);
+  REQUIRE(unchecked.registration.success());
+  CHECK(unchecked.colocated_chance == doctest::Approx(strangers.colocated_chance));
+
+  MergeServerParams bad = params;
+  for (double v : {-0.1, 1.5, std::numeric_limits<double>::quiet_NaN()}) {
+    bad.max_colocated_chance = v;
+    CHECK_FALSE(ValidateMergeServerParams(bad).ok());
+  }
+  bad = params;
+  bad.colocation.near_m = 0.0;
+  CHECK_FALSE(ValidateMergeServerParams(bad).ok());
+}

@@ -282,10 +282,10 @@ TEST_CASE("Parameters scale with the voxel size and are validated") {
   CHECK(r.status().code() == StatusCode::kInvalidArgument);
   // Every verdict and stage has its own name.
   std::set<std::string> names;
-  for (int v = 0; v <= static_cast<int>(RegistrationVerdict::kOffConfirmedPlace); ++v) {
+  for (int v = 0; v <= static_cast<int>(RegistrationVerdict::kDescriptorsDisagree); ++v) {
     names.insert(RegistrationVerdictName(static_cast<RegistrationVerdict>(v)));
   }
-  CHECK(names.size() == static_cast<std::size_t>(RegistrationVerdict::kOffConfirmedPlace) + 1);
+  CHECK(names.size() == static_cast<std::size_t>(RegistrationVerdict::kDescriptorsDisagree) + 1);
   CHECK(std::string(RegistrationVerdictName(RegistrationVerdict::kSuccess)) == "success");
   std::set<std::string> stages;
   for (int s = 0; s < kNumRegistrationStages; ++s) stages.insert(RegistrationStageName(static_cast<RegistrationStage>(s)));

@@ -1,0 +1,133 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "core/exchange/transform_agreement.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "core/geometry/se3.hpp"
+
+namespace commerge {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+Status CheckSet(const KeyframeSetView& set, std::size_t dim, const char* name) {
+  if (set.descriptors.size() != dim * set.size() || set.T_map_sensor.size() != set.size()) {
+    return InvalidArgument(std::string(name) + ": " + std::to_string(set.size()) + " keyframes with " +
+                           std::to_string(set.descriptors.size()) + " descriptor values (dim " + std::to_string(dim) +
+                           ") and " + std::to_string(set.T_map_sensor.size()) + " poses");
+  }
+  return Status::Ok();
+}
+
+float DescriptorDistance(const float* a, const float* b, std::size_t dim) {
+  float dot = 0.0f;
+  for (std::size_t k = 0; k < dim; ++k) dot += a[k] * b[k];
+  return std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot));
+}
+
+double HeadingGapDeg(double yaw_a_rad, double yaw_b_rad) {
+  double d = std::fmod(std::fabs(yaw_a_rad - yaw_b_rad), 2.0 * kPi);
+  if (d > kPi) d = 2.0 * kPi - d;
+  return d * 180.0 / kPi;
+}
+
+}  // namespace
+
+Status ValidateTransformAgreementParams(const TransformAgreementParams& params) {
+  if (!(params.near_m > 0.0) || !std::isfinite(params.near_m)) {
+    return InvalidArgument("transform agreement near_m = " + std::to_string(params.near_m) + " must be > 0 and finite");
+  }
+  if (!(params.max_heading_deg > 0.0) || params.max_heading_deg > 180.0) {
+    return InvalidArgument("transform agreement max_heading_deg = " + std::to_string(params.max_heading_deg) +
+                           " must be in (0, 180]");
+  }
+  return Status::Ok();
+}
+
+Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView& alpha, const KeyframeSetView& beta,
+                                                          std::size_t descriptor_dim,
+                                                          const Eigen::Isometry3d& T_alpha_beta,
+                                                          const TransformAgreementParams& params) {
+  if (Status s = ValidateTransformAgreementParams(params); !s.ok()) return s;
+  if (descriptor_dim == 0) return InvalidArgument("transform agreement: descriptor dimension 0");
+  if (Status s = CheckSet(alpha, descriptor_dim, "alpha"); !s.ok()) return s;
+  if (Status s = CheckSet(beta, descriptor_dim, "beta"); !s.ok()) return s;
+  if (!T_alpha_beta.matrix().allFinite()) return InvalidArgument("transform agreement: non-finite T_alpha_beta");
+
+  // Alpha's valid keyframes sorted by x: each beta keyframe looks only at the slab x +- near_m.
+  struct AlphaKey {
+    double x;
+    std::uint32_t index;
+  };
+  std::vector<AlphaKey> by_x;
+  std::vector<std::uint32_t> alpha_valid;
+  for (std::size_t i = 0; i < alpha.size(); ++i) {
+    if (!alpha.valid[i] || !alpha.T_map_sensor[i].matrix().allFinite()) continue;
+    by_x.push_back({alpha.T_map_sensor[i].translation().x(), static_cast<std::uint32_t>(i)});
+    alpha_valid.push_back(static_cast<std::uint32_t>(i));
+  }
+  std::sort(by_x.begin(), by_x.end(), [](const AlphaKey& a, const AlphaKey& b) { return a.x < b.x; });
+  const bool any_heading = params.max_heading_deg >= 180.0;
+  const double near2 = params.near_m * params.near_m;
+
+  std::vector<ColocatedKeyframe> out;
+  for (std::size_t j = 0; j < beta.size(); ++j) {
+    if (!beta.valid[j] || !beta.T_map_sensor[j].matrix().allFinite()) continue;
+    const Eigen::Isometry3d T_alpha_j = T_alpha_beta * beta.T_map_sensor[j];
+    const Eigen::Vector3d p = T_alpha_j.translation();
+    const double yaw_j = any_heading ? 0.0 : YawRad(T_alpha_j.linear());
+    const float* dj = beta.descriptors.data() + j * descriptor_dim;
+    auto it = std::lower_bound(by_x.begin(), by_x.end(), p.x() - params.near_m,
+                               [](const AlphaKey& a, double x) { return a.x < x; });
+    float best = std::numeric_limits<float>::infinity();
+    std::uint32_t best_i = 0, candidates = 0;
+    for (; it != by_x.end() && it->x <= p.x() + params.near_m; ++it) {
+      const Eigen::Isometry3d& Ti = alpha.T_map_sensor[it->index];
+      if ((Ti.translation() - p).squaredNorm() > near2) continue;
+      if (!any_heading && HeadingGapDeg(YawRad(Ti.linear()), yaw_j) > params.max_heading_deg) continue;
+      const float d = DescriptorDistance(alpha.descriptors.data() + std::size_t{it->index} * descriptor_dim, dj,
+                                         descriptor_dim);
+      ++candidates;
+      if (d < best) {
+        best = d;
+        best_i = it->index;
+      }
+    }
+    if (!std::isfinite(best)) continue;
+    std::size_t nearer = 0;
+    for (std::uint32_t i : alpha_valid) {
+      if (DescriptorDistance(alpha.descriptors.data() + std::size_t{i} * descriptor_dim, dj, descriptor_dim) < best) {
+        ++nearer;
+      }
+    }
+    ColocatedKeyframe c;
+    c.beta = static_cast<std::uint32_t>(j);
+    c.alpha = best_i;
+    c.distance = best;
+    c.candidates = candidates;
+    const double r = static_cast<double>(nearer) / static_cast<double>(alpha_valid.size());
+    c.rank_fraction = static_cast<float>(r);
+    c.chance = static_cast<float>(1.0 - std::pow(1.0 - r, static_cast<double>(candidates)));
+    out.push_back(c);
+  }
+  return out;
+}
+
+double MedianChance(Span<const ColocatedKeyframe> colocated, std::uint32_t exclude_beta_min,
+                    std::uint32_t exclude_beta_max, std::size_t* count) {
+  std::vector<float> chances;
+  for (const ColocatedKeyframe& c : colocated) {
+    if (exclude_beta_min <= exclude_beta_max && c.beta >= exclude_beta_min && c.beta <= exclude_beta_max) continue;
+    chances.push_back(c.chance);
+  }
+  if (count) *count = chances.size();
+  if (chances.empty()) return -1.0;
+  const std::size_t mid = chances.size() / 2;
+  std::nth_element(chances.begin(), chances.begin() + static_cast<std::ptrdiff_t>(mid), chances.end());
+  return chances[mid];
+}
+
+}  // namespace commerge

@@ -1,0 +1,65 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: descriptor agreement under a registered transform (ours, not in the paper). A transform between two
+// robots' map frames says which of their keyframes stood at the same place: robot beta's keyframe j lies on top
+// of robot alpha's keyframe i when T_alpha_beta maps j's position to within near_m of i's and their headings
+// differ by at most max_heading_deg (a forward-looking sensor sees another scene from the other way round). At a
+// true shared place the descriptors of such keyframes are near each other compared with the rest of alpha's
+// keyframes; under a transform that aligned a look-alike they are as far as any two keyframes. The measure is a
+// rank, so it needs no threshold per sensor: for each beta keyframe with m co-located alpha keyframes, the
+// fraction r of alpha's keyframes whose descriptor is nearer to j's than the nearest co-located one, and the
+// chance that the best of m keyframes drawn at random ranks as well, p = 1 - (1 - r)^m (0 = the co-located
+// keyframe is j's nearest; uniform in [0, 1], median 0.5, when the transform placed j among strangers).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/common/span.hpp"
+#include "core/common/status.hpp"
+
+namespace commerge {
+
+struct TransformAgreementParams {
+  double near_m = 3.0;             ///< [m] co-located: positions within this after the transform
+  double max_heading_deg = 180.0;  ///< [deg] and headings within this (180 = any)
+};
+
+/// InvalidArgument naming the field: near_m not positive and finite, max_heading_deg outside (0, 180].
+Status ValidateTransformAgreementParams(const TransformAgreementParams& params);
+
+/// One robot's keyframes as the server holds them: descriptor_dim floats per keyframe (unit vectors), a valid
+/// flag and a pose per keyframe in the robot's map frame.
+struct KeyframeSetView {
+  Span<const float> descriptors;
+  Span<const std::uint8_t> valid;
+  Span<const Eigen::Isometry3d> T_map_sensor;
+  std::size_t size() const noexcept { return valid.size(); }
+};
+
+/// A beta keyframe with co-located alpha keyframes.
+struct ColocatedKeyframe {
+  std::uint32_t beta = 0;
+  std::uint32_t alpha = 0;       ///< the co-located alpha keyframe of nearest descriptor
+  float distance = 0.0f;         ///< its descriptor distance (L2 of unit vectors)
+  std::uint32_t candidates = 0;  ///< co-located alpha keyframes (m)
+  float rank_fraction = 0.0f;    ///< fraction of alpha's valid keyframes strictly nearer in descriptor space (r)
+  float chance = 0.0f;           ///< 1 - (1 - r)^m: how often the best of m random keyframes ranks as well
+};
+
+/// Every beta keyframe (valid descriptor) that T_alpha_beta (p_alpha = T p_beta) places within near_m and
+/// max_heading_deg of at least one valid alpha keyframe, in ascending beta order. Errors: sizes that disagree
+/// (descriptors != dim x keyframes, poses != keyframes), dim 0, a non-finite transform, invalid params.
+Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView& alpha, const KeyframeSetView& beta,
+                                                          std::size_t descriptor_dim,
+                                                          const Eigen::Isometry3d& T_alpha_beta,
+                                                          const TransformAgreementParams& params);
+
+/// The median chance of the entries whose beta keyframe lies outside [exclude_beta_min, exclude_beta_max] (an
+/// empty range, min > max, excludes nothing); -1 when none. *count receives how many entries it is over.
+double MedianChance(Span<const ColocatedKeyframe> colocated, std::uint32_t exclude_beta_min,
+                          std::uint32_t exclude_beta_max, std::size_t* count);
+
+}  // namespace commerge
