@@ -109,10 +109,11 @@ struct MergeServerParams {
   /// registration that places at least min_colocated_keyframes of robot beta's keyframes outside stage A's
   /// cluster on top of robot alpha's (colocation: within near_m, headings within the sensor's field of view),
   /// where the median chance that the best of them ranks as well by descriptor among all of alpha's keyframes
-  /// is max_colocated_chance or more, is refused (RegistrationVerdict::kDescriptorsDisagree): at a true shared
-  /// place co-located keyframes are each other's near neighbours (median chance 0.00-0.08 on the real and
-  /// generated merges), a look-alike joins the robots where they are strangers (about 0.5). 0 = off.
-  double max_colocated_chance = 0.0;
+  /// is max_colocated_chance or more, is refused (RegistrationVerdict::kDescriptorsDisagree). 0 = off. In the
+  /// recall benchmark right merges measured 0.00-0.17 (the highest indoors, where corridors repeat and robots
+  /// drift), merges at look-alike places 0.23-0.60 (0.5 = strangers): profiling/RESULTS.md "Descriptor agreement
+  /// under the registered transform".
+  double max_colocated_chance = 0.2;
   std::size_t min_colocated_keyframes = 20;
   TransformAgreementParams colocation;
 };
