@@ -855,18 +855,19 @@ Result<PairMergeResult> MergeServer::MergePair(const PairSelection& pair, Regist
 void MergeServer::MeasureColocation(const PairState& state, PairMergeResult* result) const {
   const RobotKeyframeDb& A = robots_[static_cast<std::size_t>(result->alpha)];
   const RobotKeyframeDb& B = robots_[static_cast<std::size_t>(result->beta)];
-  auto colocated = ColocatedKeyframes(
-      {Span<const float>(A.descriptors), Span<const std::uint8_t>(A.valid), Span<const Eigen::Isometry3d>(A.T_map_sensor)},
-      {Span<const float>(B.descriptors), Span<const std::uint8_t>(B.valid), Span<const Eigen::Isometry3d>(B.T_map_sensor)},
-      kKeyframeDescriptorDim, result->registration.T_target_source, params_.colocation);
-  if (!colocated.ok()) return;
   // Stage A's cluster is where the descriptors chose the place: only the rest of the co-located keyframes is
   // independent evidence.
   const SequentialMatchResult& a = state.cascade.stage_a;
   const std::uint32_t from = a.found ? static_cast<std::uint32_t>(a.best.col_min) : 1;
   const std::uint32_t to = a.found ? static_cast<std::uint32_t>(a.best.col_max) : 0;
-  result->colocated_chance =
-      MedianChance(Span<const ColocatedKeyframe>(*colocated), from, to, &result->colocated_keyframes);
+  std::size_t colocated_keyframes = 0;
+  auto colocated = ColocatedKeyframes(
+      {Span<const float>(A.descriptors), Span<const std::uint8_t>(A.valid), Span<const Eigen::Isometry3d>(A.T_map_sensor)},
+      {Span<const float>(B.descriptors), Span<const std::uint8_t>(B.valid), Span<const Eigen::Isometry3d>(B.T_map_sensor)},
+      kKeyframeDescriptorDim, result->registration.T_target_source, params_.colocation, from, to, &colocated_keyframes);
+  if (!colocated.ok()) return;
+  result->colocated_keyframes = colocated_keyframes;
+  result->colocated_chance = MedianChance(Span<const ColocatedKeyframe>(*colocated), 1, 0, nullptr);
 }
 
 Result<FrameSolution> MergeServer::SolveFrames(Span<const PairMergeResult> pairs) const {

@@ -44,13 +44,16 @@ Status ValidateTransformAgreementParams(const TransformAgreementParams& params) 
     return InvalidArgument("transform agreement max_heading_deg = " + std::to_string(params.max_heading_deg) +
                            " must be in (0, 180]");
   }
+  if (params.max_ranked == 0) return InvalidArgument("transform agreement max_ranked = 0 must be >= 1");
   return Status::Ok();
 }
 
 Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView& alpha, const KeyframeSetView& beta,
                                                           std::size_t descriptor_dim,
                                                           const Eigen::Isometry3d& T_alpha_beta,
-                                                          const TransformAgreementParams& params) {
+                                                          const TransformAgreementParams& params,
+                                                          std::uint32_t exclude_beta_min, std::uint32_t exclude_beta_max,
+                                                          std::size_t* colocated) {
   if (Status s = ValidateTransformAgreementParams(params); !s.ok()) return s;
   if (descriptor_dim == 0) return InvalidArgument("transform agreement: descriptor dimension 0");
   if (Status s = CheckSet(alpha, descriptor_dim, "alpha"); !s.ok()) return s;
@@ -73,9 +76,12 @@ Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView&
   const bool any_heading = params.max_heading_deg >= 180.0;
   const double near2 = params.near_m * params.near_m;
 
+  // First every co-located keyframe with its nearest co-located descriptor (a slab search), then the ranks of
+  // at most max_ranked of them (a distance to every alpha keyframe each).
   std::vector<ColocatedKeyframe> out;
   for (std::size_t j = 0; j < beta.size(); ++j) {
     if (!beta.valid[j] || !beta.T_map_sensor[j].matrix().allFinite()) continue;
+    if (exclude_beta_min <= exclude_beta_max && j >= exclude_beta_min && j <= exclude_beta_max) continue;
     const Eigen::Isometry3d T_alpha_j = T_alpha_beta * beta.T_map_sensor[j];
     const Eigen::Vector3d p = T_alpha_j.translation();
     const double yaw_j = any_heading ? 0.0 : YawRad(T_alpha_j.linear());
@@ -97,21 +103,30 @@ Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView&
       }
     }
     if (!std::isfinite(best)) continue;
-    std::size_t nearer = 0;
-    for (std::uint32_t i : alpha_valid) {
-      if (DescriptorDistance(alpha.descriptors.data() + std::size_t{i} * descriptor_dim, dj, descriptor_dim) < best) {
-        ++nearer;
-      }
-    }
     ColocatedKeyframe c;
     c.beta = static_cast<std::uint32_t>(j);
     c.alpha = best_i;
     c.distance = best;
     c.candidates = candidates;
+    out.push_back(c);
+  }
+  if (colocated) *colocated = out.size();
+  if (out.size() > params.max_ranked) {
+    std::vector<ColocatedKeyframe> chosen;
+    for (std::size_t k = 0; k < params.max_ranked; ++k) chosen.push_back(out[k * out.size() / params.max_ranked]);
+    out.swap(chosen);
+  }
+  for (ColocatedKeyframe& c : out) {
+    const float* dj = beta.descriptors.data() + std::size_t{c.beta} * descriptor_dim;
+    std::size_t nearer = 0;
+    for (std::uint32_t i : alpha_valid) {
+      if (DescriptorDistance(alpha.descriptors.data() + std::size_t{i} * descriptor_dim, dj, descriptor_dim) < c.distance) {
+        ++nearer;
+      }
+    }
     const double r = static_cast<double>(nearer) / static_cast<double>(alpha_valid.size());
     c.rank_fraction = static_cast<float>(r);
-    c.chance = static_cast<float>(1.0 - std::pow(1.0 - r, static_cast<double>(candidates)));
-    out.push_back(c);
+    c.chance = static_cast<float>(1.0 - std::pow(1.0 - r, static_cast<double>(c.candidates)));
   }
   return out;
 }

@@ -25,9 +25,14 @@ namespace commerge {
 struct TransformAgreementParams {
   double near_m = 3.0;             ///< [m] co-located: positions within this after the transform
   double max_heading_deg = 180.0;  ///< [deg] and headings within this (180 = any)
+  /// At most this many co-located beta keyframes are ranked, evenly spaced over them (>= 1): ranking one costs a
+  /// descriptor distance to every alpha keyframe, and a median over 256 is as good as over 10 000 (a pair of two
+  /// 10 000-keyframe robots took 4 s ranking them all on the development VM, 0.1 s ranking 256).
+  std::size_t max_ranked = 256;
 };
 
-/// InvalidArgument naming the field: near_m not positive and finite, max_heading_deg outside (0, 180].
+/// InvalidArgument naming the field: near_m not positive and finite, max_heading_deg outside (0, 180],
+/// max_ranked 0.
 Status ValidateTransformAgreementParams(const TransformAgreementParams& params);
 
 /// One robot's keyframes as the server holds them: descriptor_dim floats per keyframe (unit vectors), a valid
@@ -49,13 +54,18 @@ struct ColocatedKeyframe {
   float chance = 0.0f;           ///< 1 - (1 - r)^m: how often the best of m random keyframes ranks as well
 };
 
-/// Every beta keyframe (valid descriptor) that T_alpha_beta (p_alpha = T p_beta) places within near_m and
-/// max_heading_deg of at least one valid alpha keyframe, in ascending beta order. Errors: sizes that disagree
+/// The beta keyframes (valid descriptor, outside [exclude_beta_min, exclude_beta_max]; min > max excludes none)
+/// that T_alpha_beta (p_alpha = T p_beta) places within near_m and max_heading_deg of at least one valid alpha
+/// keyframe, ranked, in ascending beta order: all of them, or max_ranked evenly spaced when there are more.
+/// *colocated (optional) receives how many there are before that choice. Errors: sizes that disagree
 /// (descriptors != dim x keyframes, poses != keyframes), dim 0, a non-finite transform, invalid params.
 Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView& alpha, const KeyframeSetView& beta,
                                                           std::size_t descriptor_dim,
                                                           const Eigen::Isometry3d& T_alpha_beta,
-                                                          const TransformAgreementParams& params);
+                                                          const TransformAgreementParams& params,
+                                                          std::uint32_t exclude_beta_min = 1,
+                                                          std::uint32_t exclude_beta_max = 0,
+                                                          std::size_t* colocated = nullptr);
 
 /// The median chance of the entries whose beta keyframe lies outside [exclude_beta_min, exclude_beta_max] (an
 /// empty range, min > max, excludes nothing); -1 when none. *count receives how many entries it is over.

@@ -233,6 +233,35 @@ TEST_CASE("Transform agreement: the median skips the excluded beta range") {
   CHECK(n == 6);
 }
 
+TEST_CASE("Transform agreement: an excluded beta range is skipped and at most max_ranked keyframes are ranked, "
+          "evenly spaced") {
+  const Fixture f;
+  TransformAgreementParams p;
+  const std::vector<ColocatedKeyframe> all = Reference(f.alpha, f.beta, TrueAlphaBeta(), p);
+  REQUIRE(all.size() == 59);
+  std::size_t total = 0;
+  auto outside = ColocatedKeyframes(f.alpha.View(), f.beta.View(), kDim, TrueAlphaBeta(), p, 10, 29, &total);
+  REQUIRE(outside.ok());
+  CHECK(total == 39);  // 59 less beta 10..29 (keyframe 7, without a descriptor, is not among them)
+  REQUIRE(outside->size() == 39);
+  for (const ColocatedKeyframe& c : *outside) CHECK((c.beta < 10 || c.beta > 29));
+
+  p.max_ranked = 10;
+  auto ranked = ColocatedKeyframes(f.alpha.View(), f.beta.View(), kDim, TrueAlphaBeta(), p, 1, 0, &total);
+  REQUIRE(ranked.ok());
+  CHECK(total == 59);
+  REQUIRE(ranked->size() == 10);
+  for (std::size_t k = 0; k < 10; ++k) {
+    const ColocatedKeyframe& want = all[k * 59 / 10];  // evenly spaced over the 59
+    CHECK((*ranked)[k].beta == want.beta);
+    CHECK((*ranked)[k].alpha == want.alpha);
+    CHECK((*ranked)[k].rank_fraction == doctest::Approx(want.rank_fraction));
+    CHECK((*ranked)[k].chance == doctest::Approx(want.chance));
+  }
+  p.max_ranked = 0;
+  CHECK_FALSE(ValidateTransformAgreementParams(p).ok());
+}
+
 TEST_CASE("Transform agreement: sizes that disagree, a non-finite transform and bad parameters are errors") {
   Fixture f;
   const TransformAgreementParams p;
