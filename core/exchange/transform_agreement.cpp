@@ -142,7 +142,7 @@ double MedianChance(Span<const ColocatedKeyframe> colocated, std::uint32_t exclu
   if (chances.empty()) return -1.0;
   const std::size_t mid = chances.size() / 2;
   std::nth_element(chances.begin(), chances.begin() + static_cast<std::ptrdiff_t>(mid), chances.end());
-  return chances[mid];
+  return static_cast<double>(chances[mid]);
 }
 
 }  // namespace commerge

@@ -43,8 +43,8 @@ struct Lcg {
 
 void Normalise(float* d) {
   double n = 0.0;
-  for (std::size_t k = 0; k < kDim; ++k) n += double{d[k]} * double{d[k]};
-  for (std::size_t k = 0; k < kDim; ++k) d[k] = static_cast<float>(double{d[k]} / std::sqrt(n));
+  for (std::size_t k = 0; k < kDim; ++k) n += static_cast<double>(d[k]) * static_cast<double>(d[k]);
+  for (std::size_t k = 0; k < kDim; ++k) d[k] = static_cast<float>(static_cast<double>(d[k]) / std::sqrt(n));
 }
 
 // Alpha: 120 keyframes, 0..79 along x (heading 0), 80..119 along y from (79, 0) (heading 90 deg).
@@ -144,10 +144,10 @@ void CheckAgainstReference(const Fixture& f, const Eigen::Isometry3d& T, const T
   for (std::size_t n = 0; n < want.size(); ++n) {
     CHECK((*got)[n].beta == want[n].beta);
     CHECK((*got)[n].alpha == want[n].alpha);
-    CHECK((*got)[n].distance == doctest::Approx(want[n].distance).epsilon(1e-5));
+    CHECK(static_cast<double>((*got)[n].distance) == doctest::Approx(static_cast<double>(want[n].distance)).epsilon(1e-5));
     CHECK((*got)[n].candidates == want[n].candidates);
-    CHECK((*got)[n].rank_fraction == doctest::Approx(want[n].rank_fraction));
-    CHECK((*got)[n].chance == doctest::Approx(want[n].chance));
+    CHECK(static_cast<double>((*got)[n].rank_fraction) == doctest::Approx(static_cast<double>(want[n].rank_fraction)));
+    CHECK(static_cast<double>((*got)[n].chance) == doctest::Approx(static_cast<double>(want[n].chance)));
   }
 }
 
@@ -255,8 +255,8 @@ TEST_CASE("Transform agreement: an excluded beta range is skipped and at most ma
     const ColocatedKeyframe& want = all[k * 59 / 10];  // evenly spaced over the 59
     CHECK((*ranked)[k].beta == want.beta);
     CHECK((*ranked)[k].alpha == want.alpha);
-    CHECK((*ranked)[k].rank_fraction == doctest::Approx(want.rank_fraction));
-    CHECK((*ranked)[k].chance == doctest::Approx(want.chance));
+    CHECK(static_cast<double>((*ranked)[k].rank_fraction) == doctest::Approx(static_cast<double>(want.rank_fraction)));
+    CHECK(static_cast<double>((*ranked)[k].chance) == doctest::Approx(static_cast<double>(want.chance)));
   }
   p.max_ranked = 0;
   CHECK_FALSE(ValidateTransformAgreementParams(p).ok());
