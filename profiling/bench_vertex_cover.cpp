@@ -4,12 +4,16 @@
 // vertex weight, one cover row per edge, one share row per robot (the shares our solver derived), variables only
 // for candidate (non-isolated) scans.
 // Usage: bench_vertex_cover [--family NAME]... [--instance SUBSTRING] [--glpk-limit S] [--our-limit S] [--reps N]
-//                           [--no-glpk]
+//                           [--no-glpk] [--no-dense]
 //   families: grid, blocks, random, band, nrobot, icra-unbalanced, icra-balanced, icra-unit, rss (default: all)
 //   --glpk-limit: glp_intopt time limit in s (default 60); --our-limit: our time limit (default 60)
 //   --reps: our solver runs N times, the median is reported (GLPK runs once; default 3)
-// Prints one row per instance: vertices, edges, share, our time, GLPK time, speed-up (GLPK / ours), both optima
-// and both statuses, and our node count; then per-family geometric-mean speed-ups and the count of >= 10x rows.
+//   --no-dense: skip the second timing of ours with the dense master simplex
+// Prints one row per instance: vertices, edges, share, our time (default master LP engine: GLPK, warm-started),
+// our time with the dense master simplex and the ratio of the two ("!" when the two engines end with different
+// statuses or optima), GLPK's MIP time, speed-up (GLPK / ours), both optima and both statuses, our node,
+// min-cut and master-LP counts and GLPK simplex iterations; then per-family geometric means of the master ratio,
+// and of the speed-ups with the count of >= 10x rows.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -48,6 +52,7 @@ struct Options {
   double our_limit_s = 60.0;
   int reps = 3;
   bool glpk = true;
+  bool dense = true;  // also time our solver with the dense master simplex (MasterLpEngine::kDense)
   std::string only;  // run only instances whose name contains this
 };
 
@@ -63,6 +68,7 @@ struct Row {
   double speedup = 0.0;
   bool equal = false;
   bool both_optimal = false;
+  double master_ratio = 0.0;  // our time with the GLPK master / with the dense master (0 = not measured)
 };
 
 ExchangeGraph Make(std::vector<int> counts, std::vector<ExchangeEdge> edges) {
@@ -207,6 +213,20 @@ void RunInstance(const Options& o, Instance& inst, std::vector<Row>* rows) {
     res = commerge::SolveMultiRobotBalancedCover(inst.graph, inst.params);
   });
   const double ours_ms = commerge::bench::Median(ms);
+  // The same solver with the dense master simplex: its time, and whether it reaches the same optimum.
+  double dense_ms = 0.0;
+  bool dense_equal = true;
+  if (o.dense) {
+    Instance dense = inst;
+    dense.params.master_lp = commerge::MasterLpEngine::kDense;
+    commerge::Result<commerge::MultiRobotCoverResult> dres = commerge::SolveMultiRobotBalancedCover(dense.graph, dense.params);
+    std::vector<double> dms = commerge::bench::TimeMs(o.reps, [&] {
+      dres = commerge::SolveMultiRobotBalancedCover(dense.graph, dense.params);
+    });
+    dense_ms = commerge::bench::Median(dms);
+    dense_equal = dres.ok() && dres->status == res->status &&
+                  std::fabs(dres->objective_weight - res->objective_weight) <= 1e-6 * std::max(1.0, res->objective_weight);
+  }
   int share = 0;
   for (int s : res->share_per_robot) share = std::max(share, s);
   GlpkOutcome gl;
@@ -215,14 +235,16 @@ void RunInstance(const Options& o, Instance& inst, std::vector<Row>* rows) {
   const bool glpk_opt = gl.status == commerge::MipStatus::kOptimal;
   const bool equal = std::fabs(gl.objective - res->objective_weight) <= 1e-6 * std::max(1.0, gl.objective);
   const double speedup = o.glpk && ours_ms > 0.0 ? gl.ms / ours_ms : 0.0;
-  std::printf("%-14s %-34s %6d %7zu %5d %10.2f %10.1f %8.1fx %12.0f %12.0f %-8s %-11s %s %8lld %8lld\n",
+  const double master_ratio = o.dense && dense_ms > 0.0 ? ours_ms / dense_ms : 0.0;
+  std::printf("%-14s %-34s %6d %7zu %5d %10.2f %10.2f %6.2f%s %10.1f %8.1fx %12.0f %12.0f %-8s %-11s %s %8lld %8lld %8lld %7lld\n",
               inst.family.c_str(), inst.name.c_str(), inst.graph.vertex_count(), inst.graph.edges().size(), share,
-              ours_ms, gl.ms, speedup, res->objective_weight, gl.objective,
-              ours_opt ? "optimal" : commerge::BalancedCoverStatusName(res->status), MipName(gl.status),
+              ours_ms, dense_ms, master_ratio, dense_equal ? " " : "!", gl.ms, speedup, res->objective_weight,
+              gl.objective, ours_opt ? "optimal" : commerge::BalancedCoverStatusName(res->status), MipName(gl.status),
               !o.glpk ? "  " : (equal ? "==" : "!="), static_cast<long long>(res->nodes_explored),
-              static_cast<long long>(res->min_cut_solves));
+              static_cast<long long>(res->min_cut_solves), static_cast<long long>(res->lp_solves),
+              static_cast<long long>(res->simplex_iterations));
   std::fflush(stdout);
-  rows->push_back({inst.family, speedup, equal, ours_opt && glpk_opt});
+  rows->push_back({inst.family, speedup, equal, ours_opt && glpk_opt, master_ratio});
 }
 
 }  // namespace
@@ -242,10 +264,12 @@ int main(int argc, char** argv) {
       o.only = argv[++i];
     } else if (std::strcmp(argv[i], "--no-glpk") == 0) {
       o.glpk = false;
+    } else if (std::strcmp(argv[i], "--no-dense") == 0) {
+      o.dense = false;
     } else {
       std::fprintf(stderr,
                    "usage: %s [--family grid|blocks|random|band|nrobot|icra-unbalanced|icra-balanced|icra-unit|rss]... "
-                   "[--instance SUBSTRING] [--glpk-limit S] [--our-limit S] [--reps N] [--no-glpk]\n",
+                   "[--instance SUBSTRING] [--glpk-limit S] [--our-limit S] [--reps N] [--no-glpk] [--no-dense]\n",
                    argv[0]);
       return 2;
     }
@@ -257,9 +281,9 @@ int main(int argc, char** argv) {
   std::printf("glp_intopt: default presolve/branching/backtracking, time limit %.0f s; ours: time limit %.0f s, "
               "median of %d runs\n",
               o.glpk_limit_s, o.our_limit_s, o.reps);
-  std::printf("%-14s %-34s %6s %7s %5s %10s %10s %9s %12s %12s %-8s %-11s %s %8s %8s\n", "family", "instance", "V",
-              "E", "share", "ours_ms", "glpk_ms", "speedup", "ours_opt", "glpk_opt", "ours", "glpk", "eq", "nodes",
-              "mincuts");
+  std::printf("%-14s %-34s %6s %7s %5s %10s %10s %7s %10s %9s %12s %12s %-8s %-11s %s %8s %8s %8s %7s\n", "family",
+              "instance", "V", "E", "share", "ours_ms", "dense_ms", "ratio", "glpk_ms", "speedup", "ours_opt",
+              "glpk_opt", "ours", "glpk", "eq", "nodes", "mincuts", "masters", "simplex");
   std::vector<Row> rows;
 
   if (Wanted(o, "grid")) {
@@ -373,6 +397,25 @@ int main(int argc, char** argv) {
     }
   }
 
+  if (o.dense) {
+    std::map<std::string, std::vector<const Row*>> by_family;
+    for (const Row& r : rows) by_family[r.family].push_back(&r);
+    std::printf("\nours with the GLPK master / with the dense master (time ratio; > 1: GLPK slower)\n");
+    std::printf("family          instances  geo-mean ratio  max ratio\n");
+    double all_log = 0.0;
+    for (const auto& [family, list] : by_family) {
+      double log_sum = 0.0;
+      double max_ratio = 0.0;
+      for (const Row* r : list) {
+        log_sum += std::log(std::max(r->master_ratio, 1e-9));
+        max_ratio = std::max(max_ratio, r->master_ratio);
+      }
+      all_log += log_sum;
+      std::printf("%-15s %9zu %15.2f %10.2f\n", family.c_str(), list.size(),
+                  std::exp(log_sum / static_cast<double>(list.size())), max_ratio);
+    }
+    if (!rows.empty()) std::printf("all             %9zu %15.2f\n", rows.size(), std::exp(all_log / static_cast<double>(rows.size())));
+  }
   if (o.glpk) {
     std::map<std::string, std::vector<const Row*>> by_family;
     for (const Row& r : rows) by_family[r.family].push_back(&r);

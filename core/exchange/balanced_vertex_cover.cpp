@@ -27,8 +27,10 @@ constexpr std::size_t kMaxKeptFlowValues = std::size_t{1} << 22;  // edge flows 
 // ---------------------------------------------------------------------------------------------------------------
 // Master LP of the Dantzig-Wolfe decomposition (restricted to the columns generated so far):
 //   min sum_k W_k mu_k  s.t.  sum_k mu_k = 1,  sum_k a_rk mu_k >= s_r (one row per active robot),  mu >= 0.
-// Dense revised simplex with Bland's rule (no cycling). Column 0 must satisfy every share row, so the basis
-// {mu_0, slacks} is feasible from the start and no phase 1 is needed. Variables: slack i (i < m) then mu_k.
+// Two engines: GLPK's simplex on a problem kept between solves and nodes (SolveWithGlpk; columns added with a
+// basis hint - the parent's LP support - start in the basis), or our dense revised simplex with Bland's rule (no
+// cycling; Solve). For the dense one, column 0 must satisfy every share row, so the basis {mu_0, slacks} is
+// feasible from the start and no phase 1 is needed. Variables: slack i (i < m) then mu_k.
 class MasterLp {
  public:
   void Reset(int m, const std::vector<double>& rhs) {
@@ -37,10 +39,40 @@ class MasterLp {
     cost_.clear();
     counts_.clear();
     basis_.clear();
+    glpk_rows_ = false;
   }
-  void AddColumn(double cost, const std::vector<double>& counts) {
+  void AddColumn(double cost, const std::vector<double>& counts, bool basic_hint = false) {
     cost_.push_back(cost);
     counts_.insert(counts_.end(), counts.begin(), counts.end());
+    hints_.resize(cost_.size());
+    hints_.back() = basic_hint ? 1 : 0;
+  }
+  // GLPK on the kept problem `glpk`: the rows are set at the first solve after Reset, then only the new columns
+  // are appended. *ok = false when GLPK found no optimum.
+  Status SolveWithGlpk(GlpkColumnLp& glpk, bool* ok) {
+    *ok = false;
+    if (!glpk_rows_) {
+      std::vector<LpRowBounds> rows(static_cast<std::size_t>(m_) + 1);
+      rows[0] = {1.0, 1.0};
+      for (int i = 0; i < m_; ++i) rows[static_cast<std::size_t>(i) + 1] = {rhs_[static_cast<std::size_t>(i)], kLpInfinity};
+      Status st = glpk.Reset(rows);
+      if (!st.ok()) return st;
+      glpk_rows_ = true;
+    }
+    std::vector<LpColumnEntry> entries;
+    for (int k = glpk.columns(); k < columns(); ++k) {
+      entries.assign(1, LpColumnEntry{0, 1.0});
+      for (int i = 0; i < m_; ++i) {
+        const double a = column_count(k, i);
+        if (a != 0.0) entries.push_back({i + 1, a});
+      }
+      Status st = glpk.AddColumn(column_cost(k), 0.0, kLpInfinity, entries, hints_[static_cast<std::size_t>(k)] != 0);
+      if (!st.ok()) return st;
+    }
+    Result<LpSolution> sol = glpk.Solve();
+    if (!sol.ok()) return sol.status();
+    *ok = SetSolution(*sol);
+    return Status::Ok();
   }
   int columns() const { return static_cast<int>(cost_.size()); }
   double column_cost(int k) const { return cost_[static_cast<std::size_t>(k)]; }
@@ -210,6 +242,8 @@ class MasterLp {
   }
 
   int m_ = 0;
+  bool glpk_rows_ = false;      // the GLPK problem holds this master's rows
+  std::vector<std::uint8_t> hints_;  // per column: 1 = start it in GLPK's basis
   std::vector<double> rhs_;
   std::vector<double> cost_;
   std::vector<double> counts_;  // column-major: counts_[k * m_ + i]
@@ -353,6 +387,7 @@ class BvcSolver {
 
   // Column generation of the current node.
   MasterLp master_;
+  GlpkColumnLp glpk_;               // the master's GLPK problem (MasterLpEngine::kGlpk), kept between nodes
   std::vector<std::vector<std::uint8_t>> columns_;  // 2 * x per free index
   std::vector<std::uint8_t> x2_;                     // last priced column
   std::vector<std::vector<std::uint8_t>> pool_;      // LP support of the last bound, as 2x over all vertices
@@ -662,6 +697,16 @@ Status BvcSolver::Price(const std::vector<double>& lambda, MultiRobotCoverResult
 
 Status BvcSolver::SolveMaster(MultiRobotCoverResult* res, bool* ok) {
   ++res->lp_solves;
+  if (external_lp_ == nullptr && params_.master_lp == MasterLpEngine::kGlpk) {
+    const std::int64_t it0 = glpk_.simplex_iterations();
+    const std::int64_t rebuilds0 = glpk_.basis_rebuilds();
+    Status st = master_.SolveWithGlpk(glpk_, ok);
+    res->simplex_iterations += glpk_.simplex_iterations() - it0;
+    res->lp_basis_rebuilds += glpk_.basis_rebuilds() - rebuilds0;
+    if (!st.ok()) return st;
+    if (*ok) return Status::Ok();
+    // No optimum from GLPK (cannot happen for a feasible master): the dense simplex gets one try.
+  }
   if (external_lp_ == nullptr) {
     *ok = master_.Solve();
     if (*ok) return Status::Ok();
@@ -906,7 +951,7 @@ Status BvcSolver::Bound(Node& node, MultiRobotCoverResult* res, bool* done, std:
       const int slot = active_slot_[static_cast<std::size_t>(md_.robot[v])];
       if (slot >= 0) counts[static_cast<std::size_t>(slot)] += 0.5 * col[i];
     }
-    master_.AddColumn(w, counts);
+    master_.AddColumn(w, counts, /*basic_hint=*/true);  // basic in the parent's optimum (mu > 0)
     columns_.push_back(std::move(col));
   }
   // Stabilised column generation (Wentges smoothing): the pricing multipliers are a convex combination of the
@@ -1133,6 +1178,9 @@ Status BvcSolver::Run(MultiRobotCoverResult* res) {
 Status ValidateCommon(const BalancedCoverParams& params, int vertex_count) {
   if (params.max_nodes < 1) return InvalidArgument("balanced vertex cover: max_nodes must be >= 1");
   if (!(params.time_limit_s > 0.0)) return InvalidArgument("balanced vertex cover: time_limit_s must be > 0");
+  if (params.master_lp != MasterLpEngine::kGlpk && params.master_lp != MasterLpEngine::kDense) {
+    return InvalidArgument("balanced vertex cover: master_lp is not an engine");
+  }
   if (!params.vertex_weights.empty()) {
     if (params.vertex_weights.size() != static_cast<std::size_t>(vertex_count)) {
       return InvalidArgument("balanced vertex cover: " + std::to_string(params.vertex_weights.size()) +
@@ -1165,6 +1213,14 @@ const char* BalancedCoverStatusName(BalancedCoverStatus status) noexcept {
     case BalancedCoverStatus::kNoCandidates: return "no candidates";
   }
   return "unknown";
+}
+
+const char* MasterLpEngineName(MasterLpEngine engine) noexcept {
+  switch (engine) {
+    case MasterLpEngine::kGlpk: return "glpk";
+    case MasterLpEngine::kDense: return "dense";
+  }
+  return "invalid";
 }
 
 Result<int> BalancedShare(int max_matching_size, const std::vector<double>& participation) {
@@ -1305,6 +1361,8 @@ Result<BalancedCoverResult> SolveBalancedVertexCover(const BipartiteGraph& graph
   res.nodes_explored = mr->nodes_explored;
   res.lp_solves = mr->lp_solves;
   res.min_cut_solves = mr->min_cut_solves;
+  res.simplex_iterations = mr->simplex_iterations;
+  res.lp_basis_rebuilds = mr->lp_basis_rebuilds;
   return res;
 }
 

@@ -28,8 +28,10 @@
 //    Dantzig-Wolfe column generation: the pricing problem is a weighted vertex cover with Lagrangian costs
 //    w_x - lambda_robot, solved exactly by max-flow/min-cut (core/solvers/min_cut.hpp) on the bipartite graph (or
 //    on the bipartite double cover of non-bipartite components, which yields the half-integral vertex-cover LP).
-//    The master LP (convexity + one row per robot short of its share) is a dense simplex, or a caller-supplied
-//    LpSolver. Without a balance row a bipartite node is solved exactly by a single min-cut, so the unbalanced
+//    The master LP (convexity + one row per robot short of its share) is GLPK's primal simplex on a problem kept
+//    between solves and nodes (core/solvers GlpkColumnLp: a new column enters non-basic, a child node starts
+//    from its parent's support columns in the basis), or our dense simplex (MasterLpEngine::kDense), or a
+//    caller-supplied LpSolver. Without a balance row a bipartite node is solved exactly by a single min-cut, so the unbalanced
 //    weighted cover (share 0) costs one max-flow. The pricing multipliers are smoothed towards the best ones so
 //    far (Wentges stabilisation), starting from the parent's. One network is built per solve (rebuilt at the
 //    root without the vertices its fixings remove); nodes only change capacities, and every max-flow is
@@ -54,6 +56,15 @@
 
 namespace commerge {
 
+/// Engine of the master LP of stage B's column generation (the node bound).
+enum class MasterLpEngine {
+  kGlpk,   ///< GLPK's primal simplex on a problem kept between solves and nodes (GlpkColumnLp), warm-started
+  kDense,  ///< our dense revised simplex over the few master rows (GLPK only when it fails numerically)
+};
+
+/// "glpk" or "dense".
+const char* MasterLpEngineName(MasterLpEngine engine) noexcept;
+
 struct BalancedCoverParams {
   /// Participation ratios, one per robot ({p_left, p_right} for the bipartite API): finite, >= 0, summing to 1
   /// (±1e-9). Empty = uniform.
@@ -69,6 +80,8 @@ struct BalancedCoverParams {
   /// per vertex (summing to at most 1e100): left vertices then right vertices for the bipartite API, global
   /// vertex ids for the N-robot API.
   std::vector<double> vertex_weights;
+  /// Engine of the master LPs (ignored when a caller-supplied LpSolver is passed).
+  MasterLpEngine master_lp = MasterLpEngine::kGlpk;
 };
 
 enum class BalancedCoverStatus {
@@ -97,6 +110,8 @@ struct BalancedCoverResult {
   std::int64_t nodes_explored = 0;  ///< branch-and-bound nodes whose bounds were evaluated
   std::int64_t lp_solves = 0;       ///< master LPs of the column generation (+1 per node bounded by one min-cut)
   std::int64_t min_cut_solves = 0;  ///< max-flow/min-cut computations (pricing and exact leaves)
+  std::int64_t simplex_iterations = 0;  ///< GLPK simplex iterations of the master LPs (kGlpk)
+  std::int64_t lp_basis_rebuilds = 0;   ///< GLPK master solves that could not start from the kept basis
 };
 
 /// Per-robot share ceil(n_mm / 2^H(p)) (with a 1e-9 tolerance against round-off, so uniform p over two robots
@@ -124,6 +139,8 @@ struct MultiRobotCoverResult {
   std::int64_t nodes_explored = 0;         ///< branch-and-bound nodes whose bounds were evaluated
   std::int64_t lp_solves = 0;              ///< master LPs (+1 per node bounded by one min-cut)
   std::int64_t min_cut_solves = 0;         ///< max-flow/min-cut computations
+  std::int64_t simplex_iterations = 0;     ///< GLPK simplex iterations of the master LPs (kGlpk)
+  std::int64_t lp_basis_rebuilds = 0;      ///< GLPK master solves that could not start from the kept basis
 };
 
 /// Solves the BVC on an N-robot exchange graph (see the header comment for the model). `participation`, when

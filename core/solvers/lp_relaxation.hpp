@@ -5,7 +5,9 @@
 // benchmarked against.
 #pragma once
 
+#include <cstdint>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "core/common/status.hpp"
@@ -69,6 +71,61 @@ class LpSolver {
 class GlpkSimplexSolver final : public LpSolver {
  public:
   Result<LpSolution> Minimize(const LinearProgram& lp) override;
+};
+
+/// Bounds of one row of a GlpkColumnLp (lower <= row activity <= upper; ±kLpInfinity for a one-sided row).
+struct LpRowBounds {
+  double lower = -kLpInfinity;
+  double upper = kLpInfinity;
+};
+
+/// One coefficient of a column: its row index (0-based) and value.
+struct LpColumnEntry {
+  int row = 0;
+  double coefficient = 0.0;
+};
+
+/// A GLPK simplex problem kept alive between solves, for column generation inside a branch-and-bound: the rows
+/// are set per node (Reset), columns are appended (AddColumn), and every Solve starts from the basis GLPK left
+/// (primal simplex, presolve off). Within a node a new column enters as non-basic, so the previous optimum stays
+/// a feasible basis and a re-solve takes a few pivots. Between nodes Reset keeps the rows' basis statuses when
+/// the row count is unchanged, and columns added with `basic_hint` enter the basis: a child node that re-adds
+/// its parent's LP support starts from (nearly) its parent's optimal basis. Before a solve the number of basic
+/// variables is made equal to the row count (rows leave or enter the basis, in index order); a basis GLPK then
+/// cannot factorise is replaced by its advanced (crash) basis and counted in basis_rebuilds().
+/// Minimisation. Silent. Not thread-safe; separate instances may run on separate threads.
+class GlpkColumnLp {
+ public:
+  GlpkColumnLp();
+  ~GlpkColumnLp();
+  GlpkColumnLp(const GlpkColumnLp&) = delete;
+  GlpkColumnLp& operator=(const GlpkColumnLp&) = delete;
+
+  /// Removes every column and sets the rows. InvalidArgument for NaN or empty bounds (lower > upper, lower =
+  /// +inf, upper = -inf) or more than 100 000 rows.
+  Status Reset(const std::vector<LpRowBounds>& rows);
+  /// Appends a column (variable) with objective `cost` and bounds [lower, upper]. InvalidArgument for a
+  /// non-finite cost or coefficient, bad bounds, a row out of range, a repeated row, or a 1 000 001st column.
+  Status AddColumn(double cost, double lower, double upper, const std::vector<LpColumnEntry>& entries,
+                   bool basic_hint = false);
+  /// Solves from the kept basis. Internal when GLPK fails also from its crash basis.
+  Result<LpSolution> Solve();
+
+  int rows() const noexcept;
+  int columns() const noexcept;
+  std::int64_t solves() const noexcept { return solves_; }
+  /// Solves whose kept basis could not be factorised (GLPK's crash basis was used instead).
+  std::int64_t basis_rebuilds() const noexcept { return basis_rebuilds_; }
+  /// Simplex iterations over all solves (GLPK's iteration count).
+  std::int64_t simplex_iterations() const noexcept { return simplex_iterations_; }
+
+ private:
+  void BalanceBasis();
+  struct Problem;  // the glp_prob (glpk.h stays out of this header)
+  std::unique_ptr<Problem> problem_;
+  std::int64_t solves_ = 0;
+  std::int64_t basis_rebuilds_ = 0;
+  std::int64_t simplex_iterations_ = 0;
 };
 
 enum class MipStatus {
