@@ -297,6 +297,9 @@ void ServerProcess::PublishStatus(std::int64_t wall) {
                                                        server_->stats().rejected_chunks);
   status.last_rejection = last_rejection_;
   link_->AppendRobotStatus(&status);
+  for (const MergePairOutcome& p : link_->last_result().pairs) {
+    status.pairs.push_back({p.alpha, p.beta, StageSolverText("B", p.stage_b) + "; " + StageSolverText("C", p.stage_c)});
+  }
   if (platform::EncodeServerStatus(status, &buffer_).ok()) (void)bus_->Publish(platform::kServerStatusChannel, buffer_);
   if (!o_.quiet) {
     std::fprintf(stderr, "%s: %s; %lld bytes received, %lld messages rejected\n", kTag, status.state.c_str(),

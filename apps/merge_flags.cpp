@@ -68,6 +68,14 @@ const MergeFlag kMergeFlags[] = {
      "other clusters agree with when the lowest-mean one has less than half its support (repeated places); "
      "skipped when more cells are below threshold; 0 = off (the paper)",
      FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.consensus_max_cells; }},
+    {"--stage-b-max-nodes", "cascade.stage_b.max_nodes", "nodes", 1.0, 1e9, "ours",
+     "stage B's branch-and-bound stops after this many nodes with the best cover and its proven gap (printed per "
+     "pair); the same selection on every machine (a wall-clock cap of 60 s only guards a pathological graph)",
+     FlagType::kInt64, [](MergeServerParams* p) -> void* { return &p->cascade.stage_b.max_nodes; }},
+    {"--stage-c-max-nodes", "cascade.stage_c.max_nodes", "nodes", 1.0, 1e12, "ours",
+     "stage C's clique search stops after this many nodes with the best clique and its proven gap (printed per "
+     "pair); a wall-clock cap of 30 s only guards a pathological graph",
+     FlagType::kInt64, [](MergeServerParams* p) -> void* { return &p->cascade.stage_c.max_nodes; }},
     {"--tau-con-m", "cascade.stage_c.tau_con_m", "m", 1e-3, 1e4, "tau_con",
      "stage C: two loops are compatible when their positional inconsistency is below this", FlagType::kDouble,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_c.tau_con_m; }},
@@ -114,6 +122,7 @@ std::string MergeFlagValue(const MergeFlag& f, MergeServerParams* params) {
     case FlagType::kSize: text << *static_cast<std::size_t*>(field); break;
     case FlagType::kUint32: text << *static_cast<std::uint32_t*>(field); break;
     case FlagType::kInt: text << *static_cast<int*>(field); break;
+    case FlagType::kInt64: text << *static_cast<std::int64_t*>(field); break;
   }
   return text.str();
 }
@@ -133,6 +142,7 @@ void AddMergeFlags(CLI::App* cmd, MergeServerParams* params) {
       case FlagType::kSize: o = AddTyped<std::size_t>(cmd, f.flag, field, help); break;
       case FlagType::kUint32: o = AddTyped<std::uint32_t>(cmd, f.flag, field, help); break;
       case FlagType::kInt: o = AddTyped<int>(cmd, f.flag, field, help); break;
+      case FlagType::kInt64: o = AddTyped<std::int64_t>(cmd, f.flag, field, help); break;
     }
     o->check(CLI::Range(f.min_value, f.max_value))->capture_default_str();
   }

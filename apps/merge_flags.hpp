@@ -14,7 +14,7 @@
 namespace commerge::app {
 
 struct MergeFlag {
-  enum class Type { kDouble, kUint64, kSize, kUint32, kInt };
+  enum class Type { kDouble, kUint64, kSize, kUint32, kInt, kInt64 };
   const char* flag;          ///< "--tau-inter"
   const char* field;         ///< "cascade.stage_a.tau_inter" (MergeServerParams member path)
   const char* unit;          ///< "m", "cells", "" (dimensionless)

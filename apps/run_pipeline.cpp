@@ -428,6 +428,12 @@ int RunCascades(RunJob* job) {
                   BalancedCoverStatusName(c->stage_b.status), c->stage_c.selected_loops.size(), padded.c_str(),
                   c->stage_a_s, c->stage_b_s, c->stage_c_s, c->no_candidate_reason.empty() ? "" : "; ",
                   c->no_candidate_reason.c_str());
+      const StageSolverOutcome ob = StageBOutcome(*c);
+      const StageSolverOutcome oc = StageCOutcome(*c);
+      if (ob.ran || oc.ran || oc.loops_dropped > 0) {
+        std::printf("    solvers: stage B %s; stage C %s\n", FormatStageSolverOutcome(ob).c_str(),
+                    FormatStageSolverOutcome(oc).c_str());
+      }
     }
   }
   return kExitOk;

@@ -553,6 +553,15 @@ void WriteMetrics(const RunJob& job) {
     const std::string stopped = StoppedAt(job, final_mode, i);
     kv(k + "stopped", no_place && stopped != "merged" ? "no shared place" : stopped);
     if (p.attempted) kv(k + "submap_voxel_m", Fmt("%.3f", p.voxel_size_m));
+    if (const ExchangeCascadeResult* c = job.server->cascade(p.alpha, p.beta); c) {
+      // status incumbent bound gap nodes LPs (stage C also the loops dropped beyond max_loops)
+      for (const auto& [name, o] : {std::make_pair("stage_b", StageBOutcome(*c)), std::make_pair("stage_c", StageCOutcome(*c))}) {
+        if (!o.ran) continue;
+        kv(k + name, std::string(o.status) + " " + Fmt("%.6g", o.incumbent) + " " + Fmt("%.6g", o.bound) + " " +
+                         Fmt("%.4f", o.gap) + " " + std::to_string(o.nodes) + " " + std::to_string(o.lp_solves) +
+                         (std::string(name) == "stage_c" ? " " + std::to_string(o.loops_dropped) : std::string()));
+      }
+    }
     if (const ExchangeCascadeResult* c = job.server->cascade(p.alpha, p.beta); c && c->stage_a.found) {
       const SequentialCluster& best = c->stage_a.best;
       kv(k + "stage_a_keyframes", std::to_string(best.row_min) + "-" + std::to_string(best.row_max) + " " +

@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "core/agent/merge_round.hpp"
 
+#include "core/common/number_text.hpp"
+
 #include <algorithm>
 #include <chrono>
+#include <string>
 #include <utility>
 
 namespace commerge {
@@ -171,6 +174,43 @@ Status MergeRound::Finish() {
   return Status::Ok();
 }
 
+namespace {
+
+constexpr std::int64_t kMaxWireCount = 2147483647;  // int32 wire counters saturate here
+
+std::uint32_t SaturatedCount(std::int64_t count) {
+  return static_cast<std::uint32_t>(std::clamp<std::int64_t>(count, 0, kMaxWireCount));
+}
+std::uint32_t SaturatedCount(std::size_t count) {
+  return static_cast<std::uint32_t>(std::min<std::size_t>(count, static_cast<std::size_t>(kMaxWireCount)));
+}
+
+StageSolverSummary SummariseStage(const StageSolverOutcome& o) {
+  StageSolverSummary s;
+  if (!o.ran) return s;
+  s.status = o.no_selection ? 3 : (o.limit_hit ? 2 : 1);
+  s.gap = static_cast<float>(std::clamp(o.gap, 0.0, 1.0));
+  s.nodes = SaturatedCount(o.nodes);
+  s.lp_solves = SaturatedCount(o.lp_solves);
+  return s;
+}
+
+}  // namespace
+
+std::string StageSolverText(const char* stage, const StageSolverSummary& s) {
+  std::string text = std::string(stage) + " ";
+  switch (s.status) {
+    case 0: return text + "not run";
+    case 1: text += "optimal"; break;
+    case 2: text += "limit, gap " + FormatNumber(100.0 * static_cast<double>(s.gap), 3) + " %"; break;
+    case 3: text += "no selection"; break;
+    default: return text + "status " + std::to_string(s.status);
+  }
+  text += ", " + std::to_string(s.nodes) + (s.nodes == 1 ? " node, " : " nodes, ") + std::to_string(s.lp_solves) +
+          (s.lp_solves == 1 ? " LP" : " LPs");
+  return text;
+}
+
 MergeResultMessage MakeMergeResultMessage(const MergeRoundResult& round, const MergeServer& server,
                                           Span<const int> robot_ids, Span<const std::uint32_t> keyframes,
                                           std::int64_t server_session, std::int64_t utime_us) {
@@ -200,6 +240,9 @@ MergeResultMessage MakeMergeResultMessage(const MergeRoundResult& round, const M
     if (const ExchangeCascadeResult* c = server.cascade(p.alpha, p.beta)) {
       o.loops_stage_a = static_cast<std::uint32_t>(c->stage_a.cells.size());
       o.loops_stage_c = static_cast<std::uint32_t>(c->stage_c.selected_loops.size());
+      o.stage_b = SummariseStage(StageBOutcome(*c));
+      o.stage_c = SummariseStage(StageCOutcome(*c));
+      o.stage_c_loops_dropped = SaturatedCount(c->stage_c.loops_dropped);
     }
     if (o.success && round.frames_ok && measurement < round.frames.measurements.size()) {
       o.consistent = round.frames.measurements[measurement].verdict != MeasurementVerdict::kRejected;

@@ -143,6 +143,20 @@ struct TransferStatus {
   std::vector<MissingChunkRange> missing;
 };
 
+/// One solver stage of a pair's cascade as merge_result_t carries it (StageBOutcome / StageCOutcome).
+struct StageSolverSummary {
+  /// 0 = not reached, 1 = optimal, 2 = stopped by a node or time limit with a selection (gap), 3 = no selection
+  /// (a limit before any, or infeasible).
+  std::uint8_t status = 0;
+  float gap = 0.0f;                 ///< relative gap in [0, 1]
+  std::uint32_t nodes = 0;          ///< branch-and-bound nodes (saturated at 2^31 - 1 on the wire)
+  std::uint32_t lp_solves = 0;      ///< LP relaxations solved
+};
+inline constexpr std::uint8_t kMaxStageSolverStatus = 3;
+
+/// "B optimal, 3 nodes, 5 LPs", "C limit, gap 2.1 %, 20000 nodes, 1 LP", "B no selection", "B not run".
+std::string StageSolverText(const char* stage, const StageSolverSummary& summary);
+
 /// One robot pair of a merge result.
 struct MergePairOutcome {
   int alpha = 0, beta = 0;
@@ -154,6 +168,8 @@ struct MergePairOutcome {
   float overlap = 0.0f;                   ///< registration overlap ratio
   std::uint32_t inliers = 0;              ///< fine-stage inliers
   bool consistent = false;                ///< kept by the frame solver
+  StageSolverSummary stage_b, stage_c;    ///< the cascade's solver stages
+  std::uint32_t stage_c_loops_dropped = 0;  ///< loops beyond stage C's max_loops left out of its graph
 };
 
 /// The server's answer after a merge round (server -> everyone).
@@ -231,6 +247,12 @@ struct ServerStatus {
   /// The descriptor parameter id of its batches (RobotKeyframeDb::descriptor_id; 0: none yet). Robots whose ids
   /// differ are not compared (MergeServer::incomparable_pairs), so this column shows which robot is set up apart.
   std::vector<std::uint32_t> descriptor_ids;
+  /// Per robot pair of the latest merge round (at most kMaxMergePairs): StageSolverText of stage B and C.
+  struct PairSolvers {
+    int alpha = 0, beta = 0;
+    std::string text;                     ///< at most kMaxStatusTextBytes
+  };
+  std::vector<PairSolvers> pairs;
 };
 
 }  // namespace commerge

@@ -79,6 +79,69 @@ const char* CascadeOutcomeName(CascadeOutcome outcome) noexcept {
   return "unknown";
 }
 
+namespace {
+
+double RelativeGap(double incumbent, double bound) {
+  const double scale = std::max({std::fabs(incumbent), std::fabs(bound), 1e-12});
+  return std::fabs(bound - incumbent) / scale;
+}
+
+std::string Number(double x) { return FormatNumber(x, x == std::floor(x) && std::fabs(x) < 1e15 ? 15 : 4); }
+
+}  // namespace
+
+StageSolverOutcome StageBOutcome(const ExchangeCascadeResult& result) {
+  StageSolverOutcome o;
+  const BalancedCoverResult& b = result.stage_b;
+  // Stage B ran when stage A passed loops on: its graph then has vertices (kNoCandidates is not possible there).
+  o.ran = result.stage_b_vertices_alpha + result.stage_b_vertices_beta > 0;
+  if (!o.ran) return o;
+  o.status = BalancedCoverStatusName(b.status);
+  o.proven = b.status == BalancedCoverStatus::kOptimal || b.status == BalancedCoverStatus::kNoCandidates ||
+             b.status == BalancedCoverStatus::kInfeasible;
+  o.limit_hit = b.status == BalancedCoverStatus::kFeasibleWithGap ||
+                b.status == BalancedCoverStatus::kLimitWithoutSolution;
+  o.no_selection = b.status == BalancedCoverStatus::kLimitWithoutSolution ||
+                   b.status == BalancedCoverStatus::kInfeasible;
+  o.incumbent = b.objective_weight;
+  o.bound = b.lower_bound_weight;
+  o.gap = o.proven || b.status == BalancedCoverStatus::kLimitWithoutSolution ? 0.0 : RelativeGap(o.incumbent, o.bound);
+  o.nodes = b.nodes_explored;
+  o.lp_solves = b.lp_solves;
+  return o;
+}
+
+StageSolverOutcome StageCOutcome(const ExchangeCascadeResult& result) {
+  StageSolverOutcome o;
+  const StageCResult& c = result.stage_c;
+  o.ran = !c.candidate_loops.empty();
+  o.loops_dropped = c.loops_dropped;
+  if (!o.ran) return o;
+  o.status = CliqueSearchStatusName(c.clique.status);
+  o.proven = c.clique.status != CliqueSearchStatus::kLimitReached;
+  o.limit_hit = !o.proven;
+  o.incumbent = c.clique.objective;
+  o.bound = c.clique.upper_bound;
+  o.gap = o.proven ? 0.0 : RelativeGap(o.incumbent, o.bound);
+  o.nodes = c.clique.nodes;
+  o.lp_solves = 0;
+  return o;
+}
+
+std::string FormatStageSolverOutcome(const StageSolverOutcome& o) {
+  if (!o.ran) return o.loops_dropped > 0 ? "not run, " + std::to_string(o.loops_dropped) + " loops dropped" : "not run";
+  std::string text = std::string(o.status) + ": " + Number(o.incumbent);
+  if (o.proven) {
+    text += " (bound " + Number(o.bound) + ")";
+  } else {
+    text += " against bound " + Number(o.bound) + " (gap " + FormatNumber(100.0 * o.gap, 3) + " %), node or time limit";
+  }
+  text += ", " + std::to_string(o.nodes) + (o.nodes == 1 ? " node, " : " nodes, ") + std::to_string(o.lp_solves) +
+          (o.lp_solves == 1 ? " LP" : " LPs");
+  if (o.loops_dropped > 0) text += ", " + std::to_string(o.loops_dropped) + " loops dropped (max_loops)";
+  return text;
+}
+
 Status ValidateExchangeCascadeParams(const ExchangeCascadeParams& params) {
   if (Status s = ValidateSequentialMatchParams(params.stage_a); !s.ok()) return s;
   if (Status s = ValidateStageCParams(params.stage_c); !s.ok()) return s;

@@ -107,6 +107,29 @@ struct ExchangeCascadeResult {
   double stage_a_s = 0.0, stage_b_s = 0.0, stage_c_s = 0.0, policy_s = 0.0;
 };
 
+/// One solver stage's outcome as reports and messages carry it: stage B (balanced cover, a minimisation of
+/// scans or weight) or stage C (maximum edge-weighted clique, a maximisation of f_K).
+struct StageSolverOutcome {
+  bool ran = false;           ///< the stage was reached (false: an earlier stage stopped the cascade)
+  const char* status = "not run";  ///< the solver's status name ("optimal", "feasible-with-gap", "limit", ...)
+  bool proven = false;        ///< the incumbent is proven optimal (or nothing had to be solved)
+  bool limit_hit = false;     ///< a node or time limit stopped the search
+  bool no_selection = false;  ///< B: no cover (a limit before any, or shares that cannot be met)
+  double incumbent = 0.0;     ///< objective of the selection: B scans (unit weights) or weight; C f_K
+  double bound = 0.0;         ///< proven bound on the optimum: B lower, C upper
+  double gap = 0.0;           ///< |bound - incumbent| / max(|bound|, |incumbent|, 1e-12); 0 when proven
+  std::int64_t nodes = 0;     ///< branch-and-bound nodes
+  std::int64_t lp_solves = 0; ///< LP relaxations solved (B: master LPs; C: GLPK bounds)
+  std::size_t loops_dropped = 0;  ///< C only: loops beyond StageCParams::max_loops left out of the graph
+};
+
+/// Stage B's and stage C's outcome of a cascade result.
+StageSolverOutcome StageBOutcome(const ExchangeCascadeResult& result);
+StageSolverOutcome StageCOutcome(const ExchangeCascadeResult& result);
+/// One line for a person: "optimal: 12 (bound 12), 3 nodes, 5 LPs" or "feasible-with-gap: 14 >= 12 (gap 14.3 %),
+/// node or time limit, ..." ("not run" when the stage was not reached).
+std::string FormatStageSolverOutcome(const StageSolverOutcome& outcome);
+
 /// Runs the cascade. Errors: malformed inputs (descriptor sets, positions count != descriptor count, bad params).
 /// Degenerate inputs (no cluster, nothing selected) give an OK result with outcome kNoCandidate and the reason.
 Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,

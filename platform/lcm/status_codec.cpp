@@ -5,6 +5,7 @@
 #include <initializer_list>
 #include <limits>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "commerge/merge_result_t.hpp"
@@ -206,6 +207,16 @@ Status ValidateMergeResult(const MergeResultMessage& m, MakeError make) {
     if (!std::isfinite(p.overlap)) {
       return make(std::string(type) + ": " + Indexed("pairs", i, "overlap") + " is not finite");
     }
+    for (const auto& [name, stage] : {std::make_pair("stage_b", &p.stage_b), std::make_pair("stage_c", &p.stage_c)}) {
+      if (stage->status > kMaxStageSolverStatus) {
+        return make(std::string(type) + ": " + Indexed("pairs", i, (std::string(name) + "_status").c_str()) + " = " +
+                    std::to_string(stage->status) + " (0..3)");
+      }
+      if (!(stage->gap >= 0.0f && stage->gap <= 1.0f)) {
+        return make(std::string(type) + ": " + Indexed("pairs", i, (std::string(name) + "_gap").c_str()) +
+                    " is not in [0, 1]");
+      }
+    }
   }
   return Status::Ok();
 }
@@ -239,6 +250,13 @@ Status ValidateServerStatus(const ServerStatus& m, MakeError make) {
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (Status st = CheckRobotIdAs(make, m.robot_ids[i], type, Indexed("robot_ids", i)); !st.ok()) return st;
+  }
+  if (Status st = CheckSize(m.pairs.size(), kMaxMergePairs, make, type, "pairs"); !st.ok()) return st;
+  for (std::size_t i = 0; i < m.pairs.size(); ++i) {
+    const ServerStatus::PairSolvers& p = m.pairs[i];
+    if (Status st = CheckRobotIdAs(make, p.alpha, type, Indexed("pairs", i, "alpha")); !st.ok()) return st;
+    if (Status st = CheckRobotIdAs(make, p.beta, type, Indexed("pairs", i, "beta")); !st.ok()) return st;
+    if (Status st = CheckText(p.text, make, type, Indexed("pairs", i, "solvers")); !st.ok()) return st;
   }
   return Status::Ok();
 }
@@ -424,6 +442,11 @@ Status EncodeMergeResult(const MergeResultMessage& m, std::vector<std::uint8_t>*
   msg.alpha_scans.resize(np);
   msg.beta_scans.resize(np);
   msg.inliers.resize(np);
+  msg.stage_b_nodes.resize(np);
+  msg.stage_b_lp_solves.resize(np);
+  msg.stage_c_nodes.resize(np);
+  msg.stage_c_lp_solves.resize(np);
+  msg.stage_c_loops_dropped.resize(np);
   for (std::size_t i = 0; i < np; ++i) {
     const MergePairOutcome& p = m.pairs[i];
     msg.alpha.push_back(static_cast<std::int16_t>(p.alpha));
@@ -435,13 +458,22 @@ Status EncodeMergeResult(const MergeResultMessage& m, std::vector<std::uint8_t>*
                                     {"loops_stage_c", p.loops_stage_c, &msg.loops_stage_c[i]},
                                     {"alpha_scans", p.alpha_scans, &msg.alpha_scans[i]},
                                     {"beta_scans", p.beta_scans, &msg.beta_scans[i]},
-                                    {"inliers", p.inliers, &msg.inliers[i]}},
+                                    {"inliers", p.inliers, &msg.inliers[i]},
+                                    {"stage_b_nodes", p.stage_b.nodes, &msg.stage_b_nodes[i]},
+                                    {"stage_b_lp_solves", p.stage_b.lp_solves, &msg.stage_b_lp_solves[i]},
+                                    {"stage_c_nodes", p.stage_c.nodes, &msg.stage_c_nodes[i]},
+                                    {"stage_c_lp_solves", p.stage_c.lp_solves, &msg.stage_c_lp_solves[i]},
+                                    {"stage_c_loops_dropped", p.stage_c_loops_dropped, &msg.stage_c_loops_dropped[i]}},
                                    type, Indexed("pairs", i) + ".");
         !st.ok()) {
       return st;
     }
     msg.overlap.push_back(p.overlap);
     msg.consistent.push_back(p.consistent ? 1 : 0);
+    msg.stage_b_status.push_back(static_cast<std::int8_t>(p.stage_b.status));
+    msg.stage_b_gap.push_back(p.stage_b.gap);
+    msg.stage_c_status.push_back(static_cast<std::int8_t>(p.stage_c.status));
+    msg.stage_c_gap.push_back(p.stage_c.gap);
   }
   return EncodeInto(msg, out, type);
 }
@@ -455,11 +487,12 @@ Result<MergeResultMessage> DecodeMergeResult(Span<const std::uint8_t> bytes) {
   // Per robot: robot_id 2, in_world 1, translation_m 12, quaternion 16, keyframes 4.
   const std::int64_t n = w.Count(4, static_cast<std::int64_t>(kMaxMergeRobots), "num_robots", 35);
   w.Skip(35 * n, "robot_id, in_world, translation_m, quaternion, keyframes");
-  // Per pair: alpha 2, beta 2, success 1, verdict >= 5, then 12 + 16 + 4 x 4 + 4 + 4 + 1 = 53.
-  const std::int64_t np = w.Count(4, static_cast<std::int64_t>(kMaxMergePairs), "num_pairs", 5 + 5 + 53);
+  // Per pair: alpha 2, beta 2, success 1, verdict >= 5, then 12 + 16 + 4 x 4 + 4 + 4 + 1 = 53, then the solver
+  // stages 2 x (1 + 4 + 4 + 4) + 4 = 30.
+  const std::int64_t np = w.Count(4, static_cast<std::int64_t>(kMaxMergePairs), "num_pairs", 5 + 5 + 53 + 30);
   w.Skip(5 * np, "alpha, beta, success");
   w.Strings(np, "verdict");
-  w.Skip(53 * np, "the per-pair arrays after verdict");
+  w.Skip((53 + 30) * np, "the per-pair arrays after verdict");
   if (Status st = w.Finish(); !st.ok()) return st;
   commerge::merge_result_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
@@ -498,11 +531,27 @@ Result<MergeResultMessage> DecodeMergeResult(Span<const std::uint8_t> bytes) {
                                       {"loops_stage_c", msg.loops_stage_c[i], &p.loops_stage_c},
                                       {"alpha_scans", msg.alpha_scans[i], &p.alpha_scans},
                                       {"beta_scans", msg.beta_scans[i], &p.beta_scans},
-                                      {"inliers", msg.inliers[i], &p.inliers}},
+                                      {"inliers", msg.inliers[i], &p.inliers},
+                                      {"stage_b_nodes", msg.stage_b_nodes[i], &p.stage_b.nodes},
+                                      {"stage_b_lp_solves", msg.stage_b_lp_solves[i], &p.stage_b.lp_solves},
+                                      {"stage_c_nodes", msg.stage_c_nodes[i], &p.stage_c.nodes},
+                                      {"stage_c_lp_solves", msg.stage_c_lp_solves[i], &p.stage_c.lp_solves},
+                                      {"stage_c_loops_dropped", msg.stage_c_loops_dropped[i], &p.stage_c_loops_dropped}},
                                      type, Indexed("pairs", i) + ".");
         !st.ok()) {
       return st;
     }
+    for (const auto& [name, wire_status, stage] :
+         {std::make_tuple("stage_b_status", msg.stage_b_status[i], &p.stage_b),
+          std::make_tuple("stage_c_status", msg.stage_c_status[i], &p.stage_c)}) {
+      if (wire_status < 0 || wire_status > static_cast<std::int8_t>(kMaxStageSolverStatus)) {
+        return DataLoss(std::string(type) + ": " + Indexed("pairs", i, name) + " = " + std::to_string(wire_status) +
+                        " (0..3)");
+      }
+      stage->status = static_cast<std::uint8_t>(wire_status);
+    }
+    p.stage_b.gap = msg.stage_b_gap[i];
+    p.stage_c.gap = msg.stage_c_gap[i];
     p.overlap = msg.overlap[i];
     if (Status st = DecodeFlag(msg.consistent[i], type, Indexed("pairs", i, "consistent"), &p.consistent);
         !st.ok()) {
@@ -595,6 +644,12 @@ Status EncodeServerStatus(const ServerStatus& m, std::vector<std::uint8_t>* out)
   if (Status st = ArrayToWire(m.scans, type, "scans", &msg.scans); !st.ok()) return st;
   if (Status st = ArrayToWire(m.chunks_missing, type, "chunks_missing", &msg.chunks_missing); !st.ok()) return st;
   for (std::uint32_t id : m.descriptor_ids) msg.descriptor_id.push_back(static_cast<std::int32_t>(id));  // the bits
+  msg.num_pairs = static_cast<std::int32_t>(m.pairs.size());
+  for (const ServerStatus::PairSolvers& p : m.pairs) {
+    msg.pair_alpha.push_back(static_cast<std::int16_t>(p.alpha));  // 0..63 (validated)
+    msg.pair_beta.push_back(static_cast<std::int16_t>(p.beta));
+    msg.pair_solvers.push_back(p.text);
+  }
   return EncodeInto(msg, out, type);
 }
 
@@ -613,6 +668,10 @@ Result<ServerStatus> DecodeServerStatus(Span<const std::uint8_t> bytes) {
   // Per robot: robot_id 2, keyframes 4, scans 4, chunks_missing 4, descriptor_id 4.
   const std::int64_t n = w.Count(4, static_cast<std::int64_t>(kMaxMergeRobots), "num_robots", 18);
   w.Skip(18 * n, "robot_id, keyframes, scans, chunks_missing, descriptor_id");
+  // Per pair: pair_alpha 2, pair_beta 2, pair_solvers >= 5.
+  const std::int64_t np = w.Count(4, static_cast<std::int64_t>(kMaxMergePairs), "num_pairs", 4 + 5);
+  w.Skip(4 * np, "pair_alpha, pair_beta");
+  w.Strings(np, "pair_solvers");
   if (Status st = w.Finish(); !st.ok()) return st;
   commerge::server_status_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
@@ -633,6 +692,9 @@ Result<ServerStatus> DecodeServerStatus(Span<const std::uint8_t> bytes) {
     return st;
   }
   for (std::int32_t id : msg.descriptor_id) m.descriptor_ids.push_back(static_cast<std::uint32_t>(id));
+  for (std::size_t i = 0; i < static_cast<std::size_t>(np); ++i) {
+    m.pairs.push_back({msg.pair_alpha[i], msg.pair_beta[i], std::move(msg.pair_solvers[i])});
+  }
   if (Status st = ValidateServerStatus(m, DataLoss); !st.ok()) return st;
   return m;
 }

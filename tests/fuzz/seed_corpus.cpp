@@ -416,6 +416,9 @@ MergeResultMessage LargestResult() {
       p.overlap = 0.42f;
       p.inliers = 1234;
       p.consistent = p.success;
+      p.stage_b = {static_cast<std::uint8_t>((a + b) % 4), 0.125f, 2147483647u, 2147483647u};
+      p.stage_c = {2, 1.0f, 2147483647u, 77};
+      p.stage_c_loops_dropped = 2147483647u;
       m.pairs.push_back(std::move(p));
     }
   }
@@ -465,6 +468,11 @@ ServerStatus LargestServerStatus() {
     s.scans.push_back(static_cast<std::uint32_t>(r));
     s.chunks_missing.push_back(static_cast<std::uint32_t>(r * 3));
     s.descriptor_ids.push_back(0xFFFFFFFFu - static_cast<std::uint32_t>(r));
+  }
+  for (int a = 0; a < static_cast<int>(kMaxMergeRobots); ++a) {
+    for (int b = a + 1; b < static_cast<int>(kMaxMergeRobots); ++b) {
+      s.pairs.push_back({a, b, Text("B limit, gap 12.5 %, 20000 nodes, 31 LPs; C optimal ", kMaxStatusTextBytes)});
+    }
   }
   return s;
 }

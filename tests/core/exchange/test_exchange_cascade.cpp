@@ -6,17 +6,22 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <random>
 #include <set>
+#include <string>
 #include <tuple>
 #include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
 
+#include "core/agent/messages.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/exchange/exchange_cascade.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/sim/keyframe_drive.hpp"
+#include "core/solvers/max_clique.hpp"
 
 namespace commerge {
 namespace {
@@ -271,6 +276,113 @@ TEST_CASE("Cascade: a cluster below tau_area is passed on to verify only above t
   auto bad = RunExchangeCascade(a, b, params);
   REQUIRE_FALSE(bad.ok());
   CHECK(bad.status().message().find("verification_area_fraction") != std::string::npos);
+}
+
+}  // namespace
+}  // namespace commerge
+
+namespace commerge {
+namespace {
+
+// Independent of StageSolverOutcome: the relative gap from the solver's own incumbent and bound.
+double GapOf(double incumbent, double bound) {
+  return std::fabs(bound - incumbent) / std::max({std::fabs(incumbent), std::fabs(bound), 1e-12});
+}
+
+TEST_CASE("Cascade outcomes: each solver stage's status, incumbent, bound, gap and nodes, with and without a node limit") {
+  const BoxScene scene = MakeStreetScene(42, 200.0f);
+  const SimulatedKeyframes alpha = Drive(scene, -55.0f, 0.0f, 0.0f, 80, 1000);
+  const SimulatedKeyframes beta = Drive(scene, 55.5f, 0.0f, kPiF, 80, 2000);
+  ExchangeCascadeParams params;
+  params.stage_a.tau_area = 400;
+  params.stage_c.loop_set = StageCLoopSet::kAnyEndpointSelected;  // every loop of L_seq: a clique search with work
+  auto full = RunExchangeCascade(Input(alpha), Input(beta), params);
+  REQUIRE(full.ok());
+  REQUIRE(full->outcome == CascadeOutcome::kPolicy);
+  const StageSolverOutcome b = StageBOutcome(*full);
+  const StageSolverOutcome c = StageCOutcome(*full);
+  REQUIRE(b.ran);
+  REQUIRE(c.ran);
+  CHECK(std::string(b.status) == BalancedCoverStatusName(full->stage_b.status));
+  CHECK(b.proven == (full->stage_b.status == BalancedCoverStatus::kOptimal));
+  CHECK(b.incumbent == static_cast<double>(full->stage_b.selected_left.size() + full->stage_b.selected_right.size()));
+  CHECK(b.bound == full->stage_b.lower_bound_weight);
+  CHECK(b.nodes == full->stage_b.nodes_explored);
+  CHECK(b.lp_solves == full->stage_b.lp_solves);
+  CHECK(std::string(c.status) == CliqueSearchStatusName(full->stage_c.clique.status));
+  CHECK(c.incumbent == full->stage_c.clique.objective);
+  CHECK(c.bound == full->stage_c.clique.upper_bound);
+  CHECK(c.nodes == full->stage_c.clique.nodes);
+  CHECK(c.loops_dropped == full->stage_c.loops_dropped);
+  if (b.proven) CHECK(b.gap == 0.0);
+  if (c.proven) CHECK(c.gap == 0.0);
+  CHECK(FormatStageSolverOutcome(c).find(c.status) == 0);
+
+  // Both solvers stopped after one node on graphs they cannot close at the root: a 14 x 14 grid for stage B
+  // (share 49 of 196 cells) and a random edge-weighted graph of 60 vertices for stage C.
+  ExchangeCascadeResult cut;
+  Result<BipartiteGraph> grid = MakeCheckerboardGridGraph(14, 14);
+  REQUIRE(grid.ok());
+  BalancedCoverParams bp;
+  bp.max_nodes = 1;
+  Result<BalancedCoverResult> cover = SolveBalancedVertexCover(*grid, bp);
+  REQUIRE(cover.ok());
+  REQUIRE(cover->status == BalancedCoverStatus::kFeasibleWithGap);
+  cut.stage_b = *cover;
+  cut.stage_b_vertices_alpha = static_cast<std::size_t>(grid->left_count());
+  cut.stage_b_vertices_beta = static_cast<std::size_t>(grid->right_count());
+  Result<CliqueGraph> cg = CliqueGraph::Create(60, true);
+  REQUIRE(cg.ok());
+  std::mt19937 rng(5U);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int u = 0; u < 60; ++u) {
+    for (int v = u + 1; v < 60; ++v) {
+      if (unit(rng) < 0.6) REQUIRE(cg->AddEdge(u, v, unit(rng)).ok());
+    }
+  }
+  CliqueSearchParams cp;
+  cp.max_nodes = 1;
+  Result<CliqueSearchResult> clique = SolveMaxClique(*cg, cp);
+  REQUIRE(clique.ok());
+  REQUIRE(clique->status == CliqueSearchStatus::kLimitReached);
+  cut.stage_c.clique = *clique;
+  cut.stage_c.candidate_loops.resize(60);
+  cut.stage_c.loops_dropped = 7;
+  const StageSolverOutcome cb = StageBOutcome(cut);
+  const StageSolverOutcome cc = StageCOutcome(cut);
+  CHECK(cb.ran);
+  CHECK(cb.limit_hit);
+  CHECK_FALSE(cb.proven);
+  CHECK_FALSE(cb.no_selection);
+  CHECK(cb.incumbent == static_cast<double>(cover->objective_scans));
+  CHECK(cb.bound == cover->lower_bound_weight);
+  CHECK(cb.bound >= 98.0);  // the LP bound of the grid (98 cells per colour)
+  CHECK(cb.gap == doctest::Approx(GapOf(cb.incumbent, cb.bound)));
+  CHECK(cb.gap > 0.0);
+  CHECK(cb.nodes == 1);
+  CHECK(cc.limit_hit);
+  CHECK(cc.nodes == clique->nodes);
+  CHECK(cc.gap == doctest::Approx(GapOf(clique->objective, clique->upper_bound)));
+  CHECK(cc.gap > 0.0);
+  CHECK(cc.loops_dropped == 7);
+  const std::string text = FormatStageSolverOutcome(cb);
+  CHECK(text.find("feasible with gap: " + std::to_string(cover->objective_scans) + " against bound") == 0);
+  CHECK(text.find("1 node,") != std::string::npos);
+  CHECK(FormatStageSolverOutcome(cc).find("7 loops dropped") != std::string::npos);
+  // Shares that cannot be met: no selection.
+  cut.stage_b.status = BalancedCoverStatus::kInfeasible;
+  CHECK(StageBOutcome(cut).no_selection);
+
+  // The words server_status_t shows per pair (the numbers merge_result_t carries).
+  CHECK(StageSolverText("B", {2, 0.25f, 1, 3}) == "B limit, gap 25 %, 1 node, 3 LPs");
+  CHECK(StageSolverText("C", {1, 0.0f, 40, 1}) == "C optimal, 40 nodes, 1 LP");
+  CHECK(StageSolverText("B", {3, 0.0f, 20000, 9}) == "B no selection, 20000 nodes, 9 LPs");
+  CHECK(StageSolverText("C", {}) == "C not run");
+
+  // A stage the cascade never reached.
+  ExchangeCascadeResult none;
+  CHECK_FALSE(StageBOutcome(none).ran);
+  CHECK(FormatStageSolverOutcome(StageCOutcome(none)) == "not run");
 }
 
 }  // namespace

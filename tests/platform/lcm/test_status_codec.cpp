@@ -128,6 +128,9 @@ MergePairOutcome MakePair(int alpha, int beta, bool success, std::string verdict
   p.overlap = overlap;
   p.inliers = base * 100 + 5;
   p.consistent = consistent;
+  p.stage_b = {static_cast<std::uint8_t>(base % 4), 0.25f, base + 6, base + 7};
+  p.stage_c = {static_cast<std::uint8_t>((base + 1) % 3), base % 2 == 0 ? 0.0f : 1.0f, base + 8, base + 9};
+  p.stage_c_loops_dropped = base + 10;
   return p;
 }
 
@@ -153,6 +156,7 @@ MergeResultMessage MakeMergeResult() {
                Pose(1.0, Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0.5, 0.5, 0.5)),
                static_cast<std::uint32_t>(kInt32Max) / 100 - 1, 1.0f, true)};
   m.pairs[3].loops_stage_a = static_cast<std::uint32_t>(kInt32Max);
+  m.pairs[3].stage_c.nodes = static_cast<std::uint32_t>(kInt32Max);
   return m;
 }
 
@@ -205,6 +209,16 @@ commerge::merge_result_t ExactMergeResultLcm() {
   msg.overlap = {0.75f, 0.0f};
   msg.inliers = {705, 105};
   msg.consistent = {1, 0};
+  // MakePair's solver stages for base 7 and 1.
+  msg.stage_b_status = {3, 1};
+  msg.stage_b_gap = {0.25f, 0.25f};
+  msg.stage_b_nodes = {13, 7};
+  msg.stage_b_lp_solves = {14, 8};
+  msg.stage_c_status = {2, 2};
+  msg.stage_c_gap = {1.0f, 1.0f};
+  msg.stage_c_nodes = {15, 9};
+  msg.stage_c_lp_solves = {16, 10};
+  msg.stage_c_loops_dropped = {17, 11};
   return msg;
 }
 
@@ -236,6 +250,13 @@ void CheckSame(const MergeResultMessage& d, const MergeResultMessage& m) {
     CHECK(a.overlap == b.overlap);
     CHECK(a.inliers == b.inliers);
     CHECK(a.consistent == b.consistent);
+    for (const auto& [x, y] : {std::make_pair(&a.stage_b, &b.stage_b), std::make_pair(&a.stage_c, &b.stage_c)}) {
+      CHECK(x->status == y->status);
+      CHECK(x->gap == y->gap);
+      CHECK(x->nodes == y->nodes);
+      CHECK(x->lp_solves == y->lp_solves);
+    }
+    CHECK(a.stage_c_loops_dropped == b.stage_c_loops_dropped);
   }
 }
 
@@ -357,6 +378,8 @@ ServerStatus MakeServerStatus() {
   m.scans = {40, 38, 0};
   m.chunks_missing = {0, static_cast<std::uint32_t>(kInt32Max), 0};
   m.descriptor_ids = {0x761BEAA5u, 0x761BEAA5u, 0xF00DBEEFu};  // top bit set: the bits travel as int32
+  m.pairs = {{0, 1, "B optimal, 3 nodes, 5 LPs; C optimal, 12 nodes, 1 LP"}, {0, 3, "B not run; C not run"},
+             {1, 3, ""}};
   return m;
 }
 
@@ -381,6 +404,12 @@ commerge::server_status_t ToLcm(const ServerStatus& m) {
     msg.chunks_missing.push_back(static_cast<std::int32_t>(m.chunks_missing[i]));
     msg.descriptor_id.push_back(static_cast<std::int32_t>(m.descriptor_ids[i]));
   }
+  msg.num_pairs = static_cast<std::int32_t>(m.pairs.size());
+  for (const ServerStatus::PairSolvers& p : m.pairs) {
+    msg.pair_alpha.push_back(static_cast<std::int16_t>(p.alpha));
+    msg.pair_beta.push_back(static_cast<std::int16_t>(p.beta));
+    msg.pair_solvers.push_back(p.text);
+  }
   return msg;
 }
 
@@ -401,6 +430,19 @@ void CheckSame(const ServerStatus& d, const ServerStatus& m) {
   CHECK(d.scans == m.scans);
   CHECK(d.chunks_missing == m.chunks_missing);
   CHECK(d.descriptor_ids == m.descriptor_ids);
+  REQUIRE(d.pairs.size() == m.pairs.size());
+  for (std::size_t i = 0; i < m.pairs.size(); ++i) {
+    CHECK(d.pairs[i].alpha == m.pairs[i].alpha);
+    CHECK(d.pairs[i].beta == m.pairs[i].beta);
+    CHECK(d.pairs[i].text == m.pairs[i].text);
+  }
+}
+
+// Bytes of the server status's per-pair section: num_pairs, pair_alpha, pair_beta, the pair_solvers strings.
+std::size_t ServerPairsBytes(const ServerStatus& m) {
+  std::size_t n = 4 + 4 * m.pairs.size();
+  for (const ServerStatus::PairSolvers& p : m.pairs) n += 4 + p.text.size() + 1;
+  return n;
 }
 
 // Offsets: robot_status_t's num_modules (int16) after utime, robot_id, session and three memory figures;
@@ -679,7 +721,7 @@ TEST_CASE("status codec: merge result bytes are the generated type's, fields at 
   CHECK(b == LcmEncode(ExactMergeResultLcm()));
   const std::size_t r = 3, p = 2;
   const std::size_t v0 = MergeFirstVerdict(r, p), v1 = v0 + 4 + 8, after = v1 + 4 + 23;
-  REQUIRE(b.size() == after + p * 53);
+  REQUIRE(b.size() == after + p * (53 + 30));
   CHECK(GetBe(b, 0, 8) == commerge::merge_result_t::getHash());
   CHECK(GetBe(b, 8, 8) == 1763800000333333);
   CHECK(GetBe(b, 16, 8) == -2);
@@ -701,7 +743,14 @@ TEST_CASE("status codec: merge result bytes are the generated type's, fields at 
   CHECK(GetBe(b, after + 56 + 4, 4) == 2);                    // loops_stage_a[1]
   CHECK(GetBeFloat(b, after + 56 + 32) == 0.75f);             // overlap[0]
   CHECK(GetBe(b, after + 56 + 40, 4) == 705);                 // inliers[0]
-  CHECK(GetBe(b, b.size() - 2, 1) == 1);                      // consistent[0]
+  const std::size_t solvers = after + p * 53;                 // the solver stages after consistent
+  CHECK(GetBe(b, solvers - 2, 1) == 1);                       // consistent[0]
+  CHECK(GetBe(b, solvers, 1) == 3);                           // stage_b_status[0]
+  CHECK(GetBeFloat(b, solvers + 2 + 4) == 0.25f);             // stage_b_gap[1]
+  CHECK(GetBe(b, solvers + 2 + 8 + 4, 4) == 7);               // stage_b_nodes[1]
+  CHECK(GetBe(b, solvers + 2 + 16, 4) == 14);                 // stage_b_lp_solves[0]
+  CHECK(GetBe(b, solvers + 26 + 1, 1) == 2);                  // stage_c_status[1]
+  CHECK(GetBe(b, b.size() - 4, 4) == 11);                     // stage_c_loops_dropped[1]
 }
 
 TEST_CASE("status codec: merge result at exactly 64 robots and 2016 pairs round-trips") {
@@ -781,6 +830,17 @@ TEST_CASE("status codec: merge result encoder refuses what the message cannot sa
   m = MakeMergeResult();
   m.pairs[2].inliers = 0xffffffffu;
   refuse(m, {"pairs[2].inliers", "int32"});
+  m = MakeMergeResult();
+  m.pairs[1].stage_b.status = 4;
+  refuse(m, {"pairs[1].stage_b_status = 4", "0..3"});
+  m = MakeMergeResult();
+  m.pairs[0].stage_c.gap = kFloatNaN;
+  refuse(m, {"pairs[0].stage_c_gap", "[0, 1]"});
+  m.pairs[0].stage_c.gap = 1.5f;
+  refuse(m, {"pairs[0].stage_c_gap", "[0, 1]"});
+  m = MakeMergeResult();
+  m.pairs[3].stage_b.nodes = kBeyondInt32;
+  refuse(m, {"pairs[3].stage_b_nodes", "int32"});
 }
 
 TEST_CASE("status codec: merge result decoder refuses ids, flags, poses and counters the encoder never writes") {
@@ -840,6 +900,24 @@ TEST_CASE("status codec: merge result decoder refuses ids, flags, poses and coun
   msg = good;
   msg.beta_scans[1] = -4;
   CheckDataLoss(decode(msg), {"pairs[1].beta_scans = -4"});
+  msg = good;
+  msg.stage_b_status[1] = 4;
+  CheckDataLoss(decode(msg), {"pairs[1].stage_b_status = 4", "0..3"});
+  msg = good;
+  msg.stage_c_status[0] = -1;
+  CheckDataLoss(decode(msg), {"pairs[0].stage_c_status = -1"});
+  msg = good;
+  msg.stage_b_gap[0] = -0.5f;
+  CheckDataLoss(decode(msg), {"pairs[0].stage_b_gap", "[0, 1]"});
+  msg = good;
+  msg.stage_c_gap[1] = kFloatInf;
+  CheckDataLoss(decode(msg), {"pairs[1].stage_c_gap", "[0, 1]"});
+  msg = good;
+  msg.stage_c_nodes[1] = -7;
+  CheckDataLoss(decode(msg), {"pairs[1].stage_c_nodes = -7"});
+  msg = good;
+  msg.stage_c_loops_dropped[0] = -1;
+  CheckDataLoss(decode(msg), {"pairs[0].stage_c_loops_dropped"});
   // A verdict longer than 256 bytes, which the generated type encodes, is refused before it is allocated.
   msg = good;
   msg.verdict[1] = Text(kMaxStatusTextBytes + 1);
@@ -987,7 +1065,7 @@ TEST_CASE("status codec: server status round trip keeps every field") {
 
   ServerStatus empty;
   const Buffer e = Encoded(empty);
-  CHECK(e.size() == kServerNumModules + 2 + 4 + 5 + 16 + 5 + 4);
+  CHECK(e.size() == kServerNumModules + 2 + 4 + 5 + 16 + 5 + 4 + 4);
   auto de = DecodeServerStatus(S(e));
   REQUIRE(de.ok());
   CheckSame(*de, empty);
@@ -1008,6 +1086,13 @@ TEST_CASE("status codec: server status round trip keeps every field") {
     full.chunks_missing.push_back(static_cast<std::uint32_t>(i % 5));
     full.descriptor_ids.push_back(0xFFFFFFFFu - static_cast<std::uint32_t>(i));
   }
+  full.pairs.clear();
+  for (int a = 0; a < static_cast<int>(kMaxMergeRobots); ++a) {
+    for (int b = a + 1; b < static_cast<int>(kMaxMergeRobots); ++b) {
+      full.pairs.push_back({a, b, a == 0 && b == 1 ? Text(kMaxStatusTextBytes, 'p') : StageSolverText("B", {2, 0.5f, 7, 9})});
+    }
+  }
+  REQUIRE(full.pairs.size() == kMaxMergePairs);
   auto dfull = DecodeServerStatus(S(Encoded(full)));
   REQUIRE(dfull.ok());
   CheckSame(*dfull, full);
@@ -1020,7 +1105,7 @@ TEST_CASE("status codec: server status bytes are the generated type's, fields at
   const std::size_t names = kServerNumModules + 2, arrays = names + StringsBytes(m.modules);
   const std::size_t round = arrays + 3 * 24, state = round + 4, figures = state + 4 + 17 + 1;
   const std::size_t rejection = figures + 16, robots = rejection + 4 + m.last_rejection.size() + 1;
-  REQUIRE(b.size() == robots + 4 + 3 * 18);
+  REQUIRE(b.size() == robots + 4 + 3 * 18 + ServerPairsBytes(m));
   CHECK(GetBe(b, 0, 8) == commerge::server_status_t::getHash());
   CHECK(GetBe(b, 8, 8) == 1763800000555555);
   CHECK(GetBe(b, 16, 8) == 1763799990000001);
@@ -1039,6 +1124,11 @@ TEST_CASE("status codec: server status bytes are the generated type's, fields at
   CHECK(GetBe(b, robots + 4 + 6 + 4, 4) == 420);                 // keyframes[1]
   CHECK(GetBe(b, robots + 4 + 6 + 12 + 12 + 4, 4) == kInt32Max);  // chunks_missing[1]
   CHECK(static_cast<std::uint32_t>(GetBe(b, robots + 4 + 6 + 12 + 12 + 12 + 8, 4)) == 0xF00DBEEFu);  // descriptor_id[2]
+  const std::size_t pairs = robots + 4 + 3 * 18;
+  CHECK(GetBe(b, pairs, 4) == 3);                            // num_pairs
+  CHECK(GetBe(b, pairs + 4 + 6 + 2, 2) == 3);                // pair_beta[1]
+  CHECK(GetBe(b, pairs + 4 + 12, 4) == 53);                  // pair_solvers[0] length with its NUL
+  CHECK(std::memcmp(b.data() + pairs + 4 + 12 + 4, "B optimal, 3 nodes", 18) == 0);
 }
 
 TEST_CASE("status codec: server status encoder refuses what the message cannot say, naming the field") {
@@ -1082,6 +1172,15 @@ TEST_CASE("status codec: server status encoder refuses what the message cannot s
   m = MakeServerStatus();
   m.chunks_missing[0] = 0xffffffffu;
   refuse(m, {"chunks_missing[0]", "int32"});
+  m = MakeServerStatus();
+  m.pairs.assign(kMaxMergePairs + 1, ServerStatus::PairSolvers{});
+  refuse(m, {"pairs", "2017 entries", "at most 2016"});
+  m = MakeServerStatus();
+  m.pairs[1].beta = 64;
+  refuse(m, {"pairs[1].beta 64"});
+  m = MakeServerStatus();
+  m.pairs[2].text = Text(kMaxStatusTextBytes + 1);
+  refuse(m, {"pairs[2].solvers", "257 bytes"});
 }
 
 TEST_CASE("status codec: server status decoder refuses negative counters, bad ids and long strings") {
@@ -1108,14 +1207,22 @@ TEST_CASE("status codec: server status decoder refuses negative counters, bad id
   msg = good;
   msg.module_name[2] = Text(kMaxStatusTextBytes + 1);
   CheckDataLoss(decode(msg), {"module_name[2]", "length 258"});
+  msg = good;
+  msg.pair_alpha[0] = -1;
+  CheckDataLoss(decode(msg), {"pairs[0].alpha -1"});
+  msg = good;
+  msg.pair_solvers[1] = Text(kMaxStatusTextBytes + 1);
+  CheckDataLoss(decode(msg), {"pair_solvers[1]", "length 258"});
 }
 
 TEST_CASE("status codec: server status counts and string lengths patched beyond MAX or the buffer are refused") {
   const ServerStatus m = MakeServerStatus();
   const Buffer b = Encoded(m);
-  const std::size_t robots = b.size() - 4 - 3 * 18;
+  const std::size_t robots = b.size() - ServerPairsBytes(m) - 4 - 3 * 18;
   CheckPatchedCount(b, kServerNumModules, 2, 3, 32, "num_modules", DecodeServerStatus);
   CheckPatchedCount(b, robots, 4, 3, 64, "num_robots", DecodeServerStatus);
+  CheckPatchedCount(b, robots + 4 + 3 * 18, 4, 3, 2016, "num_pairs", DecodeServerStatus);
+  CheckPatchedStringLength(b, robots + 4 + 3 * 18 + 4 + 12, m.pairs[0].text, "pair_solvers[0]", DecodeServerStatus);
   CheckPatchedStringLength(b, kServerNumModules + 2, "keyframe_db", "module_name[0]", DecodeServerStatus);
   const std::size_t state = kServerNumModules + 2 + StringsBytes(m.modules) + 3 * 24 + 4;
   CheckPatchedStringLength(b, state, "waiting for scans", "state", DecodeServerStatus);
