@@ -11,6 +11,10 @@
 // Tables, one line per instance and objective:
 //   1. cardinality (optima.tsv omega), 2. vertex weights w(i) = i mod 200 + 1 (mwc_optima.tsv), 3. edge weights
 //   w(u,v) = (u+v) mod 200 + 1 on 1-based ids (mewc_optima.tsv; rows whose status is not exact are lower bounds).
+//   The edge table runs ours three times: the default parameters (the LP bound of clique_lp_bound.hpp solved once
+//   the search passes lp_after_nodes = 1 000 000 nodes; lp_bound is that LP's bound, "-" when not solved), the LP
+//   at the root (lp_after_nodes = 0: every instance pays for one LP solve) and without the LP (lp_bound = false,
+//   colouring bounds only). "upper" is the upper bound reported at the limit (the optimum when proven).
 //   4. GLPK comparison. MEWC model: x_v binary, y_uv in [0, 1] for every edge with y_uv <= x_u and y_uv <= x_v,
 //   x_u + x_v <= 1 for every non-edge, maximise sum w_uv y_uv (y may stay continuous: for binary x the best y is
 //   min(x_u, x_v), binary). Cardinality model: x_v binary, x_u + x_v <= 1 for non-edges, maximise sum x_v.
@@ -143,11 +147,15 @@ struct Timed {
   bool ok = false;
 };
 
-Timed Solve(const CliqueGraph& g, CliqueObjective objective, double time_limit_s) {
+enum class LpMode { kDefault, kRoot, kOff };
+
+Timed Solve(const CliqueGraph& g, CliqueObjective objective, double time_limit_s, LpMode lp = LpMode::kDefault) {
   CliqueSearchParams p;
   p.objective = objective;
   p.time_limit_s = time_limit_s;
   p.max_nodes = std::int64_t{1} << 62;
+  if (lp == LpMode::kRoot) p.lp_after_nodes = 0;
+  if (lp == LpMode::kOff) p.lp_bound = false;
   Timed t;
   const auto start = std::chrono::steady_clock::now();
   const std::clock_t cpu_start = std::clock();
@@ -174,8 +182,16 @@ void RunTable(const std::string& dir, const char* tsv, const char* column, Cliqu
   const std::vector<Row> rows = ReadTsv(dir + "/" + tsv);
   std::printf("\n== %s objective: %s (column %s), our limit %.0f s ==\n", ObjectiveName(objective), tsv, column,
               opt.time_limit_s);
-  std::printf("%-16s %5s %7s %10s %10s %-7s %10s %10s %12s %s\n", "name", "n", "m", "optimum", "ours", "proven",
-              "time_ms", "cpu_ms", "nodes", "note");
+  const bool edge = objective == CliqueObjective::kEdgeWeight;
+  if (edge) {
+    std::printf("columns: default parameters | r_* LP at the root | o_* no LP\n");
+    std::printf("%-16s %5s %7s %8s %8s | %-6s %9s %10s %8s %8s | %-6s %9s %10s %8s %8s | %-6s %9s %10s %8s | %s\n",
+                "name", "n", "m", "optimum", "ours", "proven", "time_ms", "nodes", "upper", "lp_bound", "r_prov",
+                "r_ms", "r_nodes", "r_upper", "r_lp", "o_prov", "o_ms", "o_nodes", "o_upper", "note");
+  } else {
+    std::printf("%-16s %5s %7s %10s %10s %-7s %10s %10s %12s %s\n", "name", "n", "m", "optimum", "ours", "proven",
+                "time_ms", "cpu_ms", "nodes", "note");
+  }
   int solved = 0;
   int proven = 0;
   int listed = 0;
@@ -202,6 +218,37 @@ void RunTable(const std::string& dir, const char* tsv, const char* column, Cliqu
     std::string note;
     if (!exact_optimum) note = "TSV value is a lower bound only";
     if (!agrees && exact_optimum && is_proven) note = "MISMATCH";
+    if (edge) {
+      const Timed root = Solve(inst.graph, objective, opt.time_limit_s, LpMode::kRoot);
+      const Timed off = Solve(inst.graph, objective, opt.time_limit_s, LpMode::kOff);
+      if (!root.ok || !off.ok) continue;
+      for (const Timed* other : {&root, &off}) {
+        const bool both_proven = is_proven && other->result.status == CliqueSearchStatus::kOptimal;
+        if (both_proven && other->result.clique != t.result.clique) {
+          note += note.empty() ? "CLIQUE DIFFERS" : "; CLIQUE DIFFERS";
+        }
+      }
+      auto lp_text = [](const CliqueSearchResult& r) {
+        char buf[32];
+        if (std::isnan(r.lp_bound)) {
+          std::snprintf(buf, sizeof buf, "%s", r.lp_status == commerge::CliqueLpStatus::kTooLarge ? "large" : "-");
+        } else {
+          std::snprintf(buf, sizeof buf, "%.0f", r.lp_bound);
+        }
+        return std::string(buf);
+      };
+      auto yes = [](const Timed& x) { return x.result.status == CliqueSearchStatus::kOptimal ? "yes" : "NO"; };
+      std::printf("%-16s %5d %7zu %8.0f %8.0f | %-6s %9.1f %10lld %8.0f %8s | %-6s %9.1f %10lld %8.0f %8s | %-6s %9.1f "
+                  "%10lld %8.0f | %s\n",
+                  name.c_str(), inst.graph.num_vertices(), inst.graph.num_edges(), optimum, t.result.objective, yes(t),
+                  t.ms, static_cast<long long>(t.result.nodes), t.result.upper_bound, lp_text(t.result).c_str(),
+                  yes(root), root.ms, static_cast<long long>(root.result.nodes), root.result.upper_bound,
+                  lp_text(root.result).c_str(), yes(off), off.ms, static_cast<long long>(off.result.nodes),
+                  off.result.upper_bound, note.c_str());
+      std::fflush(stdout);
+      (*ours)[name] = t;
+      continue;
+    }
     if (!is_proven) {
       char buf[96];
       std::snprintf(buf, sizeof buf, "%supper bound %.0f", note.empty() ? "" : "; ", t.result.upper_bound);
@@ -223,8 +270,14 @@ void RunGlpkTable(const std::string& dir, const Options& opt, CliqueObjective ob
   const std::vector<Row> rows = ReadTsv(dir + "/optima.tsv");
   std::printf("\n== %s objective: ours vs GLPK glp_intopt (GLPK limit %.0f s, ours %.0f s) ==\n", ObjectiveName(objective),
               opt.glpk_time_limit_s, opt.time_limit_s);
-  std::printf("%-16s %5s %7s %10s %10s %10s %12s %10s %-7s\n", "name", "n", "m", "ours", "ours_ms", "glpk", "glpk_ms",
-              "speed-up", "agree");
+  const bool edge = objective == CliqueObjective::kEdgeWeight;
+  if (edge) {
+    std::printf("%-16s %5s %7s %10s %10s %12s %12s %10s %12s %10s %-7s\n", "name", "n", "m", "ours", "ours_ms",
+                "root_lp_ms", "no_lp_ms", "glpk", "glpk_ms", "speed-up", "agree");
+  } else {
+    std::printf("%-16s %5s %7s %10s %10s %10s %12s %10s %-7s\n", "name", "n", "m", "ours", "ours_ms", "glpk", "glpk_ms",
+                "speed-up", "agree");
+  }
   for (const std::string& name : names) {
     if (!opt.only.empty() && name != opt.only) continue;
     const Row* row = nullptr;
@@ -253,8 +306,16 @@ void RunGlpkTable(const std::string& dir, const Options& opt, CliqueObjective ob
       std::snprintf(glpk_value, sizeof glpk_value, "failed");
       std::snprintf(speedup, sizeof speedup, "-");
     }
-    std::printf("%-16s %5d %7zu %10.0f %10.3f %10s %12.1f %10s %-7s", name.c_str(), inst.graph.num_vertices(),
-                inst.graph.num_edges(), ours.result.objective, ours.ms, glpk_value, glpk.ms, speedup, agree);
+    if (edge) {
+      const Timed root = Solve(inst.graph, objective, opt.time_limit_s, LpMode::kRoot);
+      const Timed off = Solve(inst.graph, objective, opt.time_limit_s, LpMode::kOff);
+      std::printf("%-16s %5d %7zu %10.0f %10.3f %12.3f %12.3f %10s %12.1f %10s %-7s", name.c_str(),
+                  inst.graph.num_vertices(), inst.graph.num_edges(), ours.result.objective, ours.ms, root.ms, off.ms,
+                  glpk_value, glpk.ms, speedup, agree);
+    } else {
+      std::printf("%-16s %5d %7zu %10.0f %10.3f %10s %12.1f %10s %-7s", name.c_str(), inst.graph.num_vertices(),
+                  inst.graph.num_edges(), ours.result.objective, ours.ms, glpk_value, glpk.ms, speedup, agree);
+    }
     if (glpk.timeout && glpk.objective > 0.0) std::printf(" (GLPK incumbent %.0f)", glpk.objective);
     if (ours.result.status != CliqueSearchStatus::kOptimal) std::printf(" (ours not proven)");
     std::printf("\n");

@@ -154,7 +154,7 @@ struct StageSolverSummary {
 };
 inline constexpr std::uint8_t kMaxStageSolverStatus = 3;
 
-/// "B optimal, 3 nodes, 5 LPs", "C limit, gap 2.1 %, 20000 nodes, 1 LP", "B no selection", "B not run".
+/// "B optimal, 3 nodes, 5 LPs", "C limit, gap 2.10 %, 2000000 nodes, 1 LP", "B no selection", "B not run".
 std::string StageSolverText(const char* stage, const StageSolverSummary& summary);
 
 /// One robot pair of a merge result.

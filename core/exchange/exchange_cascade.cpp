@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <string>
 #include <utility>
 
@@ -124,7 +126,7 @@ StageSolverOutcome StageCOutcome(const ExchangeCascadeResult& result) {
   o.bound = c.clique.upper_bound;
   o.gap = o.proven ? 0.0 : RelativeGap(o.incumbent, o.bound);
   o.nodes = c.clique.nodes;
-  o.lp_solves = 0;
+  o.lp_solves = c.clique.lp_solves;
   return o;
 }
 
@@ -134,7 +136,9 @@ std::string FormatStageSolverOutcome(const StageSolverOutcome& o) {
   if (o.proven) {
     text += " (bound " + Number(o.bound) + ")";
   } else {
-    text += " against bound " + Number(o.bound) + " (gap " + FormatNumber(100.0 * o.gap, 3) + " %), node or time limit";
+    std::ostringstream gap;
+    gap << std::fixed << std::setprecision(2) << 100.0 * o.gap;
+    text += " against bound " + Number(o.bound) + " (gap " + gap.str() + " %), node or time limit";
   }
   text += ", " + std::to_string(o.nodes) + (o.nodes == 1 ? " node, " : " nodes, ") + std::to_string(o.lp_solves) +
           (o.lp_solves == 1 ? " LP" : " LPs");

@@ -13,7 +13,11 @@
 //     MCS-style re-colouring (Re-NUMBER) was measured too: fewer nodes, but more time on the DIMACS set than the
 //     infra-chromatic test alone, so it is not used;
 //   * vertex weights: sum over classes of the class's largest weight;
-//   * edge weights: orientation of the clique's edges by colour class (validity argument below).
+//   * edge weights: orientation of the clique's edges by colour class (validity argument below), and once, when
+//     the search has not finished after params.lp_after_nodes nodes, the LP relaxation of clique_lp_bound.hpp over
+//     the whole graph with the root's colour classes (GLPK's simplex): it caps the root's branch bounds and the
+//     upper bound reported at a limit (RootLpBound below); a node limit that stops the search earlier solves it
+//     then, as the certificate of the gap it reports.
 // The hot loop allocates nothing once each depth's buffers have grown to their working size.
 #include "core/solvers/max_clique.hpp"
 
@@ -24,6 +28,9 @@
 #include <new>
 #include <string>
 #include <utility>
+
+#include "core/solvers/clique_lp_bound.hpp"
+#include "core/solvers/lp_relaxation.hpp"
 
 namespace commerge {
 namespace {
@@ -130,6 +137,8 @@ class CliqueSearch {
     }
   }
   void Search();
+  void SaveRootColouring();
+  void RootLpBound();
   Word* ClassBits(int k) { return class_bits_.data() + Idx(k) * words_; }
   bool TimeUp() {
     if (work_ < kClockWork) return false;
@@ -166,10 +175,16 @@ class CliqueSearch {
   std::int64_t work_ = 0;
   bool stopped_ = false;
   int stop_depth_ = 0;
+  CliqueLpBoundResult lp_;  // root LP bound (edge objective with params.lp_bound)
+  double lp_cap_ = std::numeric_limits<double>::infinity();  // lp_.upper_bound once valid
+  int lp_solves_ = 0;
 
   // Colouring scratch (one node at a time).
   std::vector<Word> u_, q_, class_bits_;
   std::vector<int> ord_, ord_orig_, class_start_;
+  int classes_ = 0;  // colour classes of the last ColourWeighted call (ord_ / class_start_ hold them)
+  CliqueColouring root_colouring_;  // graph vertex ids, for the LP
+  bool lp_pending_ = false;         // the LP is still to be computed (after params.lp_after_nodes nodes)
   std::vector<double> y_, prefix_;
   std::vector<std::pair<double, int>> sort_buf_;
 };
@@ -477,6 +492,7 @@ void CliqueSearch::ColourWeighted(Frame* f) {
     TakeClass(ulo, hi, nullptr, [&](int v) { ord_[Idx(count++)] = v; });
   }
   class_start_[Idx(classes)] = count;
+  classes_ = classes;
 
   if (edge_) {
     for (int p = 0; p < count; ++p) ord_orig_[Idx(p)] = orig_[Idx(ord_[Idx(p)])];
@@ -524,6 +540,46 @@ void CliqueSearch::ColourWeighted(Frame* f) {
   f->cursor = size - 1;
 }
 
+// The root's colour classes (ord_ / class_start_ right after the root's colouring; sorted by y inside each class,
+// which does not matter to the LP), kept in graph ids for the LP, which may come later.
+void CliqueSearch::SaveRootColouring() {
+  const int count = class_start_[Idx(classes_)];
+  root_colouring_.vertices.resize(Idx(count));
+  for (int p = 0; p < count; ++p) root_colouring_.vertices[Idx(p)] = orig_[Idx(ord_[Idx(p)])];
+  root_colouring_.class_start.assign(class_start_.begin(), class_start_.begin() + classes_ + 1);
+}
+
+// Root LP bound (clique_lp_bound.hpp) with the root's colour classes. The LP bounds every clique of the graph, so
+// capping the root's remaining (non-decreasing) branch bounds with it keeps them valid and non-decreasing: the
+// root then stops branching once the incumbent reaches the LP bound, and the search ends at once when the incumbent
+// already does (Search). Only branches that cannot beat the incumbent strictly are cut, so the cliques recorded,
+// and the result, are the same with or without it. Too many coefficients: retried without the non-edge rows. An
+// engine failure leaves the search without the bound. Not started past the deadline; a solve is not interruptible.
+void CliqueSearch::RootLpBound() {
+  lp_pending_ = false;
+  if (std::chrono::steady_clock::now() >= deadline_) return;
+  std::vector<int> vertices(Idx(n_));
+  for (int v = 0; v < n_; ++v) vertices[Idx(v)] = v;
+  CliqueLpBoundParams lp_params;
+  lp_params.max_nonzeros = params_.lp_max_nonzeros;
+  GlpkSimplexSolver glpk;
+  for (const bool non_edge_rows : {true, false}) {
+    lp_params.non_edge_rows = non_edge_rows;
+    Result<CliqueLpBoundResult> r = ComputeCliqueLpBound(g_, vertices, {}, &root_colouring_, &glpk, lp_params);
+    if (!r.ok()) {
+      lp_.status = CliqueLpStatus::kFailed;
+      return;
+    }
+    lp_solves_ += r->simplex_solves;
+    lp_ = *r;
+    if (lp_.status != CliqueLpStatus::kTooLarge) break;
+  }
+  if (lp_.status != CliqueLpStatus::kOptimal && lp_.status != CliqueLpStatus::kTrivial) return;
+  lp_cap_ = lp_.upper_bound;
+  Frame& root = frames_[0];
+  for (int i = 0; i <= root.cursor; ++i) root.bound[Idx(i)] = std::min(root.bound[Idx(i)], lp_cap_);
+}
+
 void CliqueSearch::Search() {
   Frame& root = frames_[0];
   root.p.assign(words_, ~Word{0});
@@ -533,6 +589,11 @@ void CliqueSearch::Search() {
   root.value = 0.0;
   Colour(&root);
   nodes_ = 1;
+  if (edge_ && params_.lp_bound) {
+    SaveRootColouring();
+    lp_pending_ = true;
+    if (params_.lp_after_nodes <= nodes_) RootLpBound();
+  }
   int d = 0;
   for (;;) {
     Frame& f = frames_[Idx(d)];
@@ -573,7 +634,10 @@ void CliqueSearch::Search() {
     }
     const double value = f.value + Gain(v);
     clique_[Idx(d)] = v;
-    if (value > best_) Record(d + 1, value);
+    if (value > best_) {
+      Record(d + 1, value);
+      if (best_ >= lp_cap_) return;  // the root LP bound is reached: no clique beats it strictly
+    }
     if (lo < 0) {
       f.cursor = i - 1;
       ClearBit(f.p.data(), v);
@@ -604,6 +668,10 @@ void CliqueSearch::Search() {
     Colour(&c);
     ++nodes_;
     ++d;
+    if (lp_pending_ && nodes_ >= params_.lp_after_nodes) {
+      RootLpBound();
+      if (best_ >= lp_cap_) return;
+    }
   }
 }
 
@@ -634,7 +702,15 @@ void CliqueSearch::Run(CliqueSearchResult* out) {
       const Frame& f = frames_[Idx(d)];
       if (f.cursor >= 0) upper = std::max(upper, f.value + f.bound[Idx(f.cursor)]);
     }
+    // A node limit stopped the search before the LP was due: solve it now as the gap certificate (one solve, only
+    // for a search that did not finish; a time limit leaves no time for it).
+    if (lp_pending_ && upper > best_) RootLpBound();
   }
+  const bool lp_valid = lp_.status == CliqueLpStatus::kOptimal || lp_.status == CliqueLpStatus::kTrivial;
+  if (lp_valid) upper = std::max(best_, std::min(upper, lp_.upper_bound));
+  out->lp_status = lp_.status;
+  out->lp_solves = lp_solves_;
+  if (lp_valid) out->lp_bound = lp_.upper_bound;
   out->nodes = nodes_;
   out->clique.clear();
   for (const int v : best_clique_) out->clique.push_back(orig_[Idx(v)]);
@@ -651,6 +727,9 @@ void CliqueSearch::Run(CliqueSearchResult* out) {
     }
   }
   out->objective = objective;
+  // The LP bound carries a rounding margin of about 1e-11 relative (clique_lp_bound.hpp): a bound that reaches the
+  // incumbent within 1e-9 relative proves it.
+  if (lp_valid && upper > best_ && upper <= best_ + 1e-9 * std::max(1.0, std::fabs(best_))) upper = best_;
   if (upper <= best_) {
     out->status = CliqueSearchStatus::kOptimal;
     out->upper_bound = objective;
@@ -764,6 +843,14 @@ Result<CliqueSearchResult> SolveMaxClique(const CliqueGraph& graph, const Clique
   }
   if (params.max_nodes < 1) {
     return InvalidArgument("max clique: max_nodes must be >= 1 (got " + std::to_string(params.max_nodes) + ")");
+  }
+  if (params.lp_after_nodes < 0) {
+    return InvalidArgument("max clique: lp_after_nodes must be >= 0 (got " + std::to_string(params.lp_after_nodes) +
+                           ")");
+  }
+  if (params.lp_max_nonzeros < 0) {
+    return InvalidArgument("max clique: lp_max_nonzeros must be >= 0 (got " + std::to_string(params.lp_max_nonzeros) +
+                           ")");
   }
   if (params.objective != CliqueObjective::kCardinality && params.objective != CliqueObjective::kVertexWeight &&
       params.objective != CliqueObjective::kEdgeWeight) {

@@ -4,13 +4,23 @@
 // paper "Maximum Edge-Weighted Clique Selection"). Upper bounds come from greedy colourings (a colour class
 // is an independent set, so a clique takes at most one vertex of it); the search keeps the best clique found
 // so far, honours a node and a wall-clock limit, and reports optimal or the proven gap.
+// Edge weights also get an LP bound over the whole graph (CliqueSearchParams::lp_bound, clique_lp_bound.hpp): GLPK's
+// simplex on a relaxation strengthened by the root colour classes, solved once when the search has not finished
+// after lp_after_nodes nodes (0: at the root). Why: the colouring bound of MEWC counts, per class, the heaviest
+// edges towards every earlier class and stays far above the optimum on dense graphs, so a search stopped by a limit
+// reported a loose gap; the LP bound is lower (18-41 % below the root colouring bound on random graphs, equal to
+// the optimum on hamming6-2 and c-fat200-1), though mostly still well above the optimum. It caps the root's branch bounds (the search ends as soon as the incumbent reaches
+// it) and the reported upper_bound. Pruning only what cannot beat the incumbent strictly, it never changes the
+// clique found, only the proof.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "core/common/status.hpp"
+#include "core/solvers/clique_lp_bound.hpp"
 
 namespace commerge {
 
@@ -74,10 +84,27 @@ struct CliqueSearchParams {
   double time_limit_s = 5.0;
   /// Limit on branch-and-bound nodes, >= 1.
   std::int64_t max_nodes = 100'000'000;
+  /// kEdgeWeight only: solve the LP relaxation of clique_lp_bound.hpp once (whole graph, the root's colour
+  /// classes) and use it as an upper bound on the optimum (ignored for the other objectives). Its time counts
+  /// against time_limit_s (it is not started past the deadline, but a solve is not interrupted); the clique found
+  /// is the same with or without it.
+  bool lp_bound = true;
+  /// The LP is solved once the search has expanded this many nodes without finishing (>= 0; 0 or 1: at the root,
+  /// before the first branch), or when a node limit stops the search earlier (the certificate of the gap it
+  /// reports). A search that finishes earlier never pays for it. Why not at
+  /// the root: one solve takes 3 ms-4 s on the 28-500-vertex DIMACS graphs (GLPK's primal simplex on a degenerate
+  /// LP) where most searches end in under 15 ms, and the LP bound, though below the root colouring bound, is rarely
+  /// close enough to the optimum to end a search (profiling/bench_max_clique.cpp; core/README.md, stage C). Why
+  /// 1 000 000: at 100 000 the LP ran on johnson16-2-4 (316 647 nodes, 0.11 s) and made it 1.2 s, for no gain.
+  std::int64_t lp_after_nodes = 1'000'000;
+  /// Coefficient budget of that LP (>= 0). Above it the LP is retried without the non-edge rows, and skipped
+  /// (lp_status kTooLarge) when still above.
+  std::int64_t lp_max_nonzeros = kDefaultCliqueLpMaxNonzeros;
 };
 
 enum class CliqueSearchStatus {
-  kOptimal,       ///< the clique is proven optimal (upper_bound == objective)
+  kOptimal,       ///< the clique is proven optimal (upper_bound == objective; within 1e-9 relative when the LP
+                  ///< bound is what proves it)
   kLimitReached,  ///< a limit stopped the search: best clique so far, optimum in [objective, upper_bound]
   kEmptyGraph,    ///< no vertex: empty clique
 };
@@ -90,15 +117,23 @@ struct CliqueSearchResult {
   double objective = 0.0;         ///< value of `clique` under the requested objective
   double upper_bound = 0.0;       ///< proven upper bound on the optimum
   std::int64_t nodes = 0;         ///< branch-and-bound nodes expanded
+  /// LP bound on the optimum (kEdgeWeight with lp_bound, computed after lp_after_nodes nodes); NaN when not
+  /// computed (see lp_status: kNotRun also when the search ended or stopped before lp_after_nodes).
+  double lp_bound = std::numeric_limits<double>::quiet_NaN();
+  CliqueLpStatus lp_status = CliqueLpStatus::kNotRun;
+  int lp_solves = 0;  ///< LP engine calls (simplex solves)
   /// Relative gap (upper_bound - objective) / max(upper_bound, 1e-12); 0 when optimal.
   double gap() const noexcept;
 };
 
 /// Maximum clique under params.objective. Ties between optimal cliques are broken deterministically (the same
 /// graph gives the same clique). With kEdgeWeight and no edge of positive weight, the result is a single vertex
-/// (objective 0). Errors: InvalidArgument for bad params (time_limit_s not > 0, max_nodes < 1) or kEdgeWeight on a
-/// graph without edge weights; ResourceExhausted when the search buffers cannot be allocated. The search works on
-/// a renumbered copy of the adjacency (n^2 / 8 bytes) plus per-depth candidate bitsets and lists.
+/// (objective 0). Errors: InvalidArgument for bad params (time_limit_s not > 0, max_nodes < 1, lp_after_nodes or
+/// lp_max_nonzeros < 0)
+/// or kEdgeWeight on a graph without edge weights; ResourceExhausted when the search buffers cannot be allocated.
+/// An LP engine failure is not an error: the search goes on without the LP bound (lp_status kFailed). The search
+/// works on a renumbered copy of the adjacency (n^2 / 8 bytes) plus per-depth candidate bitsets and lists; the root
+/// LP (kEdgeWeight) on at most lp_max_nonzeros coefficients, freed before the search.
 Result<CliqueSearchResult> SolveMaxClique(const CliqueGraph& graph, const CliqueSearchParams& params);
 
 }  // namespace commerge

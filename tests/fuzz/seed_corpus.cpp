@@ -471,7 +471,7 @@ ServerStatus LargestServerStatus() {
   }
   for (int a = 0; a < static_cast<int>(kMaxMergeRobots); ++a) {
     for (int b = a + 1; b < static_cast<int>(kMaxMergeRobots); ++b) {
-      s.pairs.push_back({a, b, Text("B limit, gap 12.5 %, 20000 nodes, 31 LPs; C optimal ", kMaxStatusTextBytes)});
+      s.pairs.push_back({a, b, Text("B limit, gap 12.50 %, 20000 nodes, 31 LPs; C optimal ", kMaxStatusTextBytes)});
     }
   }
   return s;

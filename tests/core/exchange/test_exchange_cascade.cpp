@@ -362,6 +362,8 @@ TEST_CASE("Cascade outcomes: each solver stage's status, incumbent, bound, gap a
   CHECK(cb.nodes == 1);
   CHECK(cc.limit_hit);
   CHECK(cc.nodes == clique->nodes);
+  CHECK(cc.lp_solves == clique->lp_solves);
+  CHECK(cc.lp_solves == 1);  // the LP bound certifies the gap at the node limit
   CHECK(cc.gap == doctest::Approx(GapOf(clique->objective, clique->upper_bound)));
   CHECK(cc.gap > 0.0);
   CHECK(cc.loops_dropped == 7);
@@ -374,7 +376,7 @@ TEST_CASE("Cascade outcomes: each solver stage's status, incumbent, bound, gap a
   CHECK(StageBOutcome(cut).no_selection);
 
   // The words server_status_t shows per pair (the numbers merge_result_t carries).
-  CHECK(StageSolverText("B", {2, 0.25f, 1, 3}) == "B limit, gap 25 %, 1 node, 3 LPs");
+  CHECK(StageSolverText("B", {2, 0.25f, 1, 3}) == "B limit, gap 25.00 %, 1 node, 3 LPs");
   CHECK(StageSolverText("C", {1, 0.0f, 40, 1}) == "C optimal, 40 nodes, 1 LP");
   CHECK(StageSolverText("B", {3, 0.0f, 20000, 9}) == "B no selection, 20000 nodes, 9 LPs");
   CHECK(StageSolverText("C", {}) == "C not run");
