@@ -158,6 +158,12 @@ void AddDescriptorFlags(CLI::App* cmd, DescriptorFlags* flags) {
                   " [keyframes]")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
+  cmd->add_option("--tau-icp", flags->tau_icp_m2,
+                  "intra-robot loops: ICP accepts a candidate when the mean squared residual of its inliers is at "
+                  "most this (the paper's spinning value for every --lidar; its non-repetitive column says 2.0) "
+                  "[m^2; paper: tau_ICP]")
+      ->check(CLI::Range(1e-4, 100.0))
+      ->capture_default_str();
   cmd->add_option("--min-scan-points", flags->min_scan_points,
                   "stored keyframe scans: a scan that keeps fewer points than this at 1 m voxels (the paper's "
                   "Delta nu) is stored finer, in steps of 1/sqrt(2) down to 0.25 m, so small scenes and "

@@ -174,6 +174,7 @@ int RobotProcess::Configure() {
   agent_params.mapper.descriptor_input = descriptor->input;
   agent_params.mapper.loop.max_descriptor_distance = descriptor->tau_intra;
   agent_params.mapper.loop.window_keyframes = o_.descriptor.tau_window_keyframes;
+  agent_params.mapper.loop.max_icp_mean_squared_residual_m2 = o_.descriptor.tau_icp_m2;
   agent_params.mapper.voxel = StoredScanVoxel(o_.descriptor);
   agent_params.max_records_per_batch = o_.records_per_batch;
   agent_params.max_poses_per_update = o_.poses_per_update;
