@@ -104,6 +104,30 @@ std::unique_ptr<glp_prob, GlpProbDeleter> BuildGlpkProblem(const LinearProgram& 
   return prob;
 }
 
+// The solution glp_simplex left in `p`: primal values and row duals at an optimum, or the infeasible / unbounded
+// verdict; Internal (named by `what`) for any other status.
+Result<LpSolution> ReadSimplexSolution(glp_prob* p, const char* what) {
+  LpSolution sol;
+  const int st = glp_get_status(p);
+  if (st == GLP_OPT) {
+    const int n = glp_get_num_cols(p);
+    const int m = glp_get_num_rows(p);
+    sol.status = LpStatus::kOptimal;
+    sol.objective = glp_get_obj_val(p);
+    sol.values.resize(static_cast<std::size_t>(n));
+    for (int j = 0; j < n; ++j) sol.values[static_cast<std::size_t>(j)] = glp_get_col_prim(p, j + 1);
+    sol.row_duals.resize(static_cast<std::size_t>(m));
+    for (int i = 0; i < m; ++i) sol.row_duals[static_cast<std::size_t>(i)] = glp_get_row_dual(p, i + 1);
+  } else if (st == GLP_NOFEAS) {
+    sol.status = LpStatus::kInfeasible;
+  } else if (st == GLP_UNBND) {
+    sol.status = LpStatus::kUnbounded;
+  } else {
+    return Status(StatusCode::kInternal, std::string(what) + ": glp_simplex ended with status " + std::to_string(st));
+  }
+  return sol;
+}
+
 }  // namespace
 
 Result<LpSolution> GlpkSimplexSolver::Minimize(const LinearProgram& lp) {
@@ -131,23 +155,7 @@ Result<LpSolution> GlpkSimplexSolver::Minimize(const LinearProgram& lp) {
   if (rc != 0) {
     return Status(StatusCode::kInternal, "LP: glp_simplex failed with code " + std::to_string(rc));
   }
-  const int st = glp_get_status(p);
-  if (st == GLP_OPT) {
-    sol.status = LpStatus::kOptimal;
-    sol.objective = glp_get_obj_val(p);
-    sol.values.resize(static_cast<std::size_t>(n));
-    for (int j = 0; j < n; ++j) sol.values[static_cast<std::size_t>(j)] = glp_get_col_prim(p, j + 1);
-    const int m = static_cast<int>(lp.rows.size());
-    sol.row_duals.resize(static_cast<std::size_t>(m));
-    for (int i = 0; i < m; ++i) sol.row_duals[static_cast<std::size_t>(i)] = glp_get_row_dual(p, i + 1);
-  } else if (st == GLP_NOFEAS) {
-    sol.status = LpStatus::kInfeasible;
-  } else if (st == GLP_UNBND) {
-    sol.status = LpStatus::kUnbounded;
-  } else {
-    return Status(StatusCode::kInternal, "LP: glp_simplex ended with status " + std::to_string(st));
-  }
-  return sol;
+  return ReadSimplexSolution(p, "LP");
 }
 
 Result<MipSolution> SolveMipWithGlpk(const LinearProgram& lp, const std::vector<bool>& is_integer,
@@ -396,22 +404,7 @@ Result<LpSolution> GlpkColumnLp::Solve() {
   }
   simplex_iterations_ += glp_get_it_cnt(p) - it0;
   if (rc != 0) return Status(StatusCode::kInternal, "column LP: glp_simplex failed with code " + std::to_string(rc));
-  const int st = glp_get_status(p);
-  if (st == GLP_OPT) {
-    sol.status = LpStatus::kOptimal;
-    sol.objective = glp_get_obj_val(p);
-    sol.values.resize(static_cast<std::size_t>(n));
-    for (int j = 0; j < n; ++j) sol.values[static_cast<std::size_t>(j)] = glp_get_col_prim(p, j + 1);
-    sol.row_duals.resize(static_cast<std::size_t>(m));
-    for (int i = 0; i < m; ++i) sol.row_duals[static_cast<std::size_t>(i)] = glp_get_row_dual(p, i + 1);
-  } else if (st == GLP_NOFEAS) {
-    sol.status = LpStatus::kInfeasible;
-  } else if (st == GLP_UNBND) {
-    sol.status = LpStatus::kUnbounded;
-  } else {
-    return Status(StatusCode::kInternal, "column LP: glp_simplex ended with status " + std::to_string(st));
-  }
-  return sol;
+  return ReadSimplexSolution(p, "column LP");
 }
 
 }  // namespace commerge
