@@ -47,6 +47,8 @@ class MasterLp {
     hints_.resize(cost_.size());
     hints_.back() = basic_hint ? 1 : 0;
   }
+  // The next SolveWithGlpk sets the rows (and its columns) again.
+  void ForgetGlpkRows() { glpk_rows_ = false; }
   // GLPK on the kept problem `glpk`: the rows are set at the first solve after Reset, then only the new columns
   // are appended. *ok = false when GLPK found no optimum.
   Status SolveWithGlpk(GlpkColumnLp& glpk, bool* ok) {
@@ -703,9 +705,11 @@ Status BvcSolver::SolveMaster(MultiRobotCoverResult* res, bool* ok) {
     Status st = master_.SolveWithGlpk(glpk_, ok);
     res->simplex_iterations += glpk_.simplex_iterations() - it0;
     res->lp_basis_rebuilds += glpk_.basis_rebuilds() - rebuilds0;
-    if (!st.ok()) return st;
-    if (*ok) return Status::Ok();
-    // No optimum from GLPK (cannot happen for a feasible master): the dense simplex gets one try.
+    if (st.ok() && *ok) return Status::Ok();
+    // GLPK failed or found no optimum (neither happens for a feasible master): the dense simplex gets one try,
+    // and the next GLPK solve starts from a fresh problem.
+    ++res->lp_basis_rebuilds;
+    master_.ForgetGlpkRows();
   }
   if (external_lp_ == nullptr) {
     *ok = master_.Solve();

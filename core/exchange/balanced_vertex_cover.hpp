@@ -114,7 +114,7 @@ struct BalancedCoverResult {
   std::int64_t lp_solves = 0;       ///< master LPs of the column generation (+1 per node bounded by one min-cut)
   std::int64_t min_cut_solves = 0;  ///< max-flow/min-cut computations (pricing and exact leaves)
   std::int64_t simplex_iterations = 0;  ///< GLPK simplex iterations of the master LPs (kGlpk)
-  std::int64_t lp_basis_rebuilds = 0;   ///< GLPK master solves that could not start from the kept basis
+  std::int64_t lp_basis_rebuilds = 0;   ///< GLPK master solves not started from the kept basis (or failed: dense)
 };
 
 /// Per-robot share ceil(n_mm / 2^H(p)) (with a 1e-9 tolerance against round-off, so uniform p over two robots
@@ -143,7 +143,7 @@ struct MultiRobotCoverResult {
   std::int64_t lp_solves = 0;              ///< master LPs (+1 per node bounded by one min-cut)
   std::int64_t min_cut_solves = 0;         ///< max-flow/min-cut computations
   std::int64_t simplex_iterations = 0;     ///< GLPK simplex iterations of the master LPs (kGlpk)
-  std::int64_t lp_basis_rebuilds = 0;      ///< GLPK master solves that could not start from the kept basis
+  std::int64_t lp_basis_rebuilds = 0;      ///< GLPK master solves not started from the kept basis (or failed: dense)
 };
 
 /// Solves the BVC on an N-robot exchange graph (see the header comment for the model). `participation`, when
