@@ -22,6 +22,7 @@
 #include "core/solvers/lp_relaxation.hpp"
 #include "core/solvers/max_clique.hpp"
 #include "tests/support/graph_data.hpp"
+#include "tests/support/small_clique_graph.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace commerge {
@@ -30,45 +31,13 @@ namespace {
 
 inline std::size_t Ix(int i) { return static_cast<std::size_t>(i); }
 
-// A small graph kept by the test on its own (adjacency masks, edge weights rounded to float as CliqueGraph does).
-struct SmallGraph {
-  int n = 0;
-  std::vector<unsigned> adj;
-  std::vector<double> edge_w;  // n x n, symmetric, 0 for non-edges
-  double Ew(int u, int v) const { return edge_w[Ix(u * n + v)]; }
-};
-
+// Edge-weighted graphs of the max clique tests (tests/support/small_clique_graph.hpp); their vertex weights are
+// ignored here: the edge objective and the LP count edge weights only.
+using SmallGraph = test::SmallCliqueGraph;
 SmallGraph MakeRandom(std::mt19937& rng, int n, double density, bool integer_weights) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::uniform_int_distribution<int> small_int(0, 9);
-  SmallGraph g;
-  g.n = n;
-  g.adj.assign(Ix(n), 0U);
-  g.edge_w.assign(Ix(n * n), 0.0);
-  for (int u = 0; u < n; ++u) {
-    for (int v = u + 1; v < n; ++v) {
-      if (unit(rng) >= density) continue;
-      const double w = integer_weights ? static_cast<double>(small_int(rng))
-                                       : static_cast<double>(static_cast<float>(5.0 * unit(rng)));
-      g.adj[Ix(u)] |= 1U << v;
-      g.adj[Ix(v)] |= 1U << u;
-      g.edge_w[Ix(u * n + v)] = w;
-      g.edge_w[Ix(v * n + u)] = w;
-    }
-  }
-  return g;
+  return test::MakeRandomCliqueGraph(rng, n, density, integer_weights);
 }
-
-CliqueGraph Build(const SmallGraph& s) {
-  Result<CliqueGraph> g = CliqueGraph::Create(s.n, true);
-  REQUIRE(g.ok());
-  for (int u = 0; u < s.n; ++u) {
-    for (int v = u + 1; v < s.n; ++v) {
-      if ((s.adj[Ix(u)] >> v & 1U) != 0U) REQUIRE(g->AddEdge(u, v, s.Ew(u, v)).ok());
-    }
-  }
-  return std::move(*g);
-}
+CliqueGraph Build(const SmallGraph& s) { return test::BuildCliqueGraph(s); }
 
 // Maximum over cliques K contained in `allowed` (bit mask) of sum_{v in K} gain[v] + sum_{uv in K} w_uv (the empty
 // clique counts 0), by enumerating every subset.
