@@ -3,10 +3,10 @@
 
 #include <algorithm>
 #include <chrono>
-#include <iomanip>
-#include <sstream>
 #include <string>
 #include <utility>
+
+#include "core/common/number_text.hpp"
 
 namespace commerge {
 
@@ -202,12 +202,7 @@ std::string StageSolverText(const char* stage, const StageSolverSummary& s) {
   switch (s.status) {
     case 0: return text + "not run";
     case 1: text += "optimal"; break;
-    case 2: {
-      std::ostringstream gap;
-      gap << std::fixed << std::setprecision(2) << 100.0 * static_cast<double>(s.gap);
-      text += "limit, gap " + gap.str() + " %";
-      break;
-    }
+    case 2: text += "limit, gap " + FormatFixed(100.0 * static_cast<double>(s.gap), 2) + " %"; break;
     case 3: text += "no selection"; break;
     default: return text + "status " + std::to_string(s.status);
   }

@@ -4,8 +4,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <iomanip>
-#include <sstream>
 #include <string>
 #include <utility>
 
@@ -136,9 +134,7 @@ std::string FormatStageSolverOutcome(const StageSolverOutcome& o) {
   if (o.proven) {
     text += " (bound " + Number(o.bound) + ")";
   } else {
-    std::ostringstream gap;
-    gap << std::fixed << std::setprecision(2) << 100.0 * o.gap;
-    text += " against bound " + Number(o.bound) + " (gap " + gap.str() + " %), node or time limit";
+    text += " against bound " + Number(o.bound) + " (gap " + FormatFixed(100.0 * o.gap, 2) + " %), node or time limit";
   }
   text += ", " + std::to_string(o.nodes) + (o.nodes == 1 ? " node, " : " nodes, ") + std::to_string(o.lp_solves) +
           (o.lp_solves == 1 ? " LP" : " LPs");
