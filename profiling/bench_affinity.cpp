@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Affinity kernel + stage A (sequential matching) on N x N keyframes, one core: time, GFLOP/s of the
-// distance kernel, peak RSS, and the incremental update of 100 new keyframes.
+// distance kernel and peak RSS.
 // Usage: bench_affinity [--size N] [--reps R] [--tile ROWS COLS]
 // Figures per size: the distance kernel alone, affinity + stage A (the paper's threshold), stage A with the
-// sequence-smoothed threshold (w = 8), the incremental matcher.
+// sequence-smoothed threshold (w = 8).
 //   --size N      one size per process, so the peak RSS (VmHWM) belongs to that size alone
 //   (none)        runs 2000, 10000 and 20000, each by re-invoking this program with --size
 //   --reps R      timed repetitions per figure, median reported (default 5)
@@ -24,7 +24,6 @@
 #include <vector>
 
 #include "core/exchange/affinity.hpp"
-#include "core/exchange/incremental_matching.hpp"
 #include "core/exchange/sequential_matching.hpp"
 #include "platform/memory/peak_rss.hpp"
 #include "profiling/bench_common.hpp"
@@ -48,7 +47,6 @@ Timings TimeBoth(int reps, F&& f) {
   }
   return t;
 }
-constexpr std::size_t kIncrementBatch = 100;
 
 void Normalise(float* v) {
   double n2 = 0.0;
@@ -89,13 +87,11 @@ constexpr std::size_t kSmoothingHalfWindow = 8;
 int RunSize(std::size_t n, int reps, std::size_t tile_rows, std::size_t tile_cols) {
   using commerge::bench::Median;
   using commerge::bench::TimeMs;
-  // alpha has room for the incremental batches appended after the N x N figures.
-  const std::size_t extra = kIncrementBatch * static_cast<std::size_t>(reps);
   std::mt19937 rng(1234);
-  const std::vector<float> alpha_all = Trajectory(n + extra, &rng);
+  const std::vector<float> alpha_all = Trajectory(n, &rng);
   std::vector<float> beta = Trajectory(n, &rng);
   PlantRevisit(alpha_all, &beta, n / 4, n / 2, n / 5, &rng);
-  const commerge::DescriptorSetView alpha{commerge::Span<const float>(alpha_all.data(), n * kDim), kDim, {}};
+  const commerge::DescriptorSetView alpha{alpha_all, kDim, {}};
   const commerge::DescriptorSetView beta_view{beta, kDim, {}};
   commerge::SequentialMatchParams params;  // tau_inter 0.10, tau_area 10000
   params.tile_rows = tile_rows;
@@ -154,47 +150,10 @@ int RunSize(std::size_t n, int reps, std::size_t tile_rows, std::size_t tile_col
               *std::min_element(smoothed_t.wall_ms.begin(), smoothed_t.wall_ms.end()), Median(smoothed_t.cpu_ms),
               smoothed.found ? "yes" : "no", smoothed.cells.size(), smoothed.num_clusters);
 
-  // 3. Incremental: N x N built once, then `reps` updates of 100 new alpha keyframes each.
-  commerge::IncrementalMatchParams ip;
-  ip.stage_a = params;
-  ip.dim = kDim;
-  ip.alpha_capacity = n + extra;
-  ip.beta_capacity = n;
-  auto inc = commerge::IncrementalSequentialMatcher::Create(ip);
-  if (!inc.ok() || !inc->AppendAlpha(alpha).ok() || !inc->AppendBeta(beta_view).ok()) return 1;
-  const Timings build_t = TimeBoth(1, [&] { ok &= inc->Update().ok(); });
-  std::size_t appended = n;
-  commerge::SequentialMatchResult last;
-  const Timings update_t = TimeBoth(reps, [&] {
-    const commerge::DescriptorSetView batch{
-        commerge::Span<const float>(alpha_all.data() + appended * kDim, kIncrementBatch * kDim), kDim, {}};
-    ok &= inc->AppendAlpha(batch).ok();
-    appended += kIncrementBatch;
-    auto r = inc->Update();
-    ok &= r.ok();
-    if (r.ok()) last = std::move(r.value());
-  });
-  if (!ok) return 1;
-  const commerge::IncrementalMatchStats& st = inc->stats();
-  std::printf("incremental:        first Update (%zu x %zu) wall %8.1f ms, CPU %8.1f ms\n", n, n, build_t.wall_ms[0],
-              build_t.cpu_ms[0]);
-  std::printf("  +%zu alpha keyframes: wall median %6.2f ms (min %6.2f), CPU median %6.2f ms; %llu cells per update, "
-              "%zu hits stored, %llu full-pass fallbacks\n",
-              kIncrementBatch, Median(update_t.wall_ms), *std::min_element(update_t.wall_ms.begin(), update_t.wall_ms.end()),
-              Median(update_t.cpu_ms), static_cast<unsigned long long>(st.last_update_cells), st.num_hits,
-              static_cast<unsigned long long>(st.full_pass_fallbacks));
-  // Cross-check the last incremental result against a full pass on the same (grown) sets.
-  auto check = commerge::RunSequentialMatching(inc->alpha(), inc->beta(), params);
-  const bool same = check.ok() && check->found == last.found && check->cells.size() == last.cells.size() &&
-                    check->num_clusters == last.num_clusters &&
-                    check->best.distance_sum == last.best.distance_sum &&
-                    check->num_cells_below_threshold == last.num_cells_below_threshold;
-  std::printf("incremental == full pass on %zu x %zu: %s\n", inc->alpha().count(), n, same ? "yes" : "NO");
-
   const std::int64_t peak = commerge::platform::ReadRss().peak_bytes;
   std::printf("peak RSS (VmHWM):   %s\n", commerge::FormatBytes(peak).c_str());
   if (sink > 0.0f) std::printf(" ");  // keeps the kernel loop observable
-  return same ? 0 : 1;
+  return 0;
 }
 
 }  // namespace

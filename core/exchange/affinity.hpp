@@ -70,7 +70,7 @@ class AffinityTileSource {
 ///
 /// Position independence: the value of cell (i, j) is the same float whatever tile it is computed in (same
 /// instruction sequence for every cell; partial blocks are padded, never computed by a different code path).
-/// So a cell computed by an incremental update equals, bit for bit, the one of a full pass.
+/// So a cell has the same float value whatever tile grid a consumer asks for.
 class AffinityTileKernel final : public AffinityTileSource {
  public:
   AffinityTileKernel() = default;

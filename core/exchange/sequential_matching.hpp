@@ -5,8 +5,7 @@
 // picks the cluster of lowest mean distance among those whose span area >= tau_area. The cells of the chosen
 // cluster (L_seq) are collected in a second pass over the tiles that intersect its span only. The N x M
 // matrix is never stored. Tiles whose reported minimum (AffinityTile::min_distance) is above tau_inter are
-// skipped by the labeller. RunSequentialMatchingOnHits gives the same result from the sparse list of
-// below-threshold cells (the incremental matcher's path, incremental_matching.hpp).
+// skipped by the labeller.
 #pragma once
 
 #include <cstddef>
@@ -31,11 +30,10 @@ struct SequentialMatchParams {
   /// sequence-smoothed V_ij instead: the smaller of the means of A along the diagonal and the anti-diagonal
   /// through (i, j) over k = -w .. w, at its lowest over the 3 x 3 cells around (i, j)
   /// (sequence_smoothing.hpp). Clusters, means, L_seq's cell distances and min_distance are then those of V.
-  /// Not supported by the incremental matcher (its Create refuses it).
   std::size_t sequence_half_window = 0;
   /// 0 = every cell is a candidate when at most tau_inter (the paper). k >= 1 (at most kMaxNeighbourRank): only
   /// cells among the k smallest of their row or of their column (after the smoothing above) can be candidates,
-  /// tau_inter becomes a cap (neighbour_rank.hpp). Not supported by the incremental matcher.
+  /// tau_inter becomes a cap (neighbour_rank.hpp).
   std::size_t neighbour_rank = 0;
   /// 0 = tau_area as given (the paper). f > 0 (ours): the span area asked of a cluster scales with the shorter
   /// mission, EffectiveTauArea: robots of a few dozen keyframes cannot share a 20 x 20 span.
@@ -122,25 +120,6 @@ struct SequentialMatchResult {
 /// failing source; degenerate inputs (empty sets, nothing below tau_inter, clusters too small) give an OK
 /// result with found == false and no_candidate_reason set.
 Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, const SequentialMatchParams& params);
-
-/// One below-threshold cell in compact form (12 bytes): the sparse input of RunSequentialMatchingOnHits and
-/// the hit store of the incremental matcher (incremental_matching.hpp).
-struct CompactHit {
-  std::uint32_t alpha_index = 0;
-  std::uint32_t beta_index = 0;
-  float distance = 0.0f;  ///< A_ij, <= tau_inter
-};
-
-/// Stage A from the sparse list of the below-threshold cells of an n x m affinity matrix. `hits` must be
-/// exactly the cells with A_ij <= tau_inter (compared in float), sorted row-major without duplicates, and
-/// `min_distance` the smallest finite A_ij of the whole matrix (+inf when none). The labelling replays the
-/// streaming pass (same params.tile_rows x tile_cols grid, same cell order, same neighbour joins), so the
-/// result equals RunSequentialMatching on that matrix field for field, the double distance sums bit for bit.
-/// Memory and time O(hits log hits), independent of n x m. Errors: bad parameters, a sequence_half_window
-/// other than 0 (the sparse path cannot smooth), a NaN min_distance, a
-/// hit outside the matrix, above tau_inter or out of order, more than 2^31 - 1 hits.
-Result<SequentialMatchResult> RunSequentialMatchingOnHits(Span<const CompactHit> hits, std::size_t n, std::size_t m,
-                                                          double min_distance, const SequentialMatchParams& params);
 
 /// Stage A on two descriptor sets (AffinityTileKernel with the parameter tile size, grown by the smoothing
 /// halo when sequence_half_window >= 1). Invalid keyframes (flag 0,

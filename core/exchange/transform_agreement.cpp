@@ -6,12 +6,11 @@
 #include <limits>
 #include <string>
 
+#include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 
 namespace commerge {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 Status CheckSet(const KeyframeSetView& set, std::size_t dim, const char* name) {
   if (set.descriptors.size() != dim * set.size() || set.T_map_sensor.size() != set.size()) {
