@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <sstream>
+#include <string>
 
 #include "core/exchange/exchange_policy.hpp"
 #include "core/exchange/neighbour_rank.hpp"
@@ -146,6 +147,18 @@ void AddMergeFlags(CLI::App* cmd, MergeServerParams* params) {
     }
     o->check(CLI::Range(f.min_value, f.max_value))->capture_default_str();
   }
+  cmd->add_option_function<std::string>(
+         "--cover",
+         [params](const std::string& name) {
+           auto cover = StageBCoverFromName(name);
+           if (!cover.ok()) throw CLI::ValidationError("--cover", cover.status().message());
+           params->cover = *cover;
+         },
+         "stage B with three or more robots: 'pairwise' = one balanced cover per robot pair, each robot sends the "
+         "union of its pairs' selections (the paper); 'joint' = one balanced cover of every pair's loops over all "
+         "robots, a scan that serves two pairs paid for once [ours]")
+      ->check(CLI::IsMember({"pairwise", "joint"}))
+      ->default_str(StageBCoverName(params->cover));
 }
 
 }  // namespace commerge::app

@@ -91,6 +91,20 @@ Result<ExchangeMode> ExchangeModeFromName(const std::string& name) {
   return InvalidArgument("unknown exchange mode '" + name + "' (send-all, A, A+B, A+C, A+B+C)");
 }
 
+const char* StageBCoverName(StageBCover cover) noexcept {
+  switch (cover) {
+    case StageBCover::kPairwise: return "pairwise";
+    case StageBCover::kJoint: return "joint";
+  }
+  return "?";
+}
+
+Result<StageBCover> StageBCoverFromName(const std::string& name) {
+  if (name == "pairwise") return StageBCover::kPairwise;
+  if (name == "joint") return StageBCover::kJoint;
+  return InvalidArgument("unknown stage B cover '" + name + "' (pairwise, joint)");
+}
+
 bool AmbiguousClusterConfirmed(const ExchangeCascadeResult& cascade, const MergeServerParams& params) {
   return cascade.ambiguous && params.widen_ambiguous_support > 0.0 && cascade.consensus_measured &&
          cascade.consensus_support_chosen >= params.widen_ambiguous_support;
@@ -481,6 +495,16 @@ Status MergeServer::RunCascades() {
     positions[r].resize(robots_[r].size());
     for (std::size_t k = 0; k < robots_[r].size(); ++k) positions[r][k] = robots_[r].T_map_sensor[k].translation();
   }
+  const auto input = [&](int r) {
+    const RobotKeyframeDb& db = robots_[static_cast<std::size_t>(r)];
+    return CascadeRobotInput{{Span<const float>(db.descriptors), kKeyframeDescriptorDim, Span<const std::uint8_t>(db.valid)},
+                             Span<const Eigen::Vector3d>(positions[static_cast<std::size_t>(r)]),
+                             Span<const std::uint32_t>(db.stored_points)};
+  };
+  const auto named = [](int a, int b, const Status& st) {
+    return Status(st.code(), "cascade of robots " + std::to_string(a) + " and " + std::to_string(b) + ": " + st.message());
+  };
+  const bool joint = params_.cover == StageBCover::kJoint;
   for (int a = 0; a < max_robots(); ++a) {
     for (int b = a + 1; b < max_robots(); ++b) {
       const RobotKeyframeDb& A = robots_[static_cast<std::size_t>(a)];
@@ -490,17 +514,10 @@ Status MergeServer::RunCascades() {
         incomparable_pairs_.emplace_back(a, b);
         continue;
       }
-      CascadeRobotInput in_a{{Span<const float>(A.descriptors), kKeyframeDescriptorDim, Span<const std::uint8_t>(A.valid)},
-                             Span<const Eigen::Vector3d>(positions[static_cast<std::size_t>(a)]),
-                             Span<const std::uint32_t>(A.stored_points)};
-      CascadeRobotInput in_b{{Span<const float>(B.descriptors), kKeyframeDescriptorDim, Span<const std::uint8_t>(B.valid)},
-                             Span<const Eigen::Vector3d>(positions[static_cast<std::size_t>(b)]),
-                             Span<const std::uint32_t>(B.stored_points)};
-      auto result = RunExchangeCascade(in_a, in_b, params_.cascade);
-      if (!result.ok()) {
-        return Status(result.status().code(), "cascade of robots " + std::to_string(a) + " and " + std::to_string(b) +
-                                                  ": " + result.status().message());
-      }
+      // Pairwise: the whole cascade. Joint: up to stage B here, stage B over every pair below.
+      auto result = joint ? RunCascadeStageA(input(a), input(b), params_.cascade)
+                          : RunExchangeCascade(input(a), input(b), params_.cascade);
+      if (!result.ok()) return named(a, b, result.status());
       PairState state;
       state.alpha = a;
       state.beta = b;
@@ -521,6 +538,31 @@ Status MergeServer::RunCascades() {
         state.stage_ac_ran = true;
       }
       pairs_.push_back(std::move(state));
+    }
+  }
+  if (joint) {
+    // One balanced cover over the loops of every pair that stage A passed on, then stage C and the policy per pair.
+    std::vector<JointCoverPair> waiting;
+    std::vector<std::size_t> index;
+    for (std::size_t i = 0; i < pairs_.size(); ++i) {
+      if (!CascadeAwaitsStageB(pairs_[i].cascade)) continue;
+      waiting.push_back({pairs_[i].alpha, pairs_[i].beta, Span<const SequentialLoopCell>(pairs_[i].cascade.stage_a.cells)});
+      index.push_back(i);
+    }
+    if (waiting.size() == 1) {  // one pair: its own cover is the joint one
+      PairState& state = pairs_[index[0]];
+      Status st = RunCascadeFromStageB(input(state.alpha), input(state.beta), params_.cascade, nullptr, 0, &state.cascade);
+      if (!st.ok()) return named(state.alpha, state.beta, st);
+    } else if (waiting.size() > 1) {
+      auto cover = SolveJointStageB(Span<const JointCoverPair>(waiting), params_.cascade.stage_b);
+      if (!cover.ok()) return Status(cover.status().code(), "joint stage B: " + cover.status().message());
+      const int robots = static_cast<int>(cover->robots.size());
+      for (std::size_t w = 0; w < index.size(); ++w) {
+        PairState& state = pairs_[index[w]];
+        Status st = RunCascadeFromStageB(input(state.alpha), input(state.beta), params_.cascade, &cover->pairs[w],
+                                         robots, &state.cascade);
+        if (!st.ok()) return named(state.alpha, state.beta, st);
+      }
     }
   }
   ApplyPlaceCheck();

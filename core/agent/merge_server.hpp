@@ -43,6 +43,18 @@ const char* ExchangeModeName(ExchangeMode mode) noexcept;
 /// Parses the names above (also "all", "a", "ab", "ac", "abc"); the error lists them.
 Result<ExchangeMode> ExchangeModeFromName(const std::string& name);
 
+/// How stage B covers the loops of several robot pairs (MergeServerParams::cover).
+enum class StageBCover : std::uint8_t {
+  kPairwise,  ///< the paper: one balanced cover per pair (share ceil(N_MM / 2) per robot); a robot sends the
+              ///< union of its pairs' selections
+  kJoint,     ///< ours: one balanced cover of every pair's loops over all robots (SolveJointStageB; share
+              ///< ceil(N_MM / 2^H(p)), p uniform); a scan that serves two pairs is paid for once
+};
+/// "pairwise", "joint".
+const char* StageBCoverName(StageBCover cover) noexcept;
+/// Parses the names above; the error lists them.
+Result<StageBCover> StageBCoverFromName(const std::string& name);
+
 /// The server's stage A (ours; measured by profiling/bench_recall.sh, profiling/RESULTS.md "Merge recall"):
 /// neighbour rank 1 (a cell is a candidate when it is the nearest keyframe of its row or column,
 /// neighbour_rank.hpp) on the sequence-smoothed matrix (half window 4), tau_area 400 cells (20 x 20 keyframes:
@@ -59,6 +71,9 @@ PlaceConsensusParams ChainAgreementDefaults();
 
 struct MergeServerParams {
   ExchangeCascadeParams cascade = ServerCascadeDefaults();
+  /// Stage B per pair or one joint cover over every pair that stage A passed on (with one such pair both are the
+  /// pair's own cover).
+  StageBCover cover = StageBCover::kPairwise;
   /// Voxel size of the submaps [m] (the robots' scans already are 1 m voxels; the union is voxelised again).
   double submap_voxel_size_m = 1.0;
   /// When a submap has more points, its voxel size grows by 25 % steps (at most 8) until it fits.

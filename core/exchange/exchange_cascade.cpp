@@ -108,6 +108,7 @@ StageSolverOutcome StageBOutcome(const ExchangeCascadeResult& result) {
   o.gap = o.proven || b.status == BalancedCoverStatus::kLimitWithoutSolution ? 0.0 : RelativeGap(o.incumbent, o.bound);
   o.nodes = b.nodes_explored;
   o.lp_solves = b.lp_solves;
+  o.joint_robots = result.stage_b_joint_robots;
   return o;
 }
 
@@ -130,7 +131,8 @@ StageSolverOutcome StageCOutcome(const ExchangeCascadeResult& result) {
 
 std::string FormatStageSolverOutcome(const StageSolverOutcome& o) {
   if (!o.ran) return o.loops_dropped > 0 ? "not run, " + std::to_string(o.loops_dropped) + " loops dropped" : "not run";
-  std::string text = std::string(o.status) + ": " + Number(o.incumbent);
+  std::string text = o.joint_robots > 0 ? "joint cover of " + std::to_string(o.joint_robots) + " robots, " : "";
+  text += std::string(o.status) + ": " + Number(o.incumbent);
   if (o.proven) {
     text += " (bound " + Number(o.bound) + ")";
   } else {
@@ -168,8 +170,10 @@ Status ValidateExchangeCascadeParams(const ExchangeCascadeParams& params) {
   return Status::Ok();
 }
 
-Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
-                                                 const ExchangeCascadeParams& params) {
+namespace {
+
+Status ValidateCascadeInputs(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                             const ExchangeCascadeParams& params) {
   if (Status s = ValidateExchangeCascadeParams(params); !s.ok()) return s;
   if (Status s = ValidateDescriptorSet(alpha.descriptors, "alpha"); !s.ok()) return s;
   if (Status s = ValidateDescriptorSet(beta.descriptors, "beta"); !s.ok()) return s;
@@ -180,6 +184,27 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
                            std::to_string(beta.positions_m.size()) + " vs " + std::to_string(beta.descriptors.count()) +
                            ")");
   }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                                                 const ExchangeCascadeParams& params) {
+  auto result = RunCascadeStageA(alpha, beta, params);
+  if (!result.ok() || !CascadeAwaitsStageB(*result)) return result;
+  if (Status s = RunCascadeFromStageB(alpha, beta, params, nullptr, 0, &*result); !s.ok()) return s;
+  return result;
+}
+
+bool CascadeAwaitsStageB(const ExchangeCascadeResult& result) noexcept {
+  return result.stage_a.found && !result.stage_a.cells.empty() && result.no_candidate_reason.empty() &&
+         result.stage_b_vertices_alpha + result.stage_b_vertices_beta == 0 && result.outcome != CascadeOutcome::kPolicy;
+}
+
+Result<ExchangeCascadeResult> RunCascadeStageA(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                                               const ExchangeCascadeParams& params) {
+  if (Status s = ValidateCascadeInputs(alpha, beta, params); !s.ok()) return s;
   ExchangeCascadeResult result;
 
   // Stage A: L_seq.
@@ -241,9 +266,54 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
                                  FormatNumber(params.min_ambiguous_support, 4) + " (min_ambiguous_support)";
     return result;
   }
+  return result;
+}
 
+namespace {
+
+// A joint cover's part for one pair must be a cover of its L_seq by keyframes of its L_seq (unless it has no
+// selection at all).
+Status CheckJointCover(const BalancedCoverResult& cover, const std::vector<SequentialLoopCell>& l_seq,
+                       const std::vector<std::size_t>& alpha_ids, const std::vector<std::size_t>& beta_ids) {
+  if (cover.status == BalancedCoverStatus::kInfeasible || cover.status == BalancedCoverStatus::kLimitWithoutSolution) {
+    return Status::Ok();
+  }
+  const auto within = [](const std::vector<int>& selected, const std::vector<std::size_t>& ids) {
+    return std::is_sorted(selected.begin(), selected.end()) &&
+           std::all_of(selected.begin(), selected.end(), [&](int k) {
+             return k >= 0 && std::binary_search(ids.begin(), ids.end(), static_cast<std::size_t>(k));
+           });
+  };
+  if (!within(cover.selected_left, alpha_ids) || !within(cover.selected_right, beta_ids)) {
+    return InvalidArgument("cascade: the joint cover selects keyframes outside the pair's L_seq (or unsorted)");
+  }
+  for (const SequentialLoopCell& l : l_seq) {
+    const bool covered =
+        std::binary_search(cover.selected_left.begin(), cover.selected_left.end(), static_cast<int>(l.alpha_index)) ||
+        std::binary_search(cover.selected_right.begin(), cover.selected_right.end(), static_cast<int>(l.beta_index));
+    if (!covered) {
+      return InvalidArgument("cascade: the joint cover leaves loop (" + std::to_string(l.alpha_index) + ", " +
+                             std::to_string(l.beta_index) + ") of L_seq uncovered");
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status RunCascadeFromStageB(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                            const ExchangeCascadeParams& params, const BalancedCoverResult* joint_cover,
+                            int joint_robots, ExchangeCascadeResult* result_out) {
+  if (Status s = ValidateCascadeInputs(alpha, beta, params); !s.ok()) return s;
+  if (joint_cover != nullptr && joint_robots < 2) {
+    return InvalidArgument("cascade: a joint cover spans at least 2 robots, got " + std::to_string(joint_robots));
+  }
+  if (!CascadeAwaitsStageB(*result_out)) {
+    return InvalidArgument("cascade: stage B needs a result of RunCascadeStageA that passed loops on");
+  }
+  ExchangeCascadeResult& result = *result_out;
   // Stage B on the exchange graph of L_seq: vertices = distinct keyframes, compacted to 0..n-1 per robot.
-  t0 = std::chrono::steady_clock::now();
+  auto t0 = std::chrono::steady_clock::now();
   const std::vector<SequentialLoopCell>& l_seq = result.stage_a.cells;
   std::vector<std::size_t> alpha_ids, beta_ids;
   alpha_ids.reserve(l_seq.size());
@@ -261,22 +331,29 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
   for (const SequentialLoopCell& l : l_seq) {
     edges.push_back({CompactIndex(alpha_ids, l.alpha_index), CompactIndex(beta_ids, l.beta_index)});
   }
-  auto graph = BipartiteGraph::Create(static_cast<int>(alpha_ids.size()), static_cast<int>(beta_ids.size()),
-                                      std::move(edges));
-  if (!graph.ok()) return graph.status();
-  auto stage_b = SolveBalancedVertexCover(*graph, params.stage_b);
-  if (!stage_b.ok()) return stage_b.status();
-  result.stage_b = std::move(*stage_b);
+  if (joint_cover != nullptr) {
+    if (Status s = CheckJointCover(*joint_cover, l_seq, alpha_ids, beta_ids); !s.ok()) return s;
+    result.stage_b = *joint_cover;
+    result.stage_b_joint_robots = joint_robots;
+  } else {
+    auto graph = BipartiteGraph::Create(static_cast<int>(alpha_ids.size()), static_cast<int>(beta_ids.size()),
+                                        std::move(edges));
+    if (!graph.ok()) return graph.status();
+    auto stage_b = SolveBalancedVertexCover(*graph, params.stage_b);
+    if (!stage_b.ok()) return stage_b.status();
+    result.stage_b = std::move(*stage_b);
+    // Back to keyframe indices (the compaction is monotone, so the lists stay sorted).
+    for (int& v : result.stage_b.selected_left) v = static_cast<int>(alpha_ids[static_cast<std::size_t>(v)]);
+    for (int& v : result.stage_b.selected_right) v = static_cast<int>(beta_ids[static_cast<std::size_t>(v)]);
+  }
   result.stage_b_s = SecondsSince(t0);
   if (result.stage_b.status == BalancedCoverStatus::kInfeasible ||
       result.stage_b.status == BalancedCoverStatus::kLimitWithoutSolution) {
     result.outcome = CascadeOutcome::kSolverFailure;
-    result.no_candidate_reason = std::string("stage B: ") + BalancedCoverStatusName(result.stage_b.status);
-    return result;
+    result.no_candidate_reason = std::string(result.stage_b_joint_robots > 0 ? "stage B (joint cover): " : "stage B: ") +
+                                 BalancedCoverStatusName(result.stage_b.status);
+    return Status::Ok();
   }
-  // Back to keyframe indices (the compaction is monotone, so the lists stay sorted).
-  for (int& v : result.stage_b.selected_left) v = static_cast<int>(alpha_ids[static_cast<std::size_t>(v)]);
-  for (int& v : result.stage_b.selected_right) v = static_cast<int>(beta_ids[static_cast<std::size_t>(v)]);
 
   // Stage C: L_K.
   t0 = std::chrono::steady_clock::now();
@@ -287,7 +364,7 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
   result.stage_c_s = SecondsSince(t0);
   if (result.stage_c.selected_loops.empty()) {
     result.no_candidate_reason = "stage C: " + result.stage_c.no_candidate_reason;
-    return result;
+    return Status::Ok();
   }
 
   // Exchange policy.
@@ -298,7 +375,100 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
   result.policy = std::move(*policy);
   result.policy_s = SecondsSince(t0);
   result.outcome = CascadeOutcome::kPolicy;
-  return result;
+  return Status::Ok();
+}
+
+Result<JointCoverResult> SolveJointStageB(Span<const JointCoverPair> pairs, const BalancedCoverParams& params) {
+  if (!params.vertex_weights.empty()) {
+    return InvalidArgument("joint stage B: unit weights only (vertex_weights must be empty, got " +
+                           std::to_string(params.vertex_weights.size()) + ")");
+  }
+  JointCoverResult out;
+  std::vector<std::pair<int, int>> seen;
+  for (const JointCoverPair& p : pairs) {
+    if (p.alpha_robot < 0 || p.beta_robot < 0 || p.alpha_robot == p.beta_robot) {
+      return InvalidArgument("joint stage B: pair of robots " + std::to_string(p.alpha_robot) + " and " +
+                             std::to_string(p.beta_robot) + " (ids must be >= 0 and differ)");
+    }
+    const std::pair<int, int> key = std::minmax(p.alpha_robot, p.beta_robot);
+    if (std::find(seen.begin(), seen.end(), key) != seen.end()) {
+      return InvalidArgument("joint stage B: robots " + std::to_string(key.first) + " and " +
+                             std::to_string(key.second) + " given twice");
+    }
+    seen.push_back(key);
+    out.robots.push_back(p.alpha_robot);
+    out.robots.push_back(p.beta_robot);
+  }
+  std::sort(out.robots.begin(), out.robots.end());
+  out.robots.erase(std::unique(out.robots.begin(), out.robots.end()), out.robots.end());
+  const auto slot = [&](int robot) {
+    return static_cast<std::size_t>(std::lower_bound(out.robots.begin(), out.robots.end(), robot) - out.robots.begin());
+  };
+  // Vertices: each robot's distinct keyframes over every pair's L_seq, in ascending order.
+  std::vector<std::vector<std::size_t>> keyframes(out.robots.size());
+  for (const JointCoverPair& p : pairs) {
+    for (const SequentialLoopCell& l : p.l_seq) {
+      keyframes[slot(p.alpha_robot)].push_back(l.alpha_index);
+      keyframes[slot(p.beta_robot)].push_back(l.beta_index);
+    }
+  }
+  std::vector<int> counts, begins;
+  int total = 0;
+  for (auto& k : keyframes) {
+    k = Distinct(std::move(k));
+    begins.push_back(total);
+    counts.push_back(static_cast<int>(k.size()));
+    total += static_cast<int>(k.size());
+  }
+  std::vector<ExchangeEdge> edges;
+  for (const JointCoverPair& p : pairs) {
+    const std::size_t a = slot(p.alpha_robot), b = slot(p.beta_robot);
+    for (const SequentialLoopCell& l : p.l_seq) {
+      edges.push_back({begins[a] + CompactIndex(keyframes[a], l.alpha_index),
+                       begins[b] + CompactIndex(keyframes[b], l.beta_index)});
+    }
+  }
+  auto graph = ExchangeGraph::Create(counts, std::move(edges));
+  if (!graph.ok()) return graph.status();
+  auto cover = SolveMultiRobotBalancedCover(*graph, params);
+  if (!cover.ok()) return cover.status();
+  out.cover = std::move(*cover);
+  // Back to keyframe indices per robot (ascending: the vertex ids are).
+  std::vector<std::vector<int>> selected(out.robots.size());
+  for (int v : out.cover.selected) {
+    const auto r = static_cast<std::size_t>(graph->robot_of(v));
+    selected[r].push_back(static_cast<int>(keyframes[r][static_cast<std::size_t>(v - begins[r])]));
+  }
+  for (const JointCoverPair& p : pairs) {
+    BalancedCoverResult b;
+    b.status = out.cover.status;
+    b.objective_scans = out.cover.objective_scans;
+    b.objective_weight = out.cover.objective_weight;
+    b.lower_bound_weight = out.cover.lower_bound_weight;
+    b.lower_bound_scans = static_cast<int>(std::ceil(out.cover.lower_bound_weight - 1e-9));
+    b.max_matching_size = out.cover.max_matching_size;
+    b.min_share_per_robot = out.cover.min_share_per_robot;
+    b.nodes_explored = out.cover.nodes_explored;
+    b.lp_solves = out.cover.lp_solves;
+    b.min_cut_solves = out.cover.min_cut_solves;
+    b.simplex_iterations = out.cover.simplex_iterations;
+    b.lp_basis_rebuilds = out.cover.lp_basis_rebuilds;
+    std::vector<std::size_t> mine_a, mine_b;
+    for (const SequentialLoopCell& l : p.l_seq) {
+      mine_a.push_back(l.alpha_index);
+      mine_b.push_back(l.beta_index);
+    }
+    mine_a = Distinct(std::move(mine_a));
+    mine_b = Distinct(std::move(mine_b));
+    for (int k : selected[slot(p.alpha_robot)]) {
+      if (std::binary_search(mine_a.begin(), mine_a.end(), static_cast<std::size_t>(k))) b.selected_left.push_back(k);
+    }
+    for (int k : selected[slot(p.beta_robot)]) {
+      if (std::binary_search(mine_b.begin(), mine_b.end(), static_cast<std::size_t>(k))) b.selected_right.push_back(k);
+    }
+    out.pairs.push_back(std::move(b));
+  }
+  return out;
 }
 
 }  // namespace commerge

@@ -103,6 +103,10 @@ struct ExchangeCascadeResult {
   ExchangePolicy policy;
   std::size_t stage_b_vertices_alpha = 0;  ///< distinct alpha keyframes in L_seq
   std::size_t stage_b_vertices_beta = 0;   ///< distinct beta keyframes in L_seq
+  /// > 0: stage_b is this pair's part of one joint cover over this many robots (SolveJointStageB): its selection
+  /// is the joint selection's keyframes of the pair's L_seq; status, objective, bound and counters are the joint
+  /// solve's. 0: the pair's own cover.
+  int stage_b_joint_robots = 0;
   /// Wall-clock seconds (steady clock) of stage A (affinity + labelling), B, C and the policy.
   double stage_a_s = 0.0, stage_b_s = 0.0, stage_c_s = 0.0, policy_s = 0.0;
 };
@@ -121,18 +125,61 @@ struct StageSolverOutcome {
   std::int64_t nodes = 0;     ///< branch-and-bound nodes
   std::int64_t lp_solves = 0; ///< LP relaxations solved (B: master LPs; C: GLPK bounds)
   std::size_t loops_dropped = 0;  ///< C only: loops beyond StageCParams::max_loops left out of the graph
+  int joint_robots = 0;       ///< B only: > 0 when the figures are those of one joint cover over this many robots
 };
 
 /// Stage B's and stage C's outcome of a cascade result.
 StageSolverOutcome StageBOutcome(const ExchangeCascadeResult& result);
 StageSolverOutcome StageCOutcome(const ExchangeCascadeResult& result);
 /// One line for a person: "optimal: 12 (bound 12), 3 nodes, 5 LPs" or "feasible-with-gap: 14 >= 12 (gap 14.3 %),
-/// node or time limit, ..." ("not run" when the stage was not reached).
+/// node or time limit, ..." ("not run" when the stage was not reached); a joint cover's line starts with
+/// "joint cover of N robots, ".
 std::string FormatStageSolverOutcome(const StageSolverOutcome& outcome);
 
 /// Runs the cascade. Errors: malformed inputs (descriptor sets, positions count != descriptor count, bad params).
 /// Degenerate inputs (no cluster, nothing selected) give an OK result with outcome kNoCandidate and the reason.
+/// The same as RunCascadeStageA followed, when it awaits stage B, by RunCascadeFromStageB with the pair's own
+/// cover.
 Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
                                                  const ExchangeCascadeParams& params);
+
+/// The cascade up to stage B: affinity and stage A, the verification retry, the place consensus and the
+/// ambiguity check. The result either ends there (kNoCandidate with its reason) or awaits stage B.
+Result<ExchangeCascadeResult> RunCascadeStageA(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                                               const ExchangeCascadeParams& params);
+/// Stage A passed L_seq on: stage B, C and the policy are still to run.
+bool CascadeAwaitsStageB(const ExchangeCascadeResult& result) noexcept;
+
+/// Stages B, C and the policy of a result that awaits stage B (same inputs as its RunCascadeStageA).
+/// `joint_cover` = nullptr: stage B solves the pair's own balanced cover of L_seq. Otherwise it is the pair's part
+/// of a joint cover over `joint_robots` (>= 2) robots (SolveJointStageB; selections are keyframe indices) and
+/// becomes stage_b as it is: it must cover every loop of L_seq with keyframes of L_seq (InvalidArgument
+/// otherwise) unless its status says it has no selection.
+Status RunCascadeFromStageB(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                            const ExchangeCascadeParams& params, const BalancedCoverResult* joint_cover,
+                            int joint_robots, ExchangeCascadeResult* result);
+
+/// One robot pair's input to the joint stage B: the robots' ids and the pair's L_seq.
+struct JointCoverPair {
+  int alpha_robot = 0, beta_robot = 0;
+  Span<const SequentialLoopCell> l_seq;
+};
+
+struct JointCoverResult {
+  MultiRobotCoverResult cover;  ///< over the robots of the pairs, in ascending id order
+  std::vector<int> robots;      ///< those robot ids
+  /// Per input pair: the joint selection's keyframes within the pair's L_seq (selected_left = alpha's,
+  /// selected_right = beta's, ascending keyframe indices), with the joint solve's status, objective, bound,
+  /// N_MM, share and counters (the pairs share one solve).
+  std::vector<BalancedCoverResult> pairs;
+};
+
+/// Stage B over several robot pairs at once (ours, not the paper's per-pair cascade): one N-robot exchange graph
+/// whose vertices are each robot's keyframes that appear in any pair's L_seq (a keyframe shared by two pairs is
+/// one vertex) and whose edges are every pair's loops, solved by SolveMultiRobotBalancedCover with a share of
+/// ceil(N_MM / 2^H(p)) per robot (p uniform over the robots of the pairs unless params.participation has one
+/// entry per such robot). A scan that serves two pairs is paid for once. Unit weights only (params.vertex_weights
+/// must be empty). Errors: robots out of range or equal in a pair, a pair of robots given twice, bad params.
+Result<JointCoverResult> SolveJointStageB(Span<const JointCoverPair> pairs, const BalancedCoverParams& params);
 
 }  // namespace commerge

@@ -79,6 +79,21 @@ cm_cli_test(NAME "run: with node limits of 1 the solvers' gaps are printed per p
                     --stage-b-max-nodes 1 --stage-c-max-nodes 1 --out "${CM_CLI_OUT}/run-node-limits")
 set_tests_properties("cli: run: with node limits of 1 the solvers' gaps are printed per pair" PROPERTIES
                      FIXTURES_REQUIRED demo_out)
+# Three robots with --cover joint: stage B is one cover over the three pairs (core SolveJointStageB), each pair
+# prints the joint solve; all three robots merge. About 10 s natively: host only.
+cm_cli_test(NAME "sim: three campus robots, 150 keyframes" RC 0 LABELS heavy
+            REGEX "campus world, 3 robots, complete overlap, 150 keyframes each.*wrote "
+            COMMAND ${CM_BIN} sim --world campus --robots 3 --overlap complete --keyframes 150 --seed 5
+                    --azimuth-steps 900 --out "${CM_CLI_OUT}/sim-campus3" --force)
+set_tests_properties("cli: sim: three campus robots, 150 keyframes" PROPERTIES FIXTURES_SETUP sim_campus3)
+cm_cli_test(NAME "run: --cover joint solves one stage B over the three pairs and merges the three robots" RC 0
+            LABELS heavy
+            REGEX "solvers: stage B joint cover of 3 robots, optimal: [0-9]+ .*solvers: stage B joint cover of 3 robots, optimal: [0-9]+ .*solvers: stage B joint cover of 3 robots, optimal: [0-9]+ .*\\| A\\+B\\+C \\|.*\\| 3/3 \\|"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-campus3/robot_0" "${CM_CLI_OUT}/sim-campus3/robot_1"
+                    "${CM_CLI_OUT}/sim-campus3/robot_2" --cover joint --no-report --no-progress
+                    --out "${CM_CLI_OUT}/run-joint")
+set_tests_properties("cli: run: --cover joint solves one stage B over the three pairs and merges the three robots"
+                     PROPERTIES FIXTURES_REQUIRED sim_campus3)
 cm_cli_test(NAME "voxelize names a missing file" RC 1 REGEX "does-not-exist.bin: no such file"
             COMMAND ${CM_BIN} voxelize "${CM_CLI_OUT}/does-not-exist.bin" "${CM_CLI_OUT}/x.pcd")
 
