@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "core/common/bytes.hpp"
+#include "core/common/number_text.hpp"
 #include "core/descriptor/ring_occupancy.hpp"
 #include "core/descriptor/solid.hpp"
 #include "platform/memory/allocator.hpp"
@@ -197,6 +198,23 @@ double ColocationHeadingDeg(const std::string& lidar) {
 double DefaultTauIntra(const std::string& descriptor, const std::string& lidar) {
   if (descriptor == "ring") return 0.15;
   return NonRepetitive(lidar) ? 0.01 : 0.05;
+}
+
+double PaperTauInter(const std::string& lidar) { return NonRepetitive(lidar) ? 0.05 : 0.10; }
+
+void ApplySensorTauInter(bool tau_inter_given, const std::string& lidar, MergeServerParams* params) {
+  if (!tau_inter_given && params->cascade.stage_a.neighbour_rank == 0) {
+    params->cascade.stage_a.tau_inter = PaperTauInter(lidar);
+  }
+}
+
+std::string CascadeSettingsText(const MergeServerParams& params) {
+  const SequentialMatchParams& a = params.cascade.stage_a;
+  std::string text = a.neighbour_rank == 0
+                         ? "stage A tau_inter " + FormatNumber(a.tau_inter, 4) + " per cell"
+                         : "stage A neighbour rank " + std::to_string(a.neighbour_rank) + " under tau_inter " +
+                               FormatNumber(a.tau_inter, 4);
+  return text + ", stage B " + StageBCoverName(params.cover);
 }
 
 DescriptorInputParams RingDescriptorInput(const std::string& lidar) {

@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "core/agent/merge_server.hpp"
 #include "core/agent/messages.hpp"
 #include "core/descriptor/place_descriptor.hpp"
 #include "core/descriptor/sensor_presets.hpp"
@@ -97,6 +98,15 @@ double DefaultTauIntra(const std::string& descriptor, const std::string& lidar);
 /// horizontal field of view (avia 70.4), 180 (any) for a spinning one or an unknown name. The server's
 /// descriptor agreement (MergeServerParams::colocation) takes it.
 double ColocationHeadingDeg(const std::string& lidar);
+/// The paper's tau_inter for a sensor (its threshold table): 0.05 for a non-repetitive, 0.10 for a spinning one.
+double PaperTauInter(const std::string& lidar);
+/// Stage A's per-sensor default: when --tau-inter was not given (`tau_inter_given` false) and stage A thresholds
+/// every cell (--neighbour-rank 0, the paper's stage A), tau_inter becomes PaperTauInter(lidar). With a neighbour
+/// rank it stays a cap (MergeServerParams{}: 0.5, measured by the recall benchmark for every sensor).
+void ApplySensorTauInter(bool tau_inter_given, const std::string& lidar, MergeServerParams* params);
+/// Stage A's threshold and stage B's cover in words, for the start-up line of run and server:
+/// "stage A tau_inter 0.05 per cell, stage B pairwise" or "stage A neighbour rank 1 under tau_inter 0.5, ...".
+std::string CascadeSettingsText(const MergeServerParams& params);
 /// Builds the descriptor named by the flags for a robot with `lidar`. Errors name the flag and value.
 Result<RobotDescriptor> MakeRobotDescriptor(const DescriptorFlags& flags, const std::string& lidar);
 

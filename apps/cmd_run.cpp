@@ -2,6 +2,7 @@
 // `commerge run DATASET_DIRS...`: the main job on recorded or generated data (see run_pipeline.hpp).
 #include <memory>
 
+#include "apps/app_common.hpp"
 #include "apps/commands.hpp"
 #include "apps/run_pipeline.hpp"
 
@@ -20,7 +21,10 @@ Command AddRunCommand(CLI::App& root) {
       ->required()
       ->expected(2, 8);
   AddRunFlags(cmd, o.get());
-  return {cmd, [o]() { return RunMergeJob(*o); }};
+  return {cmd, [o, cmd]() {
+            ApplySensorTauInter(cmd->count("--tau-inter") > 0, o->sensor, &o->server);
+            return RunMergeJob(*o);
+          }};
 }
 
 }  // namespace commerge::app

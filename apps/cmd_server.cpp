@@ -152,10 +152,11 @@ int ServerProcess::Configure() {
     return rc;
   }
   if (o_.auth.check) {
-    std::printf("%s: configuration OK (--check): board %s, memory budget %s of %s; robots 0..%d, mode %s, output %s; "
-                "LCM %s; %s\n",
+    std::printf("%s: configuration OK (--check): board %s, memory budget %s of %s; robots 0..%d, mode %s, %s, "
+                "output %s; LCM %s; %s\n",
                 kTag, o_.memory.board.c_str(), FormatBytes(setup_.table.total_bytes()).c_str(),
-                FormatBytes(setup_.limit_bytes).c_str(), robots_ - 1, ExchangeModeName(mode_), o_.out_dir.c_str(),
+                FormatBytes(setup_.limit_bytes).c_str(), robots_ - 1, ExchangeModeName(mode_),
+                CascadeSettingsText(server_params_).c_str(), o_.out_dir.c_str(),
                 o_.lcm_url.empty() ? "LCM_DEFAULT_URL" : o_.lcm_url.c_str(), AuthDescription(o_.auth, bus_params_).c_str());
   }
   return kExitOk;
@@ -345,8 +346,9 @@ int ServerProcess::Run() {
   bus_ = std::move(*bus);
   InstallStopSignalHandlers();
   if (!o_.quiet) {
-    std::fprintf(stderr, "%s: session %lld, robots 0..%d, mode %s, writing to %s%s\n", kTag,
-                 static_cast<long long>(session_), robots_ - 1, ExchangeModeName(mode_), o_.out_dir.c_str(),
+    std::fprintf(stderr, "%s: session %lld, robots 0..%d, mode %s, %s, writing to %s%s\n", kTag,
+                 static_cast<long long>(session_), robots_ - 1, ExchangeModeName(mode_),
+                 CascadeSettingsText(server_params_).c_str(), o_.out_dir.c_str(),
                  o_.replay ? " (replay: recorded scan chunks accepted without a request)" : "");
   }
   if (!o_.quiet || !bus_params_.authenticate) {
@@ -476,7 +478,10 @@ Command AddServerCommand(CLI::App& root) {
   AddAuthFlags(cmd, &o->auth);
   AddFaultFlags(cmd, &o->delay_ms, &o->jitter_ms, &o->duplicate_pct);
   AddMemoryFlags(cmd, &o->memory);
-  return {cmd, [o]() { return RunServer(*o); }};
+  return {cmd, [o, cmd]() {
+            ApplySensorTauInter(cmd->count("--tau-inter") > 0, o->lidar, &o->server);
+            return RunServer(*o);
+          }};
 }
 
 }  // namespace commerge::app

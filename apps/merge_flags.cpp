@@ -18,7 +18,8 @@ using FlagType = MergeFlag::Type;
 const MergeFlag kMergeFlags[] = {
     {"--tau-inter", "cascade.stage_a.tau_inter", "", 0.0, 2.0, "tau_inter",
      "stage A: a keyframe pair is a candidate when its descriptor distance (unit vectors, L2) is at most this; "
-     "with --neighbour-rank a cap on the nearest neighbours", FlagType::kDouble,
+     "with --neighbour-rank a cap on the nearest neighbours (the default shown); with --neighbour-rank 0 the "
+     "default is the paper's per sensor: 0.10 for a spinning, 0.05 for a non-repetitive --lidar", FlagType::kDouble,
      [](MergeServerParams* p) -> void* { return &p->cascade.stage_a.tau_inter; }},
     {"--tau-area", "cascade.stage_a.tau_area", "cells", 0.0, 1e12, "tau_area",
      "stage A: smallest span area (rows x columns of the bounding box) of an accepted cluster", FlagType::kUint64,

@@ -137,8 +137,8 @@ int SetUpRun(RunJob* job) {
     return Fail(*job, kExitUsage, "--robots " + std::to_string(job->memory.config.max_robots) + " is fewer than the " +
                                       std::to_string(job->num_robots()) + " datasets");
   }
-  std::printf("%s: %d robots; descriptor: %s; %s\n", job->tag, job->num_robots(), job->descriptor_text.c_str(),
-              job->memory.verdict.c_str());
+  std::printf("%s: %d robots; descriptor: %s; %s; %s\n", job->tag, job->num_robots(), job->descriptor_text.c_str(),
+              CascadeSettingsText(o.server).c_str(), job->memory.verdict.c_str());
   std::error_code ec;
   job->report_dir = o.out_dir + "/report";
   std::filesystem::create_directories(job->report_dir, ec);

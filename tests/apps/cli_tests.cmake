@@ -247,6 +247,12 @@ cm_cli_test(NAME "server: SIGTERM ends it cleanly with exit 0 and its summary li
             COMMAND timeout --preserve-status -s TERM 3 ${CM_BIN} server --lcm-url memq:// --robots 2 --quiet
                     --out "${CM_CLI_OUT}/sigterm-server")
 list(JOIN CM_EMU " " cm_emu_words)  # for a sh -c string: ';' would end the command
+# tau_inter per sensor: with the paper's stage A (--neighbour-rank 0) the paper's table, 0.05 for the
+# non-repetitive Avia and 0.10 for a spinning sensor; a given --tau-inter wins; with the neighbour rank a cap.
+cm_cli_test(NAME "server --check: with --neighbour-rank 0, tau_inter follows --lidar unless --tau-inter is given" RC 0
+            REGEX "tau_inter 0\\.05 per cell, stage B pairwise.*tau_inter 0\\.1 per cell, stage B joint.*tau_inter 0\\.2 per cell.*neighbour rank 1 under tau_inter 0\\.5"
+            COMMAND sh -c "$1 server --lcm-url memq:// --check --lidar avia --neighbour-rank 0 && $1 server --lcm-url memq:// --check --lidar vlp-16 --neighbour-rank 0 --cover joint && $1 server --lcm-url memq:// --check --lidar avia --neighbour-rank 0 --tau-inter 0.2 && $1 server --lcm-url memq:// --check --lidar avia"
+                    sh "${cm_emu_words} $<TARGET_FILE:commerge>")
 cm_cli_test(NAME "keygen: writes a 0600 key the server accepts with --check, refuses to overwrite it" RC 2
             REGEX "configuration OK \\(--check\\).*messages signed with key id 4.*--auth-key.*mode 0644: it must be readable by its owner only"
             COMMAND sh -c "rm -rf \"$1\" && mkdir -p \"$1\" && $2 keygen --out \"$1/k\" --id 4 && ! $2 keygen --out \"$1/k\" 2>/dev/null && $2 server --lcm-url memq:// --robots 2 --auth-key \"$1/k\" --check && chmod 644 \"$1/k\" && $2 server --lcm-url memq:// --robots 2 --auth-key \"$1/k\" --check"
