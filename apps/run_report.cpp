@@ -243,7 +243,10 @@ std::string ModeRow(const RunJob& job, const ModeOutcome& m) {
     if (!rmse.empty()) rmse += ", ";
     rmse += m.robot_eval[r].has_gt ? Fmt("%.3f m", m.robot_eval[r].rmse_m) : std::string("-");
   }
-  return "| " + std::string(ExchangeModeName(m.mode)) + " | " + std::to_string(m.scans_requested()) + " | " +
+  const std::string scans = std::to_string(m.scans_requested()) + " (" + std::to_string(m.round.plan.selected_scans) +
+                            " + " + std::to_string(m.round.plan.padded_scans) + " + " +
+                            std::to_string(m.round.widened_scans) + ")";
+  return "| " + std::string(ExchangeModeName(m.mode)) + " | " + scans + " | " +
          Bytes(m.scan_bytes()) + " | " + Bytes(m.ledger->KindTotal(MessageKind::kPolicies).bytes) + " | " +
          Bytes(m.ledger->KindTotal(MessageKind::kPoseUpdates).bytes) + " | " + Bytes(total) + " | " + vs + " | " +
          std::to_string(m.pairs_merged()) + "/" + std::to_string(m.round.pairs.size()) + " | " +
@@ -622,6 +625,9 @@ void WriteMetrics(const RunJob& job) {
     std::size_t widened_pairs = 0;
     for (int w : m.round.widenings) widened_pairs += w > 0;
     kv(p + "scans", std::to_string(m.scans_requested()));
+    kv(p + "scans_selected", std::to_string(m.round.plan.selected_scans));
+    kv(p + "scans_padded", std::to_string(m.round.plan.padded_scans));
+    kv(p + "scans_widened", std::to_string(m.round.widened_scans));
     kv(p + "widened_pairs", std::to_string(widened_pairs));
     kv(p + "scan_bytes", std::to_string(m.scan_bytes()));
     kv(p + "total_bytes", std::to_string(job.stream_bytes() + m.ledger->Total().bytes));
@@ -683,7 +689,7 @@ std::string PrintResults(const RunJob& job) {
     summary += s + "\n";
   };
   line("");
-  line("| mode | scans sent | scan bytes | policies | pose refresh | total exchanged | vs send-all | pairs merged | e_rmse (robots vs robot 0) | merge s |");
+  line("| mode | scans sent (selected + padded + widened) | scan bytes | policies | pose refresh | total exchanged | vs send-all | pairs merged | e_rmse (robots vs robot 0) | merge s |");
   line("|---|---|---|---|---|---|---|---|---|---|");
   for (const ModeOutcome& m : job.outcomes) line(ModeRow(job, m));
   line("(total exchanged = streamed keyframe records " + Bytes(job.stream_ledger->KindTotal(MessageKind::kKeyframes).bytes) +

@@ -95,6 +95,8 @@ Status MergeRound::Begin(Span<const std::int64_t> sessions, std::vector<ScanRequ
   current_.round = rounds_finished_ + 1;
   current_.plan.mode = plan->mode;
   current_.plan.pairs = plan->pairs;
+  current_.plan.selected_scans = plan->selected_scans;
+  current_.plan.padded_scans = plan->padded_scans;
   sessions_.assign(sessions.begin(), sessions.end());
   widen_step_ = 0;
   pending_ = plan->pairs;
@@ -145,6 +147,7 @@ Result<bool> MergeRound::Continue(std::vector<ScanRequest>* requests) {
     widened_selections_ += wider->pairs.size();
     AdoptSelections(Span<const PairSelection>(wider->pairs), &current_.plan.pairs);
     Request(wider->requests, wider->predicted_scan_bytes, requests);
+    for (const ScanRequest& q : *requests) current_.widened_scans += q.keyframes.size();
     if (!requests->empty()) {  // wait for the extra scans, then register these pairs again
       pending_ = std::move(wider->pairs);
       return false;

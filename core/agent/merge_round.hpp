@@ -79,6 +79,10 @@ struct MergeRoundResult {
   std::vector<PairMergeResult> pairs;
   std::vector<int> widenings;
   std::vector<double> registration_s;
+  /// Scans the widening steps asked for (not held yet); plan.selected_scans and plan.padded_scans count the
+  /// plan's own by origin. On a server that held no scan before the round (each mode of `commerge run`), the three
+  /// add up to the scans the round requested.
+  std::size_t widened_scans = 0;
   bool frames_ok = false;
   FrameSolution frames;       ///< when frames_ok
   std::string frames_error;   ///< when !frames_ok

@@ -562,6 +562,7 @@ Status MergeServer::RunCascades() {
         Status st = RunCascadeFromStageB(input(state.alpha), input(state.beta), params_.cascade, &cover->pairs[w],
                                          robots, &state.cascade);
         if (!st.ok()) return named(state.alpha, state.beta, st);
+        state.cascade.stage_b_s += cover->seconds;  // the one joint solve, in every pair's time
       }
     }
   }
@@ -611,7 +612,7 @@ Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
   if (!params_status_.ok()) return params_status_;
   ExchangePlan plan;
   plan.mode = mode;
-  std::vector<std::vector<std::uint32_t>> wanted(robots_.size());
+  std::vector<std::vector<std::uint32_t>> wanted(robots_.size()), own(robots_.size());
   for (const PairState& p : pairs_) {
     PairSelection s;
     s.alpha = p.alpha;
@@ -658,6 +659,23 @@ Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
       s.no_selection_reason = p.cascade.no_candidate_reason.empty() ? "nothing selected" : p.cascade.no_candidate_reason;
     }
     if (mode != ExchangeMode::kSendAll) {
+      // One rule for every mode: a robot's selection of the pair is padded to min_scans_per_robot with keyframes
+      // that stage A matched to the other robot (ExchangePolicyParams::min_scans_per_robot; A+B+C's policy has
+      // done it already, with the same pool and order). What the mode selected and what padding added are
+      // counted apart.
+      std::vector<std::uint32_t> own_a = s.alpha_keyframes, own_b = s.beta_keyframes;
+      if (mode == ExchangeMode::kStageABC) {
+        own_a = Endpoints(Span<const SequentialLoopCell>(p.cascade.stage_c.selected_loops), true);
+        own_b = Endpoints(Span<const SequentialLoopCell>(p.cascade.stage_c.selected_loops), false);
+      } else {
+        const std::uint32_t min_scans = params_.cascade.policy.min_scans_per_robot;
+        PadKeyframesFromPool(&s.alpha_keyframes, Endpoints(Span<const SequentialLoopCell>(l_seq), true), min_scans);
+        PadKeyframesFromPool(&s.beta_keyframes, Endpoints(Span<const SequentialLoopCell>(l_seq), false), min_scans);
+      }
+      auto& oa = own[static_cast<std::size_t>(p.alpha)];
+      auto& ob = own[static_cast<std::size_t>(p.beta)];
+      oa.insert(oa.end(), own_a.begin(), own_a.end());
+      ob.insert(ob.end(), own_b.begin(), own_b.end());
       auto& wa = wanted[static_cast<std::size_t>(p.alpha)];
       auto& wb = wanted[static_cast<std::size_t>(p.beta)];
       wa.insert(wa.end(), s.alpha_keyframes.begin(), s.alpha_keyframes.end());
@@ -667,8 +685,16 @@ Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
   }
   if (mode == ExchangeMode::kSendAll) {
     for (std::size_t r = 0; r < robots_.size(); ++r) wanted[r] = StoredKeyframes(static_cast<int>(r));
+    own = wanted;
   }
   AddRequests(&wanted, 1, /*skip_held=*/false, &plan);
+  for (std::size_t r = 0; r < robots_.size(); ++r) {  // wanted[r] is sorted and unique now
+    std::vector<std::uint32_t>& o = own[r];
+    std::sort(o.begin(), o.end());
+    o.erase(std::unique(o.begin(), o.end()), o.end());
+    plan.selected_scans += o.size();
+    plan.padded_scans += wanted[r].size() - o.size();
+  }
   return plan;
 }
 

@@ -178,6 +178,11 @@ struct ExchangePlan {
   /// One request per robot with something to send (the union over its pairs), request ids from 1 upwards.
   std::vector<ScanRequest> requests;
   std::uint64_t predicted_scan_bytes = 0;  ///< 12 + 6 n per requested scan, n as the robots reported
+  /// Scans of `requests` by origin (Plan; 0 in a WidenPlan): the mode's own selection (send-all: every stored
+  /// scan; A: L_seq's endpoints; A+B: the cover; A+C: the clique's endpoints; A+B+C: L_K's endpoints), and the
+  /// keyframes padding added on top (ExchangePolicyParams::min_scans_per_robot, the same rule in every mode).
+  std::size_t selected_scans = 0;
+  std::size_t padded_scans = 0;
 };
 
 /// What registering one pair produced.

@@ -383,6 +383,7 @@ Result<JointCoverResult> SolveJointStageB(Span<const JointCoverPair> pairs, cons
     return InvalidArgument("joint stage B: unit weights only (vertex_weights must be empty, got " +
                            std::to_string(params.vertex_weights.size()) + ")");
   }
+  const auto t0 = std::chrono::steady_clock::now();
   JointCoverResult out;
   std::vector<std::pair<int, int>> seen;
   for (const JointCoverPair& p : pairs) {
@@ -468,6 +469,7 @@ Result<JointCoverResult> SolveJointStageB(Span<const JointCoverPair> pairs, cons
     }
     out.pairs.push_back(std::move(b));
   }
+  out.seconds = SecondsSince(t0);
   return out;
 }
 

@@ -107,7 +107,8 @@ struct ExchangeCascadeResult {
   /// is the joint selection's keyframes of the pair's L_seq; status, objective, bound and counters are the joint
   /// solve's. 0: the pair's own cover.
   int stage_b_joint_robots = 0;
-  /// Wall-clock seconds (steady clock) of stage A (affinity + labelling), B, C and the policy.
+  /// Wall-clock seconds (steady clock) of stage A (affinity + labelling), B, C and the policy (B of a joint cover:
+  /// the whole joint solve, in each of its pairs).
   double stage_a_s = 0.0, stage_b_s = 0.0, stage_c_s = 0.0, policy_s = 0.0;
 };
 
@@ -172,6 +173,7 @@ struct JointCoverResult {
   /// selected_right = beta's, ascending keyframe indices), with the joint solve's status, objective, bound,
   /// N_MM, share and counters (the pairs share one solve).
   std::vector<BalancedCoverResult> pairs;
+  double seconds = 0.0;  ///< wall clock (steady) of the whole call
 };
 
 /// Stage B over several robot pairs at once (ours, not the paper's per-pair cascade): one N-robot exchange graph

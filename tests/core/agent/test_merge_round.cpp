@@ -133,6 +133,7 @@ TEST_CASE("Merge round: a refused pair is widened by the brute-force rule, max_w
     REQUIRE(round.Begin(Span<const std::int64_t>(kSessions), &requests).ok());
     REQUIRE(requests.size() == 2);
     std::vector<std::uint32_t> selected_a = requests[0].keyframes, selected_b = requests[1].keyframes;
+    const std::size_t first_scans = selected_a.size() + selected_b.size();
     int widened = 0;
     while (true) {
       AnswerTiny(server.get(), requests);
@@ -156,6 +157,10 @@ TEST_CASE("Merge round: a refused pair is widened by the brute-force rule, max_w
     const MergeRoundResult& r = round.result();
     REQUIRE(r.pairs.size() == 1);
     CHECK(r.widenings[0] == widened);
+    // The scans by origin: the plan's own and padding, then what widening added.
+    CHECK(r.plan.selected_scans + r.plan.padded_scans == first_scans);
+    CHECK(r.widened_scans == selected_a.size() + selected_b.size() - first_scans);
+    CHECK((widened == 0) == (r.widened_scans == 0));
     CHECK(r.pairs[0].alpha_scans == selected_a.size());
     CHECK(r.pairs[0].beta_scans == selected_b.size());
     CHECK(r.plan.pairs[0].alpha_keyframes == selected_a);

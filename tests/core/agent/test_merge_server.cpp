@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <set>
 #include <cmath>
 #include <cstdlib>
 #include <iterator>
@@ -425,6 +426,42 @@ TEST_CASE("Merge server plans per exchange mode: stage A's loops equal the brute
   CHECK(plan_abc->pairs[0].beta_keyframes == cascade->policy.beta.keyframes);
   CHECK(subset(plan_ac->pairs[0].alpha_keyframes, want_a));
   CHECK_FALSE(plan_ac->pairs[0].alpha_keyframes.empty());
+
+  // One padding rule for every mode: each robot's selection grows to min_scans_per_robot (10) with stage A's
+  // keyframes; the plan counts what the mode selected and what padding added, which add up to the requests.
+  const std::size_t min_scans = params.cascade.policy.min_scans_per_robot;
+  REQUIRE(min_scans == 10);
+  const auto requested = [](const ExchangePlan& p) {
+    std::size_t scans = 0;
+    for (const ScanRequest& q : p.requests) scans += q.keyframes.size();
+    return scans;
+  };
+  for (const ExchangePlan* p : {&*plan_a, &*plan_all, &*plan_b, &*plan_ac, &*plan_abc}) {
+    CAPTURE(ExchangeModeName(p->mode));
+    CHECK(p->selected_scans + p->padded_scans == requested(*p));
+    for (const auto* side : {&p->pairs[0].alpha_keyframes, &p->pairs[0].beta_keyframes}) {
+      CHECK(side->size() >= std::min(min_scans, want_a.size()));
+    }
+  }
+  CHECK(plan_all->padded_scans == 0);
+  CHECK(plan_all->selected_scans == static_cast<std::size_t>(2 * n));
+  CHECK(plan_a->padded_scans == 0);  // every L_seq endpoint is selected already
+  CHECK(plan_b->selected_scans == static_cast<std::size_t>(cascade->stage_b.objective_scans));
+  std::size_t l_k_endpoints = 0;
+  {
+    std::set<std::size_t> ka, kb;
+    for (const SequentialLoopCell& l : cascade->stage_c.selected_loops) {
+      ka.insert(l.alpha_index);
+      kb.insert(l.beta_index);
+    }
+    l_k_endpoints = ka.size() + kb.size();
+  }
+  CHECK(plan_abc->selected_scans == l_k_endpoints);
+  CHECK(plan_abc->padded_scans == cascade->policy.alpha.padded_scans + cascade->policy.beta.padded_scans);
+  for (const ExchangePlan* p : {&*plan_b, &*plan_ac, &*plan_abc}) {  // padding only adds stage A's keyframes
+    CHECK(subset(p->pairs[0].alpha_keyframes, want_a));
+    CHECK(subset(p->pairs[0].beta_keyframes, want_b));
+  }
   CHECK(ExchangeModeFromName("a+b+c").ok());
   CHECK_FALSE(ExchangeModeFromName("B").ok());
 }
