@@ -10,6 +10,7 @@
 
 #include "core/common/little_endian.hpp"
 #include "core/common/number_text.hpp"
+#include "core/descriptor/scan_context.hpp"
 
 namespace commerge {
 namespace {
@@ -17,7 +18,9 @@ namespace {
 constexpr std::size_t kTranslationOffset = 4;
 constexpr std::size_t kRotationOffset = 16;
 constexpr std::size_t kRotationBytes = 6;
-constexpr std::size_t kDescriptorOffset = kRotationOffset + kRotationBytes;  // 22
+constexpr std::size_t kPoseHeaderBytes = kRotationOffset + kRotationBytes;  // 22
+static_assert(kPoseHeaderBytes == kKeyframePoseHeaderBytes, "pose header layout");
+constexpr std::size_t kDescriptorOffset = kPoseHeaderBytes;
 constexpr std::size_t kDescriptorBytes =
     (kKeyframeDescriptorDim * kKeyframeDescriptorBits + 7) / 8;  // 70
 static_assert(kDescriptorOffset + kDescriptorBytes == kKeyframeRecordBytes, "record layout");
@@ -56,45 +59,25 @@ std::int32_t SignExtend15(std::uint32_t v) noexcept {
   return (v & 0x4000u) ? static_cast<std::int32_t>(v) - 0x8000 : static_cast<std::int32_t>(v);
 }
 
-std::string RecordName(std::uint32_t index) { return "keyframe record " + std::to_string(index) + ": "; }
+std::string RecordName(const char* kind, std::uint32_t index) {
+  return std::string(kind) + " " + std::to_string(index) + ": ";
+}
 
-}  // namespace
-
-Status EncodeKeyframeRecord(const KeyframeRecord& record, Span<std::uint8_t> out) {
-  const auto who = [&record] { return RecordName(record.keyframe_index); };  // built only on error
-  if (out.size() != kKeyframeRecordBytes) {
-    return InvalidArgument(who() + "output buffer holds " + std::to_string(out.size()) + " bytes, expected " +
-                           std::to_string(kKeyframeRecordBytes));
-  }
-  if (!record.descriptor_valid) return InvalidArgument(who() + "descriptor is invalid; invalid descriptors are not sent");
-
-  // Descriptor: non-negative, finite, unit norm.
-  double norm2 = 0.0, max_value = 0.0;
-  for (std::size_t i = 0; i < kKeyframeDescriptorDim; ++i) {
-    const double v = static_cast<double>(record.descriptor[i]);
-    if (!std::isfinite(v) || v < 0.0) {
-      return InvalidArgument(who() + "descriptor value " + std::to_string(i) + " is " + FormatNumber(v, 9) +
-                             " (R-SOLiD is finite and >= 0)");
-    }
-    norm2 += v * v;
-    max_value = std::max(max_value, v);
-  }
-  const double norm = std::sqrt(norm2);
-  if (!(std::fabs(norm - 1.0) <= 1e-3)) {
-    return InvalidArgument(who() + "descriptor norm is " + FormatNumber(norm, 9) +
-                           ", expected 1 (send the unit-normalised R-SOLiD; an all-zero descriptor is invalid)");
-  }
-
-  // Pose.
-  const Eigen::Matrix4d& M = record.T_map_sensor.matrix();
+// The 22-byte pose header shared by the keyframe records (bytes 0 .. 21 of the layout in the header): validates
+// T_map_sensor and writes index, float32 translation and the smallest-three rotation into p (zeroed by the
+// caller). `kind` names the record in messages.
+Status EncodePoseHeader(const char* kind, std::uint32_t index, const Eigen::Isometry3d& T_map_sensor,
+                        std::uint8_t* p) {
+  const auto who = [kind, index] { return RecordName(kind, index); };  // built only on error
+  const Eigen::Matrix4d& M = T_map_sensor.matrix();
   if (!M.allFinite()) return InvalidArgument(who() + "pose has a NaN/inf entry");
-  const Eigen::Matrix3d R = record.T_map_sensor.linear();
+  const Eigen::Matrix3d R = T_map_sensor.linear();
   const double ortho_error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (!(ortho_error <= 1e-3) || !(R.determinant() > 0.0)) {
     return InvalidArgument(who() + "pose rotation is not a rotation matrix (max |R^T R - I| = " +
                            FormatNumber(ortho_error, 9) + ", det = " + FormatNumber(R.determinant(), 9) + ")");
   }
-  const Eigen::Vector3d t = record.T_map_sensor.translation();
+  const Eigen::Vector3d t = T_map_sensor.translation();
   float tf[3];
   for (int i = 0; i < 3; ++i) {
     tf[i] = static_cast<float>(t[i]);
@@ -103,9 +86,7 @@ Status EncodeKeyframeRecord(const KeyframeRecord& record, Span<std::uint8_t> out
     }
   }
 
-  std::fill(out.begin(), out.end(), std::uint8_t{0});
-  std::uint8_t* const p = out.data();
-  PutU32Le(p, record.keyframe_index);
+  PutU32Le(p, index);
   for (int i = 0; i < 3; ++i) PutU32Le(p + kTranslationOffset + 4 * i, FloatBits(tf[i]));
 
   // Smallest three: components in the order w, x, y, z.
@@ -130,27 +111,14 @@ Status EncodeKeyframeRecord(const KeyframeRecord& record, Span<std::uint8_t> out
     bit += kQuatComponentBits;
   }
   // bit 47 stays 0 (reserved)
-
-  // Descriptor, scaled by its largest element.
-  std::uint8_t* const desc = p + kDescriptorOffset;
-  for (std::size_t i = 0; i < kKeyframeDescriptorDim; ++i) {
-    const double v = static_cast<double>(record.descriptor[i]) / max_value * kKeyframeDescriptorMaxCode;
-    const auto code = static_cast<std::uint32_t>(
-        std::clamp<long>(std::lround(v), 0L, static_cast<long>(kKeyframeDescriptorMaxCode)));
-    PutBits(desc, i * kKeyframeDescriptorBits, kKeyframeDescriptorBits, code);
-  }
   return Status::Ok();
 }
 
-Result<KeyframeRecord> DecodeKeyframeRecord(Span<const std::uint8_t> bytes) {
-  if (bytes.size() != kKeyframeRecordBytes) {
-    return DataLoss("keyframe record: " + std::to_string(bytes.size()) + " bytes, expected " +
-                    std::to_string(kKeyframeRecordBytes));
-  }
-  const std::uint8_t* const p = bytes.data();
-  KeyframeRecord rec;
-  rec.keyframe_index = GetU32Le(p);
-  const auto who = [&rec] { return RecordName(rec.keyframe_index); };  // built only on error
+// Reads the pose header of p (at least kKeyframePoseHeaderBytes bytes). Errors (data loss): non-finite
+// translation, reserved bit set, a quaternion that no encoder writes.
+Status DecodePoseHeader(const char* kind, const std::uint8_t* p, std::uint32_t* index, Eigen::Isometry3d* T_map_sensor) {
+  *index = GetU32Le(p);
+  const auto who = [kind, index] { return RecordName(kind, *index); };  // built only on error
 
   Eigen::Vector3d t;
   for (int i = 0; i < 3; ++i) {
@@ -190,9 +158,77 @@ Result<KeyframeRecord> DecodeKeyframeRecord(Span<const std::uint8_t> bytes) {
   }
   Eigen::Quaterniond q(c[0], c[1], c[2], c[3]);
   q.normalize();
-  rec.T_map_sensor = Eigen::Isometry3d::Identity();
-  rec.T_map_sensor.linear() = q.toRotationMatrix();
-  rec.T_map_sensor.translation() = t;
+  *T_map_sensor = Eigen::Isometry3d::Identity();
+  T_map_sensor->linear() = q.toRotationMatrix();
+  T_map_sensor->translation() = t;
+  return Status::Ok();
+}
+
+constexpr const char* kSolidRecordKind = "keyframe record";
+constexpr const char* kScanContextRecordKind = "Scan Context record";
+
+// Grid dims the Scan Context record accepts (those of ValidateScanContextParams).
+Status CheckScanContextGrid(int num_rings, int num_sectors) {
+  if (num_rings < 1 || num_rings > kScanContextMaxRings || num_sectors < 1 || num_sectors > kScanContextMaxSectors ||
+      360 % num_sectors != 0) {
+    return InvalidArgument("Scan Context record: grid " + std::to_string(num_rings) + " x " +
+                           std::to_string(num_sectors) + " is outside num_rings in [1, " +
+                           std::to_string(kScanContextMaxRings) + "], num_sectors in [1, 360] dividing 360");
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status EncodeKeyframeRecord(const KeyframeRecord& record, Span<std::uint8_t> out) {
+  const auto who = [&record] { return RecordName(kSolidRecordKind, record.keyframe_index); };  // built only on error
+  if (out.size() != kKeyframeRecordBytes) {
+    return InvalidArgument(who() + "output buffer holds " + std::to_string(out.size()) + " bytes, expected " +
+                           std::to_string(kKeyframeRecordBytes));
+  }
+  if (!record.descriptor_valid) return InvalidArgument(who() + "descriptor is invalid; invalid descriptors are not sent");
+
+  // Descriptor: non-negative, finite, unit norm.
+  double norm2 = 0.0, max_value = 0.0;
+  for (std::size_t i = 0; i < kKeyframeDescriptorDim; ++i) {
+    const double v = static_cast<double>(record.descriptor[i]);
+    if (!std::isfinite(v) || v < 0.0) {
+      return InvalidArgument(who() + "descriptor value " + std::to_string(i) + " is " + FormatNumber(v, 9) +
+                             " (R-SOLiD is finite and >= 0)");
+    }
+    norm2 += v * v;
+    max_value = std::max(max_value, v);
+  }
+  const double norm = std::sqrt(norm2);
+  if (!(std::fabs(norm - 1.0) <= 1e-3)) {
+    return InvalidArgument(who() + "descriptor norm is " + FormatNumber(norm, 9) +
+                           ", expected 1 (send the unit-normalised R-SOLiD; an all-zero descriptor is invalid)");
+  }
+
+  std::fill(out.begin(), out.end(), std::uint8_t{0});
+  std::uint8_t* const p = out.data();
+  if (Status s = EncodePoseHeader(kSolidRecordKind, record.keyframe_index, record.T_map_sensor, p); !s.ok()) return s;
+
+  // Descriptor, scaled by its largest element.
+  std::uint8_t* const desc = p + kDescriptorOffset;
+  for (std::size_t i = 0; i < kKeyframeDescriptorDim; ++i) {
+    const double v = static_cast<double>(record.descriptor[i]) / max_value * kKeyframeDescriptorMaxCode;
+    const auto code = static_cast<std::uint32_t>(
+        std::clamp<long>(std::lround(v), 0L, static_cast<long>(kKeyframeDescriptorMaxCode)));
+    PutBits(desc, i * kKeyframeDescriptorBits, kKeyframeDescriptorBits, code);
+  }
+  return Status::Ok();
+}
+
+Result<KeyframeRecord> DecodeKeyframeRecord(Span<const std::uint8_t> bytes) {
+  if (bytes.size() != kKeyframeRecordBytes) {
+    return DataLoss("keyframe record: " + std::to_string(bytes.size()) + " bytes, expected " +
+                    std::to_string(kKeyframeRecordBytes));
+  }
+  const std::uint8_t* const p = bytes.data();
+  KeyframeRecord rec;
+  if (Status s = DecodePoseHeader(kSolidRecordKind, p, &rec.keyframe_index, &rec.T_map_sensor); !s.ok()) return s;
+  const auto who = [&rec] { return RecordName(kSolidRecordKind, rec.keyframe_index); };  // built only on error
 
   const std::uint8_t* const desc = p + kDescriptorOffset;
   std::uint32_t codes[kKeyframeDescriptorDim];
@@ -213,6 +249,92 @@ Result<KeyframeRecord> DecodeKeyframeRecord(Span<const std::uint8_t> bytes) {
   }
   rec.descriptor_valid = true;
   return rec;
+}
+
+Status EncodeScanContextRecord(const KeyframePose& pose, Span<const float> descriptor, int num_rings,
+                               int num_sectors, Span<std::uint8_t> out) {
+  if (Status s = CheckScanContextGrid(num_rings, num_sectors); !s.ok()) return s;
+  const auto who = [&pose] { return RecordName(kScanContextRecordKind, pose.keyframe_index); };  // on error only
+  const std::size_t cells = static_cast<std::size_t>(num_rings) * static_cast<std::size_t>(num_sectors);
+  if (descriptor.size() != cells) {
+    return InvalidArgument(who() + "descriptor holds " + std::to_string(descriptor.size()) + " values, expected " +
+                           std::to_string(num_rings) + " x " + std::to_string(num_sectors) + " = " +
+                           std::to_string(cells));
+  }
+  if (out.size() != ScanContextRecordBytes(num_rings, num_sectors)) {
+    return InvalidArgument(who() + "output buffer holds " + std::to_string(out.size()) + " bytes, expected " +
+                           std::to_string(ScanContextRecordBytes(num_rings, num_sectors)));
+  }
+  float scale = 0.0f;
+  bool any_nonzero = false;
+  for (std::size_t i = 0; i < cells; ++i) {
+    const float v = descriptor[i];
+    if (!std::isfinite(v)) {
+      return InvalidArgument(who() + "descriptor value " + std::to_string(i) + " is " +
+                             FormatNumber(static_cast<double>(v), 9) + " (Scan Context cells are finite)");
+    }
+    scale = std::max(scale, v);
+    any_nonzero = any_nonzero || v != 0.0f;
+  }
+  if (!any_nonzero) return InvalidArgument(who() + "descriptor is all zero (invalid descriptors are not sent)");
+  if (!(scale > 0.0f)) {
+    return InvalidArgument(who() + "descriptor has no positive cell (every non-zero cell is negative: the record's "
+                           "scale is the largest cell value and must be > 0)");
+  }
+
+  std::fill(out.begin(), out.end(), std::uint8_t{0});
+  std::uint8_t* const p = out.data();
+  if (Status s = EncodePoseHeader(kScanContextRecordKind, pose.keyframe_index, pose.T_map_sensor, p); !s.ok()) {
+    return s;
+  }
+  PutU32Le(p + kPoseHeaderBytes, FloatBits(scale));
+  std::uint8_t* const codes = p + kPoseHeaderBytes + 4;
+  const double to_code = static_cast<double>(kScanContextMaxCode) / static_cast<double>(scale);
+  for (std::size_t i = 0; i < cells; ++i) {
+    const double v = static_cast<double>(descriptor[i]);
+    if (v == 0.0) continue;  // empty stays empty (code 0)
+    // v > 0: round(255 v / scale), at least 1 so that the cell stays non-empty; v < 0: 1 (see the header).
+    const long code = v > 0.0 ? std::lround(v * to_code) : 1L;
+    codes[i] = static_cast<std::uint8_t>(std::clamp<long>(code, 1L, static_cast<long>(kScanContextMaxCode)));
+  }
+  return Status::Ok();
+}
+
+Result<KeyframePose> DecodeScanContextRecord(Span<const std::uint8_t> bytes, int num_rings, int num_sectors,
+                                             Span<float> descriptor) {
+  if (Status s = CheckScanContextGrid(num_rings, num_sectors); !s.ok()) return s;
+  const std::size_t cells = static_cast<std::size_t>(num_rings) * static_cast<std::size_t>(num_sectors);
+  if (descriptor.size() != cells) {
+    return InvalidArgument("Scan Context record: output holds " + std::to_string(descriptor.size()) +
+                           " values, expected " + std::to_string(num_rings) + " x " + std::to_string(num_sectors) +
+                           " = " + std::to_string(cells));
+  }
+  if (bytes.size() != ScanContextRecordBytes(num_rings, num_sectors)) {
+    return DataLoss("Scan Context record: " + std::to_string(bytes.size()) + " bytes, expected " +
+                    std::to_string(ScanContextRecordBytes(num_rings, num_sectors)) + " for a " +
+                    std::to_string(num_rings) + " x " + std::to_string(num_sectors) + " grid");
+  }
+  const std::uint8_t* const p = bytes.data();
+  KeyframePose pose;
+  if (Status s = DecodePoseHeader(kScanContextRecordKind, p, &pose.keyframe_index, &pose.T_map_sensor); !s.ok()) {
+    return s;
+  }
+  const auto who = [&pose] { return RecordName(kScanContextRecordKind, pose.keyframe_index); };  // on error only
+  const float scale = BitsToFloat(GetU32Le(p + kPoseHeaderBytes));
+  if (!(std::isfinite(scale) && scale > 0.0f)) {
+    return DataLoss(who() + "scale " + FormatNumber(static_cast<double>(scale), 9) + " is not finite and > 0");
+  }
+  const std::uint8_t* const codes = p + kPoseHeaderBytes + 4;
+  std::uint8_t max_code = 0;
+  for (std::size_t i = 0; i < cells; ++i) max_code = std::max(max_code, codes[i]);
+  if (max_code == 0) return DataLoss(who() + "no non-zero code (corrupt or all-zero descriptor)");
+  if (max_code != kScanContextMaxCode) {
+    return DataLoss(who() + "largest code is " + std::to_string(max_code) + ", expected " +
+                    std::to_string(kScanContextMaxCode) + " (the scale is the largest cell; corrupt record)");
+  }
+  const double step = static_cast<double>(scale) / static_cast<double>(kScanContextMaxCode);
+  for (std::size_t i = 0; i < cells; ++i) descriptor[i] = static_cast<float>(codes[i] * step);
+  return pose;
 }
 
 std::uint16_t FloatToHalf(float value) noexcept {

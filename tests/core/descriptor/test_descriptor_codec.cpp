@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Keyframe record codec (92 bytes) and float16 arrays: byte layout, round trips with derived error bounds,
 // rejection of bad inputs and garbage, IEEE half rounding against a brute-force nearest-value search.
+// Scan Context record (22 + 4 + N_r x N_s bytes): layout and shared pose header, round trip of cells and poses,
+// the Scan Context distance after a round trip within its derived bound, encoder and decoder refusals.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -14,8 +16,10 @@
 
 #include "core/descriptor/descriptor_codec.hpp"
 #include "tests/core/descriptor/descriptor_test_util.hpp"
+#include "core/descriptor/scan_context.hpp"
 #include "core/descriptor/solid.hpp"
 #include "core/geometry/angles.hpp"
+#include "core/sim/synthetic_scan.hpp"
 #include "tests/support/pose_errors.hpp"
 
 namespace commerge {
@@ -488,6 +492,299 @@ TEST_CASE("float16 arrays: sizes, non-finite values, little-endian layout") {
   std::vector<float> one(1);
   CHECK(DecodeFloat16(inf_wire, one).code() == StatusCode::kDataLoss);
 }
+
+namespace sc_record_test {  // unity builds compile this file with test_scan_context.cpp's helpers
+
+constexpr int kRings = 20, kSectors = 60;
+constexpr std::size_t kCells = static_cast<std::size_t>(kRings) * kSectors;
+using ScRecord = std::vector<std::uint8_t>;
+
+// Scan Context of a ray-cast street scan (16 beams, 720 columns) from (x, y) with heading yaw.
+std::vector<float> StreetScanContext(float x_m, float y_m, float yaw_rad, std::uint32_t seed) {
+  static const BoxScene scene = MakeStreetScene(11);
+  SpinningLidar lidar;
+  lidar.beams = 16;
+  lidar.azimuth_steps = 720;
+  lidar.max_range_m = 90.0f;
+  std::vector<PointXYZI> pts;
+  CastScan(scene, lidar, x_m, y_m, 1.73f, yaw_rad, seed, &pts);
+  std::vector<float> sc(kCells);
+  const auto info = ComputeScanContext(pts, ScanContextParams{}, sc);
+  REQUIRE(info.ok());
+  REQUIRE(info->valid);
+  return sc;
+}
+
+ScRecord Encode(const KeyframePose& pose, const std::vector<float>& sc) {
+  ScRecord rec(ScanContextRecordBytes(kRings, kSectors));
+  const Status s = EncodeScanContextRecord(pose, sc, kRings, kSectors, rec);
+  REQUIRE_MESSAGE(s.ok(), s.ToString());
+  return rec;
+}
+
+std::vector<float> Decode(const ScRecord& rec, KeyframePose* pose = nullptr) {
+  std::vector<float> out(kCells);
+  const auto r = DecodeScanContextRecord(rec, kRings, kSectors, out);
+  REQUIRE_MESSAGE(r.ok(), r.status().ToString());
+  if (pose) *pose = *r;
+  return out;
+}
+
+float Scale(const std::vector<float>& sc) { return *std::max_element(sc.begin(), sc.end()); }
+
+// Derived bound of the Scan Context distance change (descriptor_codec.hpp): the largest angle by which a column
+// of the query plus the largest by which a column of the candidate turned.
+double MaxColumnAngle(const std::vector<float>& before, const std::vector<float>& after) {
+  double worst = 0.0;
+  for (int c = 0; c < kSectors; ++c) {
+    double n2 = 0.0, e2 = 0.0;
+    for (int r = 0; r < kRings; ++r) {
+      const auto k = static_cast<std::size_t>(r * kSectors + c);
+      const double v = static_cast<double>(before[k]), e = static_cast<double>(after[k]) - v;
+      n2 += v * v;
+      e2 += e * e;
+    }
+    if (n2 == 0.0) continue;
+    const double ratio = std::sqrt(e2 / n2);
+    worst = std::max(worst, ratio < 1.0 ? std::asin(ratio) : kPi);
+  }
+  return worst;
+}
+
+TEST_CASE("Scan Context record: size, byte layout and the pose header shared with the keyframe record") {
+  CHECK(ScanContextRecordBytes(20, 60) == 1226);
+  CHECK(ScanContextRecordBytes(1, 1) == 27);
+  std::vector<float> sc(kCells, 0.0f);
+  sc[0] = 4.0f;                // ring 0, sector 0: the scale
+  sc[1] = 2.0f;                // round(127.5) = 128
+  sc[kSectors + 5] = 1e-3f;    // tiny: lifted to code 1
+  sc[kCells - 1] = -0.3f;      // negative: code 1
+  KeyframePose pose;
+  pose.keyframe_index = 0x01020304u;
+  pose.T_map_sensor.translation() = Eigen::Vector3d(1.0, -2.0, 0.5);
+  pose.T_map_sensor.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const ScRecord rec = Encode(pose, sc);
+  // The first 22 bytes are the keyframe record's pose header, byte for byte.
+  Descriptor d{};
+  d[0] = 1.0f;
+  Record solid{};
+  REQUIRE(EncodeKeyframeRecord(MakeRecord(pose.keyframe_index, pose.T_map_sensor, d), AsSpan(solid)).ok());
+  CHECK(std::equal(rec.begin(), rec.begin() + 22, solid.begin()));
+  // 4.0f = 0x40800000, little-endian.
+  CHECK(rec[22] == 0x00);
+  CHECK(rec[23] == 0x00);
+  CHECK(rec[24] == 0x80);
+  CHECK(rec[25] == 0x40);
+  CHECK(rec[26] == 255);
+  CHECK(rec[27] == 128);
+  CHECK(rec[26 + kSectors + 5] == 1);
+  CHECK(rec[rec.size() - 1] == 1);
+  std::size_t nonzero = 0;
+  for (std::size_t i = 26; i < rec.size(); ++i) nonzero += rec[i] != 0;
+  CHECK(nonzero == 4);
+  KeyframePose back;
+  const std::vector<float> out = Decode(rec, &back);
+  CHECK(back.keyframe_index == pose.keyframe_index);
+  CHECK(out[0] == 4.0f);
+  CHECK(out[1] == doctest::Approx(128.0 * 4.0 / 255.0));
+  CHECK(out[kCells - 1] == doctest::Approx(4.0 / 255.0));  // the sign of a negative cell is lost (documented)
+}
+
+TEST_CASE("Scan Context record round trip: cells within scale / 510, empty stays empty, poses as the keyframe record") {
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  double max_t_err = 0.0, max_rot_err = 0.0, max_cell_ratio = 0.0;
+  int scans = 0;
+  for (int k = 0; k < 40; ++k) {
+    std::vector<float> sc;
+    if (k < 20) {
+      sc = StreetScanContext(-80.0f + 8.0f * static_cast<float>(k), 0.3f, 0.1f * static_cast<float>(k), 40u + k);
+    } else {  // random grids: a wide range of values, tiny cells, empty columns
+      sc.assign(kCells, 0.0f);
+      for (float& v : sc) v = u(rng) < 0.4f ? 0.0f : std::pow(10.0f, -4.0f + 6.0f * u(rng));
+    }
+    ++scans;
+    KeyframePose pose;
+    pose.keyframe_index = static_cast<std::uint32_t>(rng());
+    pose.T_map_sensor = RandomPose(rng, 10000.0);
+    KeyframePose back;
+    const std::vector<float> out = Decode(Encode(pose, sc), &back);
+    CHECK(back.keyframe_index == pose.keyframe_index);
+    max_t_err = std::max(max_t_err, (back.T_map_sensor.translation() - pose.T_map_sensor.translation()).cwiseAbs().maxCoeff());
+    max_rot_err = std::max(max_rot_err, RotationErrorRad(back.T_map_sensor.linear(), pose.T_map_sensor.linear()));
+    const double scale = static_cast<double>(Scale(sc));
+    for (std::size_t i = 0; i < kCells; ++i) {
+      const double v = static_cast<double>(sc[i]), o = static_cast<double>(out[i]);
+      if (v == 0.0) {
+        REQUIRE(o == 0.0);
+        continue;
+      }
+      REQUIRE(o > 0.0);  // non-empty stays non-empty
+      const double err = std::fabs(o - v);
+      if (v >= scale / 510.0) {
+        // Half a code step, plus the float rounding of the decoded value.
+        REQUIRE(err <= scale / 510.0 * (1.0 + 1e-6));
+        max_cell_ratio = std::max(max_cell_ratio, err / (scale / 510.0));
+      } else {
+        REQUIRE(o == doctest::Approx(scale / 255.0));  // lifted to code 1
+      }
+    }
+  }
+  MESSAGE("Scan Context record round trip over " << scans << " grids: max cell error / (scale / 510) "
+                                                 << max_cell_ratio << ", translation " << max_t_err * 1e3
+                                                 << " mm at 10 km, rotation " << max_rot_err << " rad");
+  CHECK(max_t_err <= 4.9e-4);  // the keyframe record's bounds
+  CHECK(max_rot_err < 2e-4);
+}
+
+TEST_CASE("Scan Context record: the distance after a round trip stays within its derived bound") {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> yaw(-3.14159f, 3.14159f);
+  std::vector<std::vector<float>> in, out;
+  for (int k = 0; k < 24; ++k) {
+    // Consecutive scans 3 m apart (near pairs) and further ones, turned at random.
+    in.push_back(StreetScanContext(-70.0f + 3.0f * static_cast<float>(k), 0.5f, yaw(rng), 70u + k));
+    out.push_back(Decode(Encode(KeyframePose{}, in.back())));
+  }
+  double max_dd = 0.0, sum_dd = 0.0, max_ratio = 0.0, max_near_dd = 0.0;
+  int pairs = 0;
+  for (std::size_t a = 0; a < in.size(); ++a) {
+    for (std::size_t b = 0; b < in.size(); ++b) {
+      const double d = MatchScanContext(in[a], in[b], kRings, kSectors).distance;
+      const double dq = MatchScanContext(out[a], out[b], kRings, kSectors).distance;
+      const double bound = MaxColumnAngle(in[a], out[a]) + MaxColumnAngle(in[b], out[b]) + 1e-9;
+      const double dd = std::fabs(dq - d);
+      CHECK(dd <= bound);
+      max_ratio = std::max(max_ratio, dd / bound);
+      max_dd = std::max(max_dd, dd);
+      if (d < 0.3) max_near_dd = std::max(max_near_dd, dd);
+      sum_dd += dd;
+      ++pairs;
+    }
+  }
+  MESSAGE("Scan Context record: " << pairs << " pairs, max |dD| " << max_dd << " (pairs below 0.3: " << max_near_dd
+                                  << "), mean " << sum_dd / pairs << ", max |dD| / derived bound " << max_ratio);
+  CHECK(max_dd < 3e-3);  // measured 2.1e-3 (descriptor_codec.hpp)
+}
+
+TEST_CASE("Scan Context record: encoder refusals") {
+  std::vector<float> sc(kCells, 0.0f);
+  sc[7] = 3.0f;
+  ScRecord rec(ScanContextRecordBytes(kRings, kSectors));
+  REQUIRE(EncodeScanContextRecord(KeyframePose{}, sc, kRings, kSectors, rec).ok());
+  const auto expect = [&](const KeyframePose& pose, const std::vector<float>& d, int rings, int sectors,
+                          std::size_t out_size, const char* words) {
+    ScRecord out(out_size);
+    const Status s = EncodeScanContextRecord(pose, d, rings, sectors, out);
+    CHECK_FALSE(s.ok());
+    CHECK(s.code() == StatusCode::kInvalidArgument);
+    CHECK_MESSAGE(s.message().find(words) != std::string::npos, s.message());
+  };
+  const std::size_t size = rec.size();
+  expect(KeyframePose{}, sc, kRings, kSectors, size - 1, "expected 1226");
+  expect(KeyframePose{}, sc, kRings, kSectors, size + 1, "expected 1226");
+  expect(KeyframePose{}, sc, 21, kSectors, ScanContextRecordBytes(21, kSectors), "holds 1200 values");
+  expect(KeyframePose{}, sc, kRings, 7, size, "grid 20 x 7");
+  std::vector<float> bad = sc;
+  bad[3] = std::numeric_limits<float>::quiet_NaN();
+  expect(KeyframePose{}, bad, kRings, kSectors, size, "value 3");
+  bad = sc;
+  bad[kCells - 1] = -std::numeric_limits<float>::infinity();
+  expect(KeyframePose{}, bad, kRings, kSectors, size, "finite");
+  expect(KeyframePose{}, std::vector<float>(kCells, 0.0f), kRings, kSectors, size, "all zero");
+  bad.assign(kCells, 0.0f);
+  bad[9] = -0.5f;
+  expect(KeyframePose{}, bad, kRings, kSectors, size, "no positive cell");
+  KeyframePose pose;
+  pose.T_map_sensor.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  expect(pose, sc, kRings, kSectors, size, "NaN/inf");
+  pose = KeyframePose{};
+  pose.T_map_sensor.translation().z() = 1e39;
+  expect(pose, sc, kRings, kSectors, size, "float32 range");
+  pose = KeyframePose{};
+  pose.T_map_sensor.linear() = Eigen::Vector3d(1, -1, 1).asDiagonal();  // a reflection
+  expect(pose, sc, kRings, kSectors, size, "not a rotation");
+}
+
+TEST_CASE("Scan Context record: decoder refusals (size, pose fields, scale, codes, grid)") {
+  std::vector<float> sc(kCells, 0.0f);
+  sc[100] = 6.0f;
+  sc[101] = 1.5f;
+  KeyframePose pose;
+  pose.keyframe_index = 42;
+  pose.T_map_sensor.translation() = Eigen::Vector3d(5.0, 6.0, 7.0);
+  pose.T_map_sensor.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const ScRecord good = Encode(pose, sc);
+  std::vector<float> out(kCells);
+  REQUIRE(DecodeScanContextRecord(good, kRings, kSectors, out).ok());
+
+  const auto expect = [&](const ScRecord& rec, const char* words) {
+    const auto r = DecodeScanContextRecord(rec, kRings, kSectors, out);
+    CHECK_FALSE(r.ok());
+    CHECK(r.status().code() == StatusCode::kDataLoss);
+    CHECK_MESSAGE(r.status().message().find(words) != std::string::npos, r.status().message());
+  };
+  for (const std::size_t n : {std::size_t{0}, std::size_t{22}, good.size() - 1, good.size() + 1}) {
+    ScRecord buf(n, 0x5a);
+    std::copy_n(good.begin(), std::min(n, good.size()), buf.begin());
+    expect(buf, "expected 1226");
+  }
+  ScRecord bad = good;
+  bad[21] |= 0x80;  // reserved rotation bit
+  expect(bad, "reserved");
+  bad = good;
+  bad[4 + 3] = 0x7f, bad[4 + 2] = 0xc0;  // translation x = NaN
+  expect(bad, "not finite");
+  bad = good;
+  {  // kept components (0.7, 0.7, 0.7): no smallest-three quaternion
+    const auto code = static_cast<std::uint64_t>(std::lround(0.7 * std::sqrt(2.0) * 16383));
+    const std::uint64_t f = code << 2 | code << 17 | code << 32;
+    for (int i = 0; i < 6; ++i) bad[16 + i] = static_cast<std::uint8_t>(f >> (8 * i));
+    expect(bad, "smallest-three");
+  }
+  const auto with_scale = [&](float scale) {
+    ScRecord r = good;
+    std::uint32_t u = 0;
+    std::memcpy(&u, &scale, 4);
+    for (int i = 0; i < 4; ++i) r[22 + i] = static_cast<std::uint8_t>(u >> (8 * i));
+    return r;
+  };
+  expect(with_scale(0.0f), "scale");
+  expect(with_scale(-1.0f), "scale");
+  expect(with_scale(std::numeric_limits<float>::quiet_NaN()), "scale");
+  expect(with_scale(std::numeric_limits<float>::infinity()), "scale");
+  CHECK(DecodeScanContextRecord(with_scale(2.0f), kRings, kSectors, out).ok());  // any finite positive scale
+  bad = good;
+  std::fill(bad.begin() + 26, bad.end(), std::uint8_t{0});
+  expect(bad, "no non-zero code");
+  bad = good;
+  for (std::size_t i = 26; i < bad.size(); ++i) bad[i] &= 0x7f;  // no code reaches 255
+  expect(bad, "largest code");
+  // The grid is the caller's: another grid of the same cell count decodes, another count does not fit.
+  std::vector<float> out_30(kCells);
+  CHECK(DecodeScanContextRecord(good, 40, 30, out_30).ok());
+  const auto other = DecodeScanContextRecord(good, 19, kSectors, Span<float>(out.data(), 19 * kSectors));
+  CHECK(other.status().code() == StatusCode::kDataLoss);
+  CHECK(DecodeScanContextRecord(good, kRings, 7, out).status().code() == StatusCode::kInvalidArgument);
+  CHECK(DecodeScanContextRecord(good, kRings, kSectors, Span<float>(out.data(), kCells - 1)).status().code() ==
+        StatusCode::kInvalidArgument);
+
+  // Random garbage of the right size: never a crash; whatever is accepted is finite and non-negative.
+  std::mt19937 rng(77);
+  ScRecord junk(good.size());
+  int accepted = 0;
+  for (int t = 0; t < 2000; ++t) {
+    for (auto& b : junk) b = static_cast<std::uint8_t>(rng());
+    const auto r = DecodeScanContextRecord(junk, kRings, kSectors, out);
+    if (!r.ok()) continue;
+    ++accepted;
+    CHECK(r->T_map_sensor.matrix().allFinite());
+    for (const float v : out) CHECK((std::isfinite(v) && v >= 0.0f));
+  }
+  MESSAGE("random 1226-byte garbage accepted: " << accepted << " / 2000");
+}
+
+}  // namespace sc_record_test
 
 }  // namespace
 }  // namespace commerge
