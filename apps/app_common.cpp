@@ -10,6 +10,7 @@
 #include "core/common/bytes.hpp"
 #include "core/common/number_text.hpp"
 #include "core/descriptor/ring_occupancy.hpp"
+#include "core/descriptor/scan_context.hpp"
 #include "core/descriptor/solid.hpp"
 #include "platform/memory/allocator.hpp"
 #include "platform/memory/budget_check.hpp"
@@ -140,9 +141,10 @@ void AddSolidMinZFlag(CLI::App* cmd, double* min_z_m) {
 void AddDescriptorFlags(CLI::App* cmd, DescriptorFlags* flags) {
   cmd->add_option("--descriptor", flags->name,
                   "the robots' place descriptor: ring (ours: occupancy of range rings by height above the ground, "
-                  "on the levelled scan) or solid (the paper's SOLiD on the raw scan); every robot of a team needs "
-                  "the same")
-      ->check(CLI::IsMember({"ring", "solid"}))
+                  "on the levelled scan), solid (the paper's SOLiD on the raw scan) or scan-context (Kim & Kim's "
+                  "20 x 60 Scan Context on the raw scan, 1226-byte keyframe records); every robot of a team and the "
+                  "server need the same")
+      ->check(CLI::IsMember({"ring", "solid", "scan-context"}))
       ->capture_default_str();
   cmd->add_option("--descriptor-window-m", flags->window_m,
                   "ring descriptor: the keyframes of the last this many metres of path join the scan (default: 5 "
@@ -152,7 +154,9 @@ void AddDescriptorFlags(CLI::App* cmd, DescriptorFlags* flags) {
   cmd->add_option("--tau-intra", flags->tau_intra,
                   "intra-robot loops: a keyframe's nearest earlier keyframe is a loop candidate (then checked by ICP) "
                   "when its descriptor distance is at most this (default: 0.15 for ring; SOLiD the paper's 0.05 for "
-                  "a spinning, 0.01 for a non-repetitive --lidar) [unit-vector L2 distance; paper: tau_intra]")
+                  "a spinning, 0.01 for a non-repetitive --lidar; scan-context 0.2, the Scan Context distance's usual "
+                  "loop threshold, not measured here) [unit-vector L2 distance; Scan Context distance; paper: "
+                  "tau_intra]")
       ->check(CLI::Range(0.0, 2.0));
   cmd->add_option("--tau-window", flags->tau_window_keyframes,
                   "intra-robot loops: the last this many keyframes are never candidates (paper: tau_window = 100)"
@@ -197,6 +201,7 @@ double ColocationHeadingDeg(const std::string& lidar) {
 
 double DefaultTauIntra(const std::string& descriptor, const std::string& lidar) {
   if (descriptor == "ring") return 0.15;
+  if (descriptor == "scan-context") return 0.2;
   return NonRepetitive(lidar) ? 0.01 : 0.05;
 }
 
@@ -208,13 +213,18 @@ void ApplySensorTauInter(bool tau_inter_given, const std::string& lidar, MergeSe
   }
 }
 
+KeyframeRecordKind RecordKindForDescriptor(const std::string& descriptor) {
+  return descriptor == "scan-context" ? KeyframeRecordKind::kScanContext : KeyframeRecordKind::kUnit40;
+}
+
 std::string CascadeSettingsText(const MergeServerParams& params) {
   const SequentialMatchParams& a = params.cascade.stage_a;
   std::string text = a.neighbour_rank == 0
                          ? "stage A tau_inter " + FormatNumber(a.tau_inter, 4) + " per cell"
                          : "stage A neighbour rank " + std::to_string(a.neighbour_rank) + " under tau_inter " +
                                FormatNumber(a.tau_inter, 4);
-  return text + ", stage B " + StageBCoverName(params.cover);
+  return text + (params.record_kind == KeyframeRecordKind::kScanContext ? " (Scan Context distance)" : "") +
+         ", stage B " + StageBCoverName(params.cover);
 }
 
 DescriptorInputParams RingDescriptorInput(const std::string& lidar) {
@@ -236,10 +246,24 @@ Result<RobotDescriptor> MakeRobotDescriptor(const DescriptorFlags& flags, const 
     out.text = "SOLiD " + lidar + ", " + SolidMinZText(*params) + ", on the raw scan";
     return out;
   }
-  if (flags.name != "ring") return InvalidArgument("--descriptor: unknown descriptor '" + flags.name + "' (ring, solid)");
+  if (flags.name != "ring" && flags.name != "scan-context") {
+    return InvalidArgument("--descriptor: unknown descriptor '" + flags.name + "' (ring, solid, scan-context)");
+  }
   if (std::isfinite(flags.solid_min_z_m)) {
-    return InvalidArgument("--solid-min-z-m: applies to --descriptor solid only (the ring descriptor finds the "
-                           "ground itself)");
+    return InvalidArgument("--solid-min-z-m: applies to --descriptor solid only (got --descriptor " + flags.name + ")");
+  }
+  if (flags.name == "scan-context") {
+    if (auto preset = SolidPresetFor(lidar); !preset.ok()) {
+      return Status(preset.status().code(), "--lidar: " + preset.status().message());
+    }
+    ScanContextParams params;  // the wire's grid, 80 m, sensor 2 m above the ground (Kim & Kim)
+    params.num_rings = kScanContextWireRings;
+    params.num_sectors = kScanContextWireSectors;
+    auto sc = ScanContextDescriptor::Create(params);
+    if (!sc.ok()) return sc.status();
+    out.descriptor = std::make_unique<ScanContextDescriptor>(std::move(*sc));
+    out.text = "Scan Context 20 x 60 to 80 m on the raw scan";
+    return out;
   }
   if (auto preset = SolidPresetFor(lidar); !preset.ok()) {
     return Status(preset.status().code(), "--lidar: " + preset.status().message());

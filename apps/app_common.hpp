@@ -104,6 +104,8 @@ double PaperTauInter(const std::string& lidar);
 /// every cell (--neighbour-rank 0, the paper's stage A), tau_inter becomes PaperTauInter(lidar). With a neighbour
 /// rank it stays a cap (MergeServerParams{}: 0.5, measured by the recall benchmark for every sensor).
 void ApplySensorTauInter(bool tau_inter_given, const std::string& lidar, MergeServerParams* params);
+/// The keyframe records of a --descriptor (scan-context: Scan Context records; ring and solid: 40 unit values).
+KeyframeRecordKind RecordKindForDescriptor(const std::string& descriptor);
 /// Stage A's threshold and stage B's cover in words, for the start-up line of run and server:
 /// "stage A tau_inter 0.05 per cell, stage B pairwise" or "stage A neighbour rank 1 under tau_inter 0.5, ...".
 std::string CascadeSettingsText(const MergeServerParams& params);

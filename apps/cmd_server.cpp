@@ -44,6 +44,7 @@ struct ServerOptions {
   std::string mode = "A+B+C";
   std::string lcm_url;
   std::string lidar = "hdl-64e";  ///< the robots' --lidar: heading tolerance of descriptor agreement
+  std::string descriptor = "ring";  ///< the robots' --descriptor: the keyframe records taken
   double round_interval_s = 10.0;
   double round_quiet_s = 3.0;
   double request_timeout_s = 60.0;
@@ -119,6 +120,7 @@ int ServerProcess::Configure() {
   }
   mode_ = *mode;
   server_params_ = o_.server;
+  server_params_.record_kind = RecordKindForDescriptor(o_.descriptor);
   server_params_.max_submap_points = static_cast<std::size_t>(setup_.config.max_submap_points);
   if (Result<LidarSensor> sensor = LidarSensorFor(o_.lidar); !sensor.ok()) {
     std::fprintf(stderr, "%s: --lidar: %s\n", kTag, sensor.status().message().c_str());
@@ -457,6 +459,12 @@ Command AddServerCommand(CLI::App& root) {
   cmd->add_option("--lidar", o->lidar, "the robots' --lidar preset (hdl-64e, vlp-16, os1-64, os1-128, os2-128, avia, "
                   "aeva): a forward-looking sensor's field of view limits which keyframes see one scene "
                   "(--max-colocated-chance)")->capture_default_str();
+  cmd->add_option("--descriptor", o->descriptor,
+                  "the robots' --descriptor: ring and solid send 92-byte records of 40 values, scan-context 1226-byte "
+                  "Scan Context records compared by the Scan Context distance; batches of the other kind are "
+                  "refused and counted")
+      ->check(CLI::IsMember({"ring", "solid", "scan-context"}))
+      ->capture_default_str();
   cmd->add_option("--round-interval-s", o->round_interval_s, "merge rounds start at most this often [s]")
       ->capture_default_str();
   cmd->add_option("--round-quiet-s", o->round_quiet_s, "start a round when new keyframes arrived and the robots "

@@ -137,8 +137,10 @@ int SetUpRun(RunJob* job) {
     return Fail(*job, kExitUsage, "--robots " + std::to_string(job->memory.config.max_robots) + " is fewer than the " +
                                       std::to_string(job->num_robots()) + " datasets");
   }
+  MergeServerParams shown = o.server;
+  shown.record_kind = RecordKindForDescriptor(o.descriptor.name);
   std::printf("%s: %d robots; descriptor: %s; %s; %s\n", job->tag, job->num_robots(), job->descriptor_text.c_str(),
-              CascadeSettingsText(o.server).c_str(), job->memory.verdict.c_str());
+              CascadeSettingsText(shown).c_str(), job->memory.verdict.c_str());
   std::error_code ec;
   job->report_dir = o.out_dir + "/report";
   std::filesystem::create_directories(job->report_dir, ec);
@@ -146,6 +148,7 @@ int SetUpRun(RunJob* job) {
   if (ec) return Fail(*job, kExitFailure, "cannot create " + o.out_dir + ": " + ec.message());
 
   MergeServerParams server_params = o.server;
+  server_params.record_kind = RecordKindForDescriptor(o.descriptor.name);
   server_params.max_submap_points = static_cast<std::size_t>(job->memory.config.max_submap_points);
   server_params.colocation.max_heading_deg = ColocationHeadingDeg(o.sensor);
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) return Fail(*job, kExitUsage, st.message());

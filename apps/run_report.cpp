@@ -181,6 +181,8 @@ DistanceQuantiles DescriptorSeparation(const RunJob& job, int a, int b) {
   const Trajectories& ta = job.trajectories[static_cast<std::size_t>(a)];
   const Trajectories& tb = job.trajectories[static_cast<std::size_t>(b)];
   const double max_heading_rad = SharedPlaceFor(job).max_heading_deg * kDegToRad;
+  const DescriptorMetric& metric = job.server->params().cascade.metric;
+  const bool scan_context = metric.kind != DescriptorMetric::Kind::kUnitL2;
   std::vector<float> same, different;
   for (std::size_t i = 0; i < A.size() && i < ta.ground_truth.size(); ++i) {
     if (!A.valid[i]) continue;
@@ -192,11 +194,11 @@ DistanceQuantiles DescriptorSeparation(const RunJob& job, int a, int b) {
           RotationAngleRad(Eigen::AngleAxisd(YawRad(ta.ground_truth[i].linear()) - YawRad(tb.ground_truth[j].linear()),
                                              Eigen::Vector3d::UnitZ()).toRotationMatrix());
       if (d <= kTruePairM && heading > max_heading_rad) continue;
-      float dot = 0.0f;
-      for (std::size_t k = 0; k < kKeyframeDescriptorDim; ++k) {
-        dot += A.descriptors[i * kKeyframeDescriptorDim + k] * B.descriptors[j * kKeyframeDescriptorDim + k];
-      }
-      (d <= kTruePairM ? same : different).push_back(std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot)));
+      // The Scan Context distance costs ~1000x a dot product: every true pair, but every 31st false pair only.
+      if (d > kTruePairM && scan_context && (i + j) % 31 != 0) continue;
+      const double distance = DescriptorDistance(metric, Span<const float>(&A.descriptors[i * A.dim], A.dim),
+                                                 Span<const float>(&B.descriptors[j * B.dim], B.dim));
+      (d <= kTruePairM ? same : different).push_back(static_cast<float>(distance));
     }
   }
   out.true_pairs = same.size();
@@ -385,24 +387,34 @@ void WriteMergeFiles(const RunJob& job, MergedMapBuilder* after, MergedMapBuilde
 }
 
 // Min-pooled descriptor distance matrix (rows = alpha keyframes) for the report picture.
-platform::HeatmapInput AffinityPicture(const RobotKeyframeDb& a, const RobotKeyframeDb& b, int max_cells) {
+platform::HeatmapInput AffinityPicture(const RobotKeyframeDb& a, const RobotKeyframeDb& b, int max_cells,
+                                       const DescriptorMetric& metric) {
   platform::HeatmapInput h;
   h.rows = static_cast<int>(std::min<std::size_t>(a.size(), static_cast<std::size_t>(max_cells)));
   h.cols = static_cast<int>(std::min<std::size_t>(b.size(), static_cast<std::size_t>(max_cells)));
   h.values.assign(static_cast<std::size_t>(h.rows) * static_cast<std::size_t>(h.cols), std::nanf(""));
-  const std::size_t D = kKeyframeDescriptorDim;
-  // Subsample very large matrices (at most ~40M distances): the picture needs the structure, not every cell.
-  const std::size_t stride_a = std::max<std::size_t>(1, a.size() * b.size() / 40000000 + 1);
-  for (std::size_t i = 0; i < a.size(); i += (stride_a > 1 ? stride_a : 1)) {
+  const std::size_t D = a.dim;
+  const bool unit = metric.kind == DescriptorMetric::Kind::kUnitL2;
+  // Subsample very large matrices (at most ~40M unit-L2 distances, ~40k Scan Context ones): the picture needs the
+  // structure, not every cell.
+  const std::size_t budget = unit ? 40000000 : 40000;
+  const std::size_t stride_a = std::max<std::size_t>(1, a.size() * b.size() / budget + 1);
+  const std::size_t stride_b = unit ? 1 : stride_a;
+  for (std::size_t i = 0; i < a.size(); i += stride_a) {
     if (!a.valid[i]) continue;
     const int pr = static_cast<int>(i * static_cast<std::size_t>(h.rows) / a.size());
     const float* x = &a.descriptors[i * D];
-    for (std::size_t j = 0; j < b.size(); ++j) {
+    for (std::size_t j = 0; j < b.size(); j += stride_b) {
       if (!b.valid[j]) continue;
       const float* y = &b.descriptors[j * D];
-      float dot = 0.0f;
-      for (std::size_t d = 0; d < D; ++d) dot += x[d] * y[d];
-      const float dist = std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot));
+      float dist = 0.0f;
+      if (unit) {
+        float dot = 0.0f;
+        for (std::size_t d = 0; d < D; ++d) dot += x[d] * y[d];
+        dist = std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot));
+      } else {
+        dist = static_cast<float>(DescriptorDistance(metric, Span<const float>(x, D), Span<const float>(y, D)));
+      }
       const int pc = static_cast<int>(j * static_cast<std::size_t>(h.cols) / b.size());
       float& v = h.values[static_cast<std::size_t>(pr) * static_cast<std::size_t>(h.cols) + static_cast<std::size_t>(pc)];
       if (std::isnan(v) || dist < v) v = dist;
@@ -439,7 +451,7 @@ void WriteAffinityPictures(const RunJob& job, ReportWriter* rep) {
       if (!c) continue;
       const RobotKeyframeDb& A = job.server->robot(a);
       const RobotKeyframeDb& B = job.server->robot(b);
-      platform::HeatmapInput h = AffinityPicture(A, B, 800);
+      platform::HeatmapInput h = AffinityPicture(A, B, 800, job.server->params().cascade.metric);
       if (c->stage_a.found) {
         platform::HeatmapRect rect;
         rect.row0 = CellOf(c->stage_a.best.row_min, A.size(), h.rows);
@@ -719,7 +731,7 @@ void DumpKeyframes(const RunJob& job) {
       continue;
     }
     std::fprintf(f, "# keyframe valid x y z yaw_deg (map frame) gx gy gz gyaw_deg (ground truth, nan without) "
-                    "then the %zu descriptor values\n", kKeyframeDescriptorDim);
+                    "then the %zu descriptor values\n", db.dim);
     for (std::size_t k = 0; k < db.size(); ++k) {
       const Eigen::Isometry3d& T = db.T_map_sensor[k];
       const bool gt = k < t.ground_truth.size();
@@ -729,7 +741,7 @@ void DumpKeyframes(const RunJob& job) {
                    T.translation().y(), T.translation().z(), YawRad(T.linear()) * kRadToDeg,
                    gt ? G.translation().x() : nan, gt ? G.translation().y() : nan, gt ? G.translation().z() : nan,
                    gt ? YawRad(G.linear()) * kRadToDeg : nan);
-      for (std::size_t d = 0; d < kKeyframeDescriptorDim; ++d) std::fprintf(f, " %.6g", static_cast<double>(db.descriptors[k * kKeyframeDescriptorDim + d]));
+      for (std::size_t d = 0; d < db.dim; ++d) std::fprintf(f, " %.6g", static_cast<double>(db.descriptors[k * db.dim + d]));
       std::fprintf(f, "\n");
     }
     std::fclose(f);

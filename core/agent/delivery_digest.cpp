@@ -26,9 +26,9 @@ void Mix(std::uint64_t* h, const void* data, std::size_t n) {
   }
 }
 
-void MixKeyframe(std::uint64_t* h, std::uint32_t index, const float* descriptor) {
+void MixKeyframe(std::uint64_t* h, std::uint32_t index, const float* descriptor, std::size_t dim) {
   Mix(h, &index, sizeof(index));
-  Mix(h, descriptor, kKeyframeDescriptorDim * sizeof(float));
+  Mix(h, descriptor, dim * sizeof(float));
 }
 
 }  // namespace
@@ -45,21 +45,21 @@ Result<DeliveryDigest> RobotDeliveryDigest(const RobotMapper& mapper) {
   d.digest = kFnvOffset;
   d.keyframes = mapper.num_keyframes();
   d.delivered = d.keyframes;
-  std::vector<std::uint8_t> bytes(kKeyframeRecordBytes);
+  // The record kind RobotAgent sends for this mapper's descriptor.
+  const KeyframeRecordKind kind = mapper.descriptor_kind() == DescriptorKind::kScanContext
+                                      ? KeyframeRecordKind::kScanContext
+                                      : KeyframeRecordKind::kUnit40;
+  std::vector<std::uint8_t> bytes(KeyframeRecordBytesOf(kind));
+  std::vector<float> sent(KeyframeRecordDimOf(kind));
   for (std::size_t k = 0; k < mapper.num_keyframes(); ++k) {
     if (!mapper.descriptor_valid(k)) continue;
-    KeyframeRecord record;
-    record.keyframe_index = static_cast<std::uint32_t>(k);
-    record.T_map_sensor = mapper.pose(k);
-    const Span<const float> descriptor = mapper.descriptor(k);
-    if (descriptor.size() < kKeyframeDescriptorDim) return InvalidArgument("keyframe " + std::to_string(k) + ": descriptor shorter than the record's");
-    std::copy(descriptor.begin(), descriptor.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim),
-              record.descriptor.begin());
-    record.descriptor_valid = true;
-    if (Status st = EncodeKeyframeRecord(record, Span<std::uint8_t>(bytes)); !st.ok()) return st;
-    auto sent = DecodeKeyframeRecord(Span<const std::uint8_t>(bytes));
-    if (!sent.ok()) return sent.status();
-    MixKeyframe(&d.digest, record.keyframe_index, sent->descriptor.data());
+    const KeyframePose pose{static_cast<std::uint32_t>(k), mapper.pose(k)};
+    if (Status st = EncodeRecordOfKind(kind, pose, mapper.descriptor(k), Span<std::uint8_t>(bytes)); !st.ok()) {
+      return st;
+    }
+    auto decoded = DecodeRecordOfKind(kind, Span<const std::uint8_t>(bytes), Span<float>(sent));
+    if (!decoded.ok()) return decoded.status();
+    MixKeyframe(&d.digest, pose.keyframe_index, sent.data(), sent.size());
     ++d.descriptors;
   }
   return d;
@@ -72,7 +72,7 @@ DeliveryDigest ServerDeliveryDigest(const RobotKeyframeDb& db) {
   for (std::size_t k = 0; k < db.size(); ++k) {
     if (db.delivered(k)) ++d.delivered;
     if (!db.valid[k]) continue;
-    MixKeyframe(&d.digest, static_cast<std::uint32_t>(k), &db.descriptors[k * kKeyframeDescriptorDim]);
+    MixKeyframe(&d.digest, static_cast<std::uint32_t>(k), &db.descriptors[k * db.dim], db.dim);
     ++d.descriptors;
   }
   return d;

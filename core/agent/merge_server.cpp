@@ -181,7 +181,19 @@ MergeServer::MergeServer(int max_robots, std::size_t max_keyframes_per_robot, co
     params_status_ = InvalidArgument("max_keyframes_per_robot = " + std::to_string(max_keyframes_per_robot) +
                                      " is outside 1..2^31");
   }
+  if (params_status_.ok() && KeyframeRecordDimOf(params.record_kind) == 0) {
+    params_status_ = InvalidArgument("record_kind " + std::to_string(static_cast<int>(params.record_kind)) +
+                                     " is not a keyframe record kind");
+  }
   robots_.resize(params_status_.ok() ? static_cast<std::size_t>(max_robots) : 0);
+  for (RobotKeyframeDb& db : robots_) db.dim = KeyframeRecordDimOf(params.record_kind);
+  // The descriptors' distance follows from the records the server takes.
+  params_.cascade.metric.kind = params.record_kind == KeyframeRecordKind::kScanContext
+                                    ? DescriptorMetric::Kind::kScanContext
+                                    : DescriptorMetric::Kind::kUnitL2;
+  params_.cascade.metric.scan_context_rings = kScanContextWireRings;
+  params_.cascade.metric.scan_context_sectors = kScanContextWireSectors;
+  record_descriptor_.resize(KeyframeRecordDimOf(params.record_kind));
 }
 
 Status MergeServer::Reject(std::uint64_t* counter, Status status) {
@@ -201,7 +213,7 @@ Status MergeServer::EnsureKeyframe(int robot, std::uint32_t keyframe) {
   RobotKeyframeDb& db = robots_[static_cast<std::size_t>(robot)];
   if (keyframe < db.size()) return Status::Ok();
   const std::size_t n = static_cast<std::size_t>(keyframe) + 1;
-  db.descriptors.resize(n * kKeyframeDescriptorDim, 0.0f);
+  db.descriptors.resize(n * db.dim, 0.0f);
   db.valid.resize(n, 0);
   db.pose_known.resize(n, 0);
   db.no_descriptor.resize(n, 0);
@@ -231,21 +243,31 @@ Status MergeServer::DescriptorIdError(const KeyframeBatch& batch) const {
                          " of its earlier batches in this session");
 }
 
+Status MergeServer::RecordKindError(const KeyframeBatch& batch) const {
+  if (batch.record_kind == params_.record_kind) return Status::Ok();
+  return InvalidArgument("keyframe batch " + std::to_string(batch.sequence) + " of " + RobotText(batch.robot_id) +
+                         " carries " + KeyframeRecordKindName(batch.record_kind) + " records; this server takes " +
+                         KeyframeRecordKindName(params_.record_kind) +
+                         " records (start the robots and the server with the same --descriptor)");
+}
+
 Status MergeServer::CheckKeyframeBatch(const KeyframeBatch& batch) const {
   if (!params_status_.ok()) return params_status_;
   if (batch.robot_id < 0 || batch.robot_id >= max_robots()) {
     return InvalidArgument("keyframe batch: robot_id " + std::to_string(batch.robot_id) + " is outside 0.." +
                            std::to_string(max_robots() - 1));
   }
-  const std::size_t n = batch.num_records();
-  if (batch.records.size() != n * kKeyframeRecordBytes || batch.stored_points.size() != n ||
-      n > kMaxRecordsPerBatch) {
+  if (Status st = RecordKindError(batch); !st.ok()) return st;
+  const std::size_t n = batch.num_records(), bytes = KeyframeRecordBytesOf(params_.record_kind);
+  if (batch.records.size() != n * bytes || batch.stored_points.size() != n || n > kMaxRecordsPerBatch) {
     return InvalidArgument("keyframe batch of " + RobotText(batch.robot_id) + ": malformed record arrays");
   }
   Status first_error = InvalidArgument("keyframe batch of " + RobotText(batch.robot_id) + " has no record");
+  std::vector<float> descriptor(KeyframeRecordDimOf(params_.record_kind));
   for (std::size_t i = 0; i < n; ++i) {
-    auto record = DecodeKeyframeRecord(
-        Span<const std::uint8_t>(batch.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
+    auto record = DecodeRecordOfKind(params_.record_kind,
+                                     Span<const std::uint8_t>(batch.records.data() + i * bytes, bytes),
+                                     Span<float>(descriptor));
     if (record.ok() && record->keyframe_index < max_keyframes_) return Status::Ok();
     if (i == 0) first_error = record.ok() ? CapacityError(batch.robot_id, record->keyframe_index) : record.status();
   }
@@ -258,22 +280,23 @@ Status MergeServer::OnKeyframeBatch(const KeyframeBatch& batch) {
     return Reject(&stats_.rejected_batches, InvalidArgument("keyframe batch: robot_id " + std::to_string(batch.robot_id) +
                                                             " is outside 0.." + std::to_string(max_robots() - 1)));
   }
-  const std::size_t n = batch.num_records();
-  if (batch.records.size() != n * kKeyframeRecordBytes || batch.stored_points.size() != n ||
-      n > kMaxRecordsPerBatch) {
+  if (Status st = RecordKindError(batch); !st.ok()) return Reject(&stats_.rejected_batches, st);
+  const std::size_t n = batch.num_records(), bytes = KeyframeRecordBytesOf(params_.record_kind);
+  if (batch.records.size() != n * bytes || batch.stored_points.size() != n || n > kMaxRecordsPerBatch) {
     return Reject(&stats_.rejected_batches,
                   InvalidArgument("keyframe batch of " + RobotText(batch.robot_id) + ": " +
                                   std::to_string(batch.records.size()) + " record bytes and " +
                                   std::to_string(batch.stored_points.size()) +
                                   " point counts do not describe 1.." + std::to_string(kMaxRecordsPerBatch) +
-                                  " records of " + std::to_string(kKeyframeRecordBytes) + " bytes"));
+                                  " records of " + std::to_string(bytes) + " bytes"));
   }
   if (Status st = DescriptorIdError(batch); !st.ok()) return Reject(&stats_.rejected_batches, st);
   ++stats_.batches;
   Status first_error;
   for (std::size_t i = 0; i < n; ++i) {
-    auto record = DecodeKeyframeRecord(
-        Span<const std::uint8_t>(batch.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
+    auto record = DecodeRecordOfKind(params_.record_kind,
+                                     Span<const std::uint8_t>(batch.records.data() + i * bytes, bytes),
+                                     Span<float>(record_descriptor_));
     Status st = record.ok() ? EnsureKeyframe(batch.robot_id, record->keyframe_index) : record.status();
     if (!st.ok()) {
       Status named(st.code(), "keyframe batch " + std::to_string(batch.sequence) + " of " + RobotText(batch.robot_id) +
@@ -284,8 +307,8 @@ Status MergeServer::OnKeyframeBatch(const KeyframeBatch& batch) {
     }
     RobotKeyframeDb& db = robots_[static_cast<std::size_t>(batch.robot_id)];
     const std::size_t k = record->keyframe_index;
-    std::copy(record->descriptor.begin(), record->descriptor.end(),
-              db.descriptors.begin() + static_cast<std::ptrdiff_t>(k * kKeyframeDescriptorDim));
+    std::copy(record_descriptor_.begin(), record_descriptor_.end(),
+              db.descriptors.begin() + static_cast<std::ptrdiff_t>(k * db.dim));
     db.valid[k] = 1;
     db.pose_known[k] = 1;
     db.T_map_sensor[k] = record->T_map_sensor;
@@ -497,7 +520,7 @@ Status MergeServer::RunCascades() {
   }
   const auto input = [&](int r) {
     const RobotKeyframeDb& db = robots_[static_cast<std::size_t>(r)];
-    return CascadeRobotInput{{Span<const float>(db.descriptors), kKeyframeDescriptorDim, Span<const std::uint8_t>(db.valid)},
+    return CascadeRobotInput{{Span<const float>(db.descriptors), db.dim, Span<const std::uint8_t>(db.valid)},
                              Span<const Eigen::Vector3d>(positions[static_cast<std::size_t>(r)]),
                              Span<const std::uint32_t>(db.stored_points)};
   };
@@ -932,7 +955,8 @@ void MergeServer::MeasureColocation(const PairState& state, PairMergeResult* res
   auto colocated = ColocatedKeyframes(
       {Span<const float>(A.descriptors), Span<const std::uint8_t>(A.valid), Span<const Eigen::Isometry3d>(A.T_map_sensor)},
       {Span<const float>(B.descriptors), Span<const std::uint8_t>(B.valid), Span<const Eigen::Isometry3d>(B.T_map_sensor)},
-      kKeyframeDescriptorDim, result->registration.T_target_source, params_.colocation, from, to, &colocated_keyframes);
+      A.dim, result->registration.T_target_source, params_.colocation, from, to, &colocated_keyframes,
+      params_.cascade.metric);
   if (!colocated.ok()) return;
   result->colocated_keyframes = colocated_keyframes;
   result->colocated_chance = MedianChance(Span<const ColocatedKeyframe>(*colocated), 1, 0, nullptr);

@@ -71,6 +71,10 @@ PlaceConsensusParams ChainAgreementDefaults();
 
 struct MergeServerParams {
   ExchangeCascadeParams cascade = ServerCascadeDefaults();
+  /// The keyframe records this server takes (--descriptor: SOLiD and the ring descriptor send kUnit40, Scan
+  /// Context kScanContext); a batch of another kind is refused and counted. Stage A, the place ambiguity and the
+  /// descriptor agreement compare descriptors by the kind's distance (unit L2, or the Scan Context distance).
+  KeyframeRecordKind record_kind = KeyframeRecordKind::kUnit40;
   /// Stage B per pair or one joint cover over every pair that stage A passed on (with one such pair both are the
   /// pair's own cover).
   StageBCover cover = StageBCover::kPairwise;
@@ -149,7 +153,8 @@ bool RegistrationAtConfirmedPlace(const ExchangeCascadeResult& cascade, const Me
 
 /// The server's copy of one robot's keyframes.
 struct RobotKeyframeDb {
-  std::vector<float> descriptors;          ///< keyframe x kKeyframeDescriptorDim (zeros where invalid)
+  std::size_t dim = kKeyframeDescriptorDim;  ///< floats per descriptor (KeyframeRecordDimOf the server's kind)
+  std::vector<float> descriptors;          ///< keyframe x dim (zeros where invalid)
   std::vector<std::uint8_t> valid;         ///< descriptor received
   std::vector<std::uint8_t> pose_known;    ///< pose received (record or pose update)
   std::vector<std::uint8_t> no_descriptor; ///< the robot said the keyframe has no valid descriptor (pose only)
@@ -336,6 +341,8 @@ class MergeServer {
   Status Reject(std::uint64_t* counter, Status status);
   // InvalidArgument when the batch's descriptor id conflicts with the one its robot's earlier batches set.
   Status DescriptorIdError(const KeyframeBatch& batch) const;
+  // InvalidArgument when the batch's records are not of the kind this server takes (params.record_kind).
+  Status RecordKindError(const KeyframeBatch& batch) const;
   Status CapacityError(int robot, std::uint32_t keyframe) const;
   Status EnsureKeyframe(int robot, std::uint32_t keyframe);
   const PairState* FindPair(int alpha, int beta) const;
@@ -361,6 +368,7 @@ class MergeServer {
   SubmapRegistration registration_;
   VoxelGrid voxel_grid_;
   std::vector<PointXYZI> scan_points_, union_points_, alpha_points_, beta_points_;
+  std::vector<float> record_descriptor_;  ///< one decoded record's descriptor
   std::vector<Eigen::Vector3d> alpha_origins_, beta_origins_;
   std::vector<std::vector<Eigen::Vector3d>> positions_;  ///< per robot, the cascade's keyframe positions
   std::uint64_t partial_flag_bytes_ = 0;                 ///< chunk flags of the partial scans

@@ -66,13 +66,17 @@ struct KeyframeBatch {
   int robot_id = 0;
   std::int64_t session = 0;  ///< the robot process's session id (> 0)
   std::int32_t sequence = 0;
-  /// num_records x kKeyframeRecordBytes bytes of descriptor_codec records.
+  /// What the records carry: num_records x KeyframeRecordBytesOf(record_kind) bytes of descriptor_codec records.
+  KeyframeRecordKind record_kind = KeyframeRecordKind::kUnit40;
   std::vector<std::uint8_t> records;
   /// Points of each keyframe's stored scan (0 = not stored), one per record.
   std::vector<std::uint32_t> stored_points;
   /// PlaceDescriptor::parameter_id() of the records' descriptors: only descriptors of one id are comparable.
   std::uint32_t descriptor_id = 0;
-  std::size_t num_records() const noexcept { return records.size() / kKeyframeRecordBytes; }
+  std::size_t num_records() const noexcept {
+    const std::size_t bytes = KeyframeRecordBytesOf(record_kind);
+    return bytes == 0 ? 0 : records.size() / bytes;
+  }
 };
 
 /// Poses moved by loop closure, and poses of keyframes without a valid descriptor (robot -> server).

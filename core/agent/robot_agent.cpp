@@ -41,10 +41,15 @@ RobotAgent::RobotAgent(int robot_id, const RobotAgentParams& params, const Robot
     params_status_ = InvalidArgument("robot id " + std::to_string(robot_id) + " is outside 0.." +
                                      std::to_string(kMaxRobotId));
   }
-  if (params_status_.ok() && descriptor != nullptr && descriptor->dimension() != kKeyframeDescriptorDim) {
-    params_status_ = InvalidArgument("the place descriptor has " + std::to_string(descriptor->dimension()) +
-                                     " values; the keyframe record carries " +
-                                     std::to_string(kKeyframeDescriptorDim) + " (R-SOLiD)");
+  if (params_status_.ok() && descriptor != nullptr) {
+    // The record that carries the descriptor: 40 unit values (SOLiD, ring occupancy) or the Scan Context grid.
+    record_kind_ = descriptor->kind() == DescriptorKind::kScanContext ? KeyframeRecordKind::kScanContext
+                                                                      : KeyframeRecordKind::kUnit40;
+    if (descriptor->dimension() != KeyframeRecordDimOf(record_kind_)) {
+      params_status_ = InvalidArgument("the place descriptor has " + std::to_string(descriptor->dimension()) +
+                                       " values; its keyframe record (" + KeyframeRecordKindName(record_kind_) +
+                                       ") carries " + std::to_string(KeyframeRecordDimOf(record_kind_)));
+    }
   }
   pose_dirty_.assign(capacity.max_keyframes, 0);
   resend_.assign(capacity.max_keyframes, 0);
@@ -177,6 +182,7 @@ Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch*
   batch->robot_id = robot_id_;
   batch->session = session_;
   batch->descriptor_id = mapper_.descriptor_parameter_id();
+  batch->record_kind = record_kind_;
   batch->records.clear();
   batch->stored_points.clear();
   std::size_t records = 0;
@@ -214,15 +220,11 @@ Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch*
 
 Status RobotAgent::AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBatch* batch) {
   {
-    KeyframeRecord record;
-    record.keyframe_index = static_cast<std::uint32_t>(k);
-    record.T_map_sensor = mapper_.pose(k);
-    const Span<const float> d = mapper_.descriptor(k);
-    std::copy(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim), record.descriptor.begin());
-    record.descriptor_valid = true;
-    const std::size_t offset = batch->records.size();
-    batch->records.resize(offset + kKeyframeRecordBytes);
-    if (Status st = EncodeKeyframeRecord(record, Span<std::uint8_t>(batch->records.data() + offset, kKeyframeRecordBytes));
+    const KeyframePose pose{static_cast<std::uint32_t>(k), mapper_.pose(k)};
+    const std::size_t offset = batch->records.size(), bytes = KeyframeRecordBytesOf(record_kind_);
+    batch->records.resize(offset + bytes);
+    if (Status st = EncodeRecordOfKind(record_kind_, pose, mapper_.descriptor(k),
+                                       Span<std::uint8_t>(batch->records.data() + offset, bytes));
         !st.ok()) {
       batch->records.resize(offset);
       return Status(st.code(), "robot " + std::to_string(robot_id_) + " keyframe " + std::to_string(k) + ": " +

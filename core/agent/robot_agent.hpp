@@ -133,6 +133,7 @@ class RobotAgent {
   bool MovedSinceSent(std::size_t keyframe, double min_translation_m, double min_rotation_deg) const;
 
   int robot_id_;
+  KeyframeRecordKind record_kind_ = KeyframeRecordKind::kUnit40;  ///< of the descriptor given at construction
   RobotAgentParams params_;
   Status params_status_;
   ScanStore* store_;

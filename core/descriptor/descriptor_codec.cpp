@@ -413,4 +413,70 @@ Status DecodeFloat16(Span<const std::uint8_t> bytes, Span<float> out) {
   return Status::Ok();
 }
 
+const char* KeyframeRecordKindName(KeyframeRecordKind kind) noexcept {
+  switch (kind) {
+    case KeyframeRecordKind::kUnit40: return "unit-40";
+    case KeyframeRecordKind::kScanContext: return "scan-context";
+  }
+  return "unknown";
+}
+
+bool IsKeyframeRecordKind(std::uint8_t wire_value) noexcept {
+  return wire_value == static_cast<std::uint8_t>(KeyframeRecordKind::kUnit40) ||
+         wire_value == static_cast<std::uint8_t>(KeyframeRecordKind::kScanContext);
+}
+
+std::size_t KeyframeRecordBytesOf(KeyframeRecordKind kind) noexcept {
+  switch (kind) {
+    case KeyframeRecordKind::kUnit40: return kKeyframeRecordBytes;
+    case KeyframeRecordKind::kScanContext: return ScanContextRecordBytes(kScanContextWireRings, kScanContextWireSectors);
+  }
+  return 0;
+}
+
+std::size_t KeyframeRecordDimOf(KeyframeRecordKind kind) noexcept {
+  switch (kind) {
+    case KeyframeRecordKind::kUnit40: return kKeyframeDescriptorDim;
+    case KeyframeRecordKind::kScanContext:
+      return static_cast<std::size_t>(kScanContextWireRings) * static_cast<std::size_t>(kScanContextWireSectors);
+  }
+  return 0;
+}
+
+Status EncodeRecordOfKind(KeyframeRecordKind kind, const KeyframePose& pose, Span<const float> descriptor,
+                          Span<std::uint8_t> out) {
+  const std::size_t dim = KeyframeRecordDimOf(kind);
+  if (dim == 0) return InvalidArgument("keyframe record: unknown kind " + std::to_string(static_cast<int>(kind)));
+  if (descriptor.size() != dim) {
+    return InvalidArgument(std::string("keyframe record (") + KeyframeRecordKindName(kind) + "): descriptor of " +
+                           std::to_string(descriptor.size()) + " values, expected " + std::to_string(dim));
+  }
+  if (kind == KeyframeRecordKind::kScanContext) {
+    return EncodeScanContextRecord(pose, descriptor, kScanContextWireRings, kScanContextWireSectors, out);
+  }
+  KeyframeRecord record;
+  record.keyframe_index = pose.keyframe_index;
+  record.T_map_sensor = pose.T_map_sensor;
+  std::copy(descriptor.begin(), descriptor.end(), record.descriptor.begin());
+  record.descriptor_valid = true;
+  return EncodeKeyframeRecord(record, out);
+}
+
+Result<KeyframePose> DecodeRecordOfKind(KeyframeRecordKind kind, Span<const std::uint8_t> bytes,
+                                        Span<float> descriptor) {
+  const std::size_t dim = KeyframeRecordDimOf(kind);
+  if (dim == 0) return InvalidArgument("keyframe record: unknown kind " + std::to_string(static_cast<int>(kind)));
+  if (descriptor.size() != dim) {
+    return InvalidArgument(std::string("keyframe record (") + KeyframeRecordKindName(kind) + "): descriptor of " +
+                           std::to_string(descriptor.size()) + " values, expected " + std::to_string(dim));
+  }
+  if (kind == KeyframeRecordKind::kScanContext) {
+    return DecodeScanContextRecord(bytes, kScanContextWireRings, kScanContextWireSectors, descriptor);
+  }
+  auto record = DecodeKeyframeRecord(bytes);
+  if (!record.ok()) return record.status();
+  std::copy(record->descriptor.begin(), record->descriptor.end(), descriptor.begin());
+  return KeyframePose{record->keyframe_index, record->T_map_sensor};
+}
+
 }  // namespace commerge

@@ -137,6 +137,31 @@ Status EncodeScanContextRecord(const KeyframePose& pose, Span<const float> descr
 Result<KeyframePose> DecodeScanContextRecord(Span<const std::uint8_t> bytes, int num_rings, int num_sectors,
                                              Span<float> descriptor);
 
+/// What the records of a keyframe batch carry (keyframe_batch_t.record_kind). A robot sends one kind; the server
+/// expects one (its --descriptor) and refuses batches of another.
+enum class KeyframeRecordKind : std::uint8_t {
+  kUnit40 = 1,       ///< the 92-byte record: 40 unit values (R-SOLiD, the ring-occupancy descriptor)
+  kScanContext = 2,  ///< the Scan Context record of the kScanContextWireRings x kScanContextWireSectors grid
+};
+/// The one Scan Context grid on the wire (the paper's and Kim & Kim's 20 x 60): 1226-byte records.
+constexpr int kScanContextWireRings = 20;
+constexpr int kScanContextWireSectors = 60;
+/// "unit-40" / "scan-context" ("unknown" otherwise).
+const char* KeyframeRecordKindName(KeyframeRecordKind kind) noexcept;
+/// A kind a decoder accepts (1 or 2).
+bool IsKeyframeRecordKind(std::uint8_t wire_value) noexcept;
+/// Bytes of one record of `kind`, floats of its descriptor (0 for an unknown kind).
+std::size_t KeyframeRecordBytesOf(KeyframeRecordKind kind) noexcept;
+std::size_t KeyframeRecordDimOf(KeyframeRecordKind kind) noexcept;
+/// Encodes one record of `kind` (`descriptor`: KeyframeRecordDimOf(kind) values, unit-normalised for kUnit40)
+/// into exactly KeyframeRecordBytesOf(kind) bytes of `out`. Errors: those of EncodeKeyframeRecord /
+/// EncodeScanContextRecord, an unknown kind, a descriptor of the wrong size.
+Status EncodeRecordOfKind(KeyframeRecordKind kind, const KeyframePose& pose, Span<const float> descriptor,
+                          Span<std::uint8_t> out);
+/// Decodes one record of `kind`; the descriptor goes to `descriptor` (KeyframeRecordDimOf(kind) floats).
+Result<KeyframePose> DecodeRecordOfKind(KeyframeRecordKind kind, Span<const std::uint8_t> bytes,
+                                        Span<float> descriptor);
+
 /// IEEE-754 binary16 bits of `value`, rounded to nearest even; overflow gives +-inf, NaN a quiet NaN.
 std::uint16_t FloatToHalf(float value) noexcept;
 /// The float that half `bits` represents (exact).

@@ -14,9 +14,17 @@
 #endif
 
 #include "core/common/float_limits.hpp"
+#include "core/descriptor/scan_context.hpp"
 #include "core/descriptor/solid.hpp"
 
 namespace commerge {
+
+double DescriptorDistance(const DescriptorMetric& metric, Span<const float> a, Span<const float> b) noexcept {
+  if (metric.kind == DescriptorMetric::Kind::kScanContext) {
+    return MatchScanContext(a, b, metric.scan_context_rings, metric.scan_context_sectors).distance;
+  }
+  return SolidDistance(a, b);
+}
 namespace {
 
 constexpr std::size_t kMr = 6;  // alpha rows per micro block (6 x 8: 12 accumulators + 3 in 16 registers)

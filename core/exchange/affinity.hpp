@@ -31,6 +31,22 @@ struct DescriptorSetView {
   std::size_t count() const noexcept { return dim == 0 ? 0 : values.size() / dim; }
 };
 
+/// How the server compares two descriptors (stage A's affinity, the place ambiguity, the descriptor agreement).
+struct DescriptorMetric {
+  enum class Kind : std::uint8_t {
+    kUnitL2,       ///< L2 distance of unit vectors (R-SOLiD, the ring descriptor): the tile kernel below
+    kScanContext,  ///< the Scan Context distance, min over column shifts (ScanContextTileSource, MatchScanContext)
+  };
+  Kind kind = Kind::kUnitL2;
+  int scan_context_rings = 20;    ///< kScanContext: the grid of the descriptors
+  int scan_context_sectors = 60;
+};
+
+/// The metric's distance of two descriptors of one set's dim (unit L2: SolidDistance, in [0, 2] for unit
+/// vectors; Scan Context: MatchScanContext, in [0, 1] for non-negative cells, 1 when no column is non-empty in
+/// both).
+double DescriptorDistance(const DescriptorMetric& metric, Span<const float> a, Span<const float> b) noexcept;
+
 /// Checks dim >= 1, values.size() a multiple of dim and valid.size() in {0, count}. `name` prefixes messages.
 Status ValidateDescriptorSet(const DescriptorSetView& set, const char* name);
 

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "core/common/number_text.hpp"
+#include "core/exchange/scan_context_affinity.hpp"
 
 namespace commerge {
 namespace {
@@ -172,6 +173,20 @@ Status ValidateExchangeCascadeParams(const ExchangeCascadeParams& params) {
 
 namespace {
 
+// Stage A on the metric's affinity: the unit-L2 tile kernel, or Scan Context distances (sector-key shifts).
+Result<SequentialMatchResult> StageA(const DescriptorSetView& alpha, const DescriptorSetView& beta,
+                                     const SequentialMatchParams& params, const DescriptorMetric& metric) {
+  if (metric.kind == DescriptorMetric::Kind::kUnitL2) return RunSequentialMatching(alpha, beta, params);
+  if (Status s = ValidateSequentialMatchParams(params); !s.ok()) return s;
+  ScanContextAffinityParams sc;
+  sc.num_rings = metric.scan_context_rings;
+  sc.num_sectors = metric.scan_context_sectors;
+  const std::size_t halo = SequentialMatchTileHalo(params);
+  auto source = ScanContextTileSource::Create(alpha, beta, sc, params.tile_rows + halo, params.tile_cols + halo);
+  if (!source.ok()) return source.status();
+  return RunSequentialMatching(*source, params);
+}
+
 Status ValidateCascadeInputs(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
                              const ExchangeCascadeParams& params) {
   if (Status s = ValidateExchangeCascadeParams(params); !s.ok()) return s;
@@ -211,7 +226,7 @@ Result<ExchangeCascadeResult> RunCascadeStageA(const CascadeRobotInput& alpha, c
   auto t0 = std::chrono::steady_clock::now();
   SequentialMatchParams stage_a_params = params.stage_a;
   stage_a_params.all_clusters_max_cells = params.consensus_max_cells;
-  auto stage_a = RunSequentialMatching(alpha.descriptors, beta.descriptors, stage_a_params);
+  auto stage_a = StageA(alpha.descriptors, beta.descriptors, stage_a_params, params.metric);
   if (!stage_a.ok()) return stage_a.status();
   result.stage_a = std::move(*stage_a);
   const std::uint64_t asked =
@@ -223,7 +238,7 @@ Result<ExchangeCascadeResult> RunCascadeStageA(const CascadeRobotInput& alpha, c
     SequentialMatchParams retry = stage_a_params;
     retry.tau_area = largest;
     retry.tau_area_fraction = 0.0;
-    auto again = RunSequentialMatching(alpha.descriptors, beta.descriptors, retry);
+    auto again = StageA(alpha.descriptors, beta.descriptors, retry, params.metric);
     if (!again.ok()) return again.status();
     if (again->found) {
       result.verification = true;
@@ -244,7 +259,8 @@ Result<ExchangeCascadeResult> RunCascadeStageA(const CascadeRobotInput& alpha, c
   }
   if (params.max_ambiguous_fraction < 1.0) {
     auto ambiguity = MeasurePlaceAmbiguity(alpha.descriptors, alpha.positions_m, beta.descriptors, beta.positions_m,
-                                           Span<const SequentialLoopCell>(result.stage_a.cells), params.ambiguity_far_m);
+                                           Span<const SequentialLoopCell>(result.stage_a.cells), params.ambiguity_far_m,
+                                           params.metric);
     if (!ambiguity.ok()) return ambiguity.status();
     result.ambiguity_measured = true;
     result.ambiguity = *ambiguity;

@@ -53,6 +53,9 @@ struct ExchangeCascadeParams {
   /// (place_consensus.hpp).
   std::size_t consensus_max_cells = 0;
   PlaceConsensusParams consensus;
+  /// How descriptors are compared: unit L2 (SOLiD, the ring descriptor; the tile kernel) or the Scan Context
+  /// distance (ScanContextTileSource, sector-key shifts). The server derives it from the records it takes.
+  DescriptorMetric metric;
 };
 
 /// Checks every stage's parameters and verification_area_fraction; InvalidArgument naming the field.

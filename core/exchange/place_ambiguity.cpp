@@ -8,7 +8,6 @@
 #include <utility>
 #include <vector>
 
-#include "core/descriptor/solid.hpp"
 
 namespace commerge {
 namespace {
@@ -19,14 +18,14 @@ Span<const float> Row(const DescriptorSetView& set, std::size_t k) { return set.
 
 // Counts the ambiguous keyframes of one side: `cross` holds (keyframe, its smallest distance to the other robot).
 void CountSide(const DescriptorSetView& own, Span<const Eigen::Vector3d> positions_m,
-               const std::vector<std::pair<std::size_t, double>>& cross, double far_m, std::size_t* keyframes,
-               std::size_t* ambiguous) {
+               const std::vector<std::pair<std::size_t, double>>& cross, double far_m, const DescriptorMetric& metric,
+               std::size_t* keyframes, std::size_t* ambiguous) {
   const double far2 = far_m * far_m;
   for (const auto& [k, cross_distance] : cross) {
     ++*keyframes;
     for (std::size_t other = 0; other < own.count(); ++other) {
       if (!Valid(own, other) || (positions_m[other] - positions_m[k]).squaredNorm() <= far2) continue;
-      if (SolidDistance(Row(own, k), Row(own, other)) <= cross_distance) {
+      if (DescriptorDistance(metric, Row(own, k), Row(own, other)) <= cross_distance) {
         ++*ambiguous;
         break;
       }
@@ -37,12 +36,13 @@ void CountSide(const DescriptorSetView& own, Span<const Eigen::Vector3d> positio
 // (keyframe, smallest distance over its l_seq partners) for the distinct valid keyframes of one side.
 std::vector<std::pair<std::size_t, double>> CrossDistances(const DescriptorSetView& alpha,
                                                            const DescriptorSetView& beta,
-                                                           Span<const SequentialLoopCell> l_seq, bool alpha_side) {
+                                                           Span<const SequentialLoopCell> l_seq, bool alpha_side,
+                                                           const DescriptorMetric& metric) {
   std::vector<std::pair<std::size_t, double>> out;
   out.reserve(l_seq.size());
   for (const SequentialLoopCell& c : l_seq) {
     if (!Valid(alpha, c.alpha_index) || !Valid(beta, c.beta_index)) continue;
-    const double d = SolidDistance(Row(alpha, c.alpha_index), Row(beta, c.beta_index));
+    const double d = DescriptorDistance(metric, Row(alpha, c.alpha_index), Row(beta, c.beta_index));
     out.emplace_back(alpha_side ? c.alpha_index : c.beta_index, d);
   }
   std::sort(out.begin(), out.end());  // by keyframe, then distance: the first of each keyframe is its smallest
@@ -56,7 +56,8 @@ std::vector<std::pair<std::size_t, double>> CrossDistances(const DescriptorSetVi
 
 Result<PlaceAmbiguity> MeasurePlaceAmbiguity(const DescriptorSetView& alpha, Span<const Eigen::Vector3d> alpha_positions_m,
                                              const DescriptorSetView& beta, Span<const Eigen::Vector3d> beta_positions_m,
-                                             Span<const SequentialLoopCell> l_seq, double far_m) {
+                                             Span<const SequentialLoopCell> l_seq, double far_m,
+                                             const DescriptorMetric& metric) {
   if (Status s = ValidateDescriptorSet(alpha, "place ambiguity alpha"); !s.ok()) return s;
   if (Status s = ValidateDescriptorSet(beta, "place ambiguity beta"); !s.ok()) return s;
   if (alpha.dim != beta.dim) return InvalidArgument("place ambiguity: descriptor dimensions differ");
@@ -77,10 +78,10 @@ Result<PlaceAmbiguity> MeasurePlaceAmbiguity(const DescriptorSetView& alpha, Spa
     }
   }
   PlaceAmbiguity out;
-  CountSide(alpha, alpha_positions_m, CrossDistances(alpha, beta, l_seq, true), far_m, &out.alpha_keyframes,
-            &out.alpha_ambiguous);
-  CountSide(beta, beta_positions_m, CrossDistances(alpha, beta, l_seq, false), far_m, &out.beta_keyframes,
-            &out.beta_ambiguous);
+  CountSide(alpha, alpha_positions_m, CrossDistances(alpha, beta, l_seq, true, metric), far_m, metric,
+            &out.alpha_keyframes, &out.alpha_ambiguous);
+  CountSide(beta, beta_positions_m, CrossDistances(alpha, beta, l_seq, false, metric), far_m, metric,
+            &out.beta_keyframes, &out.beta_ambiguous);
   return out;
 }
 

@@ -43,6 +43,7 @@ struct PlaceAmbiguity {
 /// outside the sets.
 Result<PlaceAmbiguity> MeasurePlaceAmbiguity(const DescriptorSetView& alpha, Span<const Eigen::Vector3d> alpha_positions_m,
                                              const DescriptorSetView& beta, Span<const Eigen::Vector3d> beta_positions_m,
-                                             Span<const SequentialLoopCell> l_seq, double far_m);
+                                             Span<const SequentialLoopCell> l_seq, double far_m,
+                                             const DescriptorMetric& metric = {});
 
 }  // namespace commerge

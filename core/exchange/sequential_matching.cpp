@@ -522,11 +522,15 @@ Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, 
   return RunStageA(*ranked, p);
 }
 
+std::size_t SequentialMatchTileHalo(const SequentialMatchParams& params) noexcept {
+  return params.sequence_half_window == 0 ? 0 : 2 * params.sequence_half_window + 2;
+}
+
 Result<SequentialMatchResult> RunSequentialMatching(const DescriptorSetView& alpha, const DescriptorSetView& beta,
                                                     const SequentialMatchParams& params) {
   Status s = ValidateSequentialMatchParams(params);
   if (!s.ok()) return s;
-  const std::size_t halo = params.sequence_half_window == 0 ? 0 : 2 * params.sequence_half_window + 2;
+  const std::size_t halo = SequentialMatchTileHalo(params);
   Result<AffinityTileKernel> kernel =
       AffinityTileKernel::Create(alpha, beta, params.tile_rows + halo, params.tile_cols + halo);
   if (!kernel.ok()) return kernel.status();

@@ -121,6 +121,10 @@ struct SequentialMatchResult {
 /// result with found == false and no_candidate_reason set.
 Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, const SequentialMatchParams& params);
 
+/// Rows and columns a tile source must serve beyond params' tile size for the sequence smoothing's halo (0 without
+/// smoothing): create sources with a capacity of (tile_rows + halo) x (tile_cols + halo).
+std::size_t SequentialMatchTileHalo(const SequentialMatchParams& params) noexcept;
+
 /// Stage A on two descriptor sets (AffinityTileKernel with the parameter tile size, grown by the smoothing
 /// halo when sequence_half_window >= 1). Invalid keyframes (flag 0,
 /// NaN/inf values, zero vector) never match. Errors: malformed sets (ValidateDescriptorSet), different dims,

@@ -21,7 +21,8 @@ Status CheckSet(const KeyframeSetView& set, std::size_t dim, const char* name) {
   return Status::Ok();
 }
 
-float DescriptorDistance(const float* a, const float* b, std::size_t dim) {
+// Unit-L2 distance of two unit vectors, in float (the metric's other kinds go through DescriptorDistance).
+float UnitL2Distance(const float* a, const float* b, std::size_t dim) {
   float dot = 0.0f;
   for (std::size_t k = 0; k < dim; ++k) dot += a[k] * b[k];
   return std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot));
@@ -52,8 +53,13 @@ Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView&
                                                           const Eigen::Isometry3d& T_alpha_beta,
                                                           const TransformAgreementParams& params,
                                                           std::uint32_t exclude_beta_min, std::uint32_t exclude_beta_max,
-                                                          std::size_t* colocated) {
+                                                          std::size_t* colocated, const DescriptorMetric& metric) {
   if (Status s = ValidateTransformAgreementParams(params); !s.ok()) return s;
+  const auto Distance = [&](const float* a, const float* b) {
+    if (metric.kind == DescriptorMetric::Kind::kUnitL2) return UnitL2Distance(a, b, descriptor_dim);
+    return static_cast<float>(
+        DescriptorDistance(metric, Span<const float>(a, descriptor_dim), Span<const float>(b, descriptor_dim)));
+  };
   if (descriptor_dim == 0) return InvalidArgument("transform agreement: descriptor dimension 0");
   if (Status s = CheckSet(alpha, descriptor_dim, "alpha"); !s.ok()) return s;
   if (Status s = CheckSet(beta, descriptor_dim, "beta"); !s.ok()) return s;
@@ -93,8 +99,7 @@ Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView&
       const Eigen::Isometry3d& Ti = alpha.T_map_sensor[it->index];
       if ((Ti.translation() - p).squaredNorm() > near2) continue;
       if (!any_heading && HeadingGapDeg(YawRad(Ti.linear()), yaw_j) > params.max_heading_deg) continue;
-      const float d = DescriptorDistance(alpha.descriptors.data() + std::size_t{it->index} * descriptor_dim, dj,
-                                         descriptor_dim);
+      const float d = Distance(alpha.descriptors.data() + std::size_t{it->index} * descriptor_dim, dj);
       ++candidates;
       if (d < best) {
         best = d;
@@ -119,7 +124,7 @@ Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView&
     const float* dj = beta.descriptors.data() + std::size_t{c.beta} * descriptor_dim;
     std::size_t nearer = 0;
     for (std::uint32_t i : alpha_valid) {
-      if (DescriptorDistance(alpha.descriptors.data() + std::size_t{i} * descriptor_dim, dj, descriptor_dim) < c.distance) {
+      if (Distance(alpha.descriptors.data() + std::size_t{i} * descriptor_dim, dj) < c.distance) {
         ++nearer;
       }
     }

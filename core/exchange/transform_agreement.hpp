@@ -19,6 +19,7 @@
 
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
+#include "core/exchange/affinity.hpp"
 
 namespace commerge {
 
@@ -48,7 +49,7 @@ struct KeyframeSetView {
 struct ColocatedKeyframe {
   std::uint32_t beta = 0;
   std::uint32_t alpha = 0;       ///< the co-located alpha keyframe of nearest descriptor
-  float distance = 0.0f;         ///< its descriptor distance (L2 of unit vectors)
+  float distance = 0.0f;         ///< its descriptor distance (the metric's; L2 of unit vectors by default)
   std::uint32_t candidates = 0;  ///< co-located alpha keyframes (m)
   float rank_fraction = 0.0f;    ///< fraction of alpha's valid keyframes strictly nearer in descriptor space (r)
   float chance = 0.0f;           ///< 1 - (1 - r)^m: how often the best of m random keyframes ranks as well
@@ -65,7 +66,8 @@ Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView&
                                                           const TransformAgreementParams& params,
                                                           std::uint32_t exclude_beta_min = 1,
                                                           std::uint32_t exclude_beta_max = 0,
-                                                          std::size_t* colocated = nullptr);
+                                                          std::size_t* colocated = nullptr,
+                                                          const DescriptorMetric& metric = {});
 
 /// The median chance of the entries whose beta keyframe lies outside [exclude_beta_min, exclude_beta_max] (an
 /// empty range, min > max, excludes nothing); -1 when none. *count receives how many entries it is over.

@@ -129,6 +129,8 @@ class RobotMapper {
   /// Id of the descriptors this mapper computes: PlaceDescriptor::parameter_id(), with the descriptor input's
   /// parameters mixed in when levelling or the local map is on (DescriptorInputId).
   std::uint32_t descriptor_parameter_id() const noexcept;
+  /// Kind of the descriptor this mapper computes (SOLiD, Scan Context, ring occupancy).
+  DescriptorKind descriptor_kind() const noexcept { return descriptor_->kind(); }
   /// Bytes of the per-scan buffers (capacities): the voxel grid's sort workspace, the voxelised and the encoded
   /// scan, the descriptor scratch, and the descriptor input (the past keyframes of the local map, the joined
   /// and levelled cloud).

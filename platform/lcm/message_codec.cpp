@@ -20,6 +20,13 @@ namespace {
 
 static_assert(commerge::keyframe_batch_t::MAX_RECORDS == static_cast<std::int32_t>(kMaxRecordsPerBatch), "");
 static_assert(commerge::keyframe_batch_t::RECORD_BYTES == static_cast<std::int32_t>(kKeyframeRecordBytes), "");
+static_assert(commerge::keyframe_batch_t::SCAN_CONTEXT_RECORD_BYTES ==
+                  static_cast<std::int32_t>(ScanContextRecordBytes(kScanContextWireRings, kScanContextWireSectors)),
+              "");
+static_assert(commerge::keyframe_batch_t::RECORD_UNIT40 == static_cast<std::int8_t>(KeyframeRecordKind::kUnit40), "");
+static_assert(commerge::keyframe_batch_t::RECORD_SCAN_CONTEXT ==
+                  static_cast<std::int8_t>(KeyframeRecordKind::kScanContext),
+              "");
 static_assert(commerge::keyframe_batch_t::MAX_ROBOT_ID == kMaxRobotId, "");
 static_assert(commerge::pose_update_t::MAX_POSES == static_cast<std::int32_t>(kMaxPosesPerUpdate), "");
 static_assert(commerge::exchange_policy_t::MAX_KEYFRAMES == static_cast<std::int32_t>(kMaxKeyframesPerRequest), "");
@@ -32,17 +39,23 @@ using namespace lcm_detail;  // NOLINT(google-build-using-namespace): the shared
 Status EncodeKeyframeBatch(const KeyframeBatch& m, std::vector<std::uint8_t>* out) {
   const char* type = "keyframe_batch_t";
   if (Status st = CheckRobotId(m.robot_id, type); !st.ok()) return st;
+  const std::size_t record_bytes = KeyframeRecordBytesOf(m.record_kind);
+  if (record_bytes == 0) {
+    return InvalidArgument("keyframe_batch_t: record_kind " + std::to_string(static_cast<int>(m.record_kind)) +
+                           " is not a record kind");
+  }
   const std::size_t n = m.num_records();
-  if (m.records.size() != n * kKeyframeRecordBytes || m.stored_points.size() != n || n > kMaxRecordsPerBatch) {
+  if (m.records.size() != n * record_bytes || m.stored_points.size() != n || n > kMaxRecordsPerBatch) {
     return InvalidArgument("keyframe_batch_t: " + std::to_string(m.records.size()) + " record bytes and " +
-                           std::to_string(m.stored_points.size()) + " point counts are not n x 92 and n with n <= " +
-                           std::to_string(kMaxRecordsPerBatch));
+                           std::to_string(m.stored_points.size()) + " point counts are not n x " +
+                           std::to_string(record_bytes) + " and n with n <= " + std::to_string(kMaxRecordsPerBatch));
   }
   commerge::keyframe_batch_t msg{};
   msg.utime = m.utime_us;
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
   msg.session = m.session;
   msg.sequence = m.sequence;
+  msg.record_kind = static_cast<std::int8_t>(m.record_kind);
   msg.num_records = static_cast<std::int32_t>(n);
   msg.num_record_bytes = static_cast<std::int32_t>(m.records.size());
   msg.records = m.records;
@@ -59,16 +72,22 @@ Status EncodeKeyframeBatch(const KeyframeBatch& m, std::vector<std::uint8_t>* ou
 
 Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes) {
   const char* type = "keyframe_batch_t";
-  // After the hash: utime 8, robot_id 2, session 8, sequence 4, num_records 4, num_record_bytes 4.
-  if (Status st = CheckHeader<commerge::keyframe_batch_t>(bytes, 30, type); !st.ok()) return st;
-  const std::int64_t n = ReadBe(bytes, 8 + 22, 4), nb = ReadBe(bytes, 8 + 26, 4);
+  // After the hash: utime 8, robot_id 2, session 8, sequence 4, record_kind 1, num_records 4, num_record_bytes 4.
+  if (Status st = CheckHeader<commerge::keyframe_batch_t>(bytes, 31, type); !st.ok()) return st;
+  const std::int64_t kind = ReadBe(bytes, 8 + 22, 1);
+  if (!IsKeyframeRecordKind(static_cast<std::uint8_t>(kind))) {
+    return DataLoss("keyframe_batch_t: record_kind = " + std::to_string(kind) + " is not a record kind (1, 2)");
+  }
+  const auto record_kind = static_cast<KeyframeRecordKind>(kind);
+  const auto record_bytes = static_cast<std::int64_t>(KeyframeRecordBytesOf(record_kind));
+  const std::int64_t n = ReadBe(bytes, 8 + 23, 4), nb = ReadBe(bytes, 8 + 27, 4);
   if (Status st = CheckCount(n, static_cast<std::int64_t>(kMaxRecordsPerBatch), type, "num_records"); !st.ok()) return st;
-  if (nb != n * static_cast<std::int64_t>(kKeyframeRecordBytes)) {
-    return DataLoss("keyframe_batch_t: num_record_bytes = " + std::to_string(nb) + " is not 92 x num_records = " +
-                    std::to_string(n * 92));
+  if (nb != n * record_bytes) {
+    return DataLoss("keyframe_batch_t: num_record_bytes = " + std::to_string(nb) + " is not " +
+                    std::to_string(record_bytes) + " x num_records = " + std::to_string(n * record_bytes));
   }
   // ... records, stored_points, descriptor_id 4.
-  if (Status st = CheckRoom(bytes, 8 + 30 + nb + 4 * n + 4, type); !st.ok()) return st;
+  if (Status st = CheckRoom(bytes, 8 + 31 + nb + 4 * n + 4, type); !st.ok()) return st;
   commerge::keyframe_batch_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
@@ -77,6 +96,7 @@ Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes) {
   m.robot_id = msg.robot_id;
   m.session = msg.session;
   m.sequence = msg.sequence;
+  m.record_kind = record_kind;
   m.records = std::move(msg.records);
   m.stored_points.resize(static_cast<std::size_t>(n));
   for (std::size_t i = 0; i < m.stored_points.size(); ++i) {

@@ -30,11 +30,11 @@ set(CM_BIN ${CM_EMU} $<TARGET_FILE:commerge>)
 cm_cli_test(NAME "version" RC 0 REGEX "commerge ${PROJECT_VERSION}" COMMAND ${CM_BIN} --version)
 cm_cli_test(NAME "help lists the subcommands" RC 0 REGEX "demo.*budget.*voxelize.*sim" COMMAND ${CM_BIN} --help)
 # The cascade's and the loop closure's thresholds and limits are flags with their units (issue: solver fidelity).
-cm_cli_test(NAME "run --help lists the loop thresholds and the solvers' node limits with their units" RC 0
-            REGEX "--tau-intra.*unit-vector L2 distance. paper: tau_intra.*--tau-window.*\\[keyframes\\].*--tau-icp[^=]*=0\\.3.*\\[m\\^2. paper: tau_ICP\\].*--stage-b-max-nodes[^=]*=20000.*\\[nodes. ours, not in the paper\\].*--stage-c-max-nodes[^=]*=2000000.*\\[nodes. ours, not in the paper\\]"
+cm_cli_test(NAME "run --help lists the descriptors, the loop thresholds, the solvers' node limits and the cover with their units" RC 0
+            REGEX "--descriptor[^=]*scan-context.*--tau-intra.*unit-vector L2 distance. Scan Context distance. paper: tau_intra.*--tau-window.*\\[keyframes\\].*--tau-icp[^=]*=0\\.3.*\\[m\\^2. paper: tau_ICP\\].*--stage-b-max-nodes[^=]*=20000.*\\[nodes. ours, not in the paper\\].*--stage-c-max-nodes[^=]*=2000000.*\\[nodes. ours, not in the paper\\].*--cover[^=]*=pairwise"
             COMMAND ${CM_BIN} run --help)
 cm_cli_test(NAME "robot --help lists the loop thresholds with their units" RC 0
-            REGEX "--tau-intra.*--tau-window.*--tau-icp[^=]*=0\\.3.*\\[m\\^2. paper: tau_ICP\\]"
+            REGEX "--descriptor[^=]*scan-context.*--tau-intra.*--tau-window.*--tau-icp[^=]*=0\\.3.*\\[m\\^2. paper: tau_ICP\\]"
             COMMAND ${CM_BIN} robot --help)
 cm_cli_test(NAME "unknown subcommand is a usage error" RC 2 COMMAND ${CM_BIN} fly)
 cm_cli_test(NAME "budget: jetson-nano server defaults fit" RC 0 REGEX "memory budget of server fits"
@@ -93,6 +93,15 @@ cm_cli_test(NAME "run: --cover joint solves one stage B over the three pairs and
                     "${CM_CLI_OUT}/sim-campus3/robot_2" --cover joint --no-report --no-progress
                     --out "${CM_CLI_OUT}/run-joint")
 set_tests_properties("cli: run: --cover joint solves one stage B over the three pairs and merges the three robots"
+                     PROPERTIES FIXTURES_REQUIRED sim_campus3)
+# The same three robots with Scan Context instead of the ring descriptor: 1226-byte records, stage A on the Scan
+# Context distance; all three robots merge.
+cm_cli_test(NAME "run: --descriptor scan-context merges the three campus robots" RC 0 LABELS heavy
+            REGEX "descriptor: Scan Context 20 x 60.*neighbour rank 1 under tau_inter 0.5 .Scan Context distance.*\\| A\\+B\\+C \\|.*\\| 3/3 \\|"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-campus3/robot_0" "${CM_CLI_OUT}/sim-campus3/robot_1"
+                    "${CM_CLI_OUT}/sim-campus3/robot_2" --descriptor scan-context --no-report --no-progress
+                    --out "${CM_CLI_OUT}/run-scan-context")
+set_tests_properties("cli: run: --descriptor scan-context merges the three campus robots"
                      PROPERTIES FIXTURES_REQUIRED sim_campus3)
 cm_cli_test(NAME "voxelize names a missing file" RC 1 REGEX "does-not-exist.bin: no such file"
             COMMAND ${CM_BIN} voxelize "${CM_CLI_OUT}/does-not-exist.bin" "${CM_CLI_OUT}/x.pcd")
@@ -249,9 +258,9 @@ cm_cli_test(NAME "server: SIGTERM ends it cleanly with exit 0 and its summary li
 list(JOIN CM_EMU " " cm_emu_words)  # for a sh -c string: ';' would end the command
 # tau_inter per sensor: with the paper's stage A (--neighbour-rank 0) the paper's table, 0.05 for the
 # non-repetitive Avia and 0.10 for a spinning sensor; a given --tau-inter wins; with the neighbour rank a cap.
-cm_cli_test(NAME "server --check: with --neighbour-rank 0, tau_inter follows --lidar unless --tau-inter is given" RC 0
-            REGEX "tau_inter 0\\.05 per cell, stage B pairwise.*tau_inter 0\\.1 per cell, stage B joint.*tau_inter 0\\.2 per cell.*neighbour rank 1 under tau_inter 0\\.5"
-            COMMAND sh -c "$1 server --lcm-url memq:// --check --lidar avia --neighbour-rank 0 && $1 server --lcm-url memq:// --check --lidar vlp-16 --neighbour-rank 0 --cover joint && $1 server --lcm-url memq:// --check --lidar avia --neighbour-rank 0 --tau-inter 0.2 && $1 server --lcm-url memq:// --check --lidar avia"
+cm_cli_test(NAME "server --check: with --neighbour-rank 0, tau_inter follows --lidar unless --tau-inter is given, and names the Scan Context distance" RC 0
+            REGEX "tau_inter 0\\.05 per cell, stage B pairwise.*tau_inter 0\\.1 per cell, stage B joint.*tau_inter 0\\.2 per cell.*neighbour rank 1 under tau_inter 0\\.5, stage B.*under tau_inter 0\\.5 .Scan Context distance., stage B pairwise"
+            COMMAND sh -c "$1 server --lcm-url memq:// --check --lidar avia --neighbour-rank 0 && $1 server --lcm-url memq:// --check --lidar vlp-16 --neighbour-rank 0 --cover joint && $1 server --lcm-url memq:// --check --lidar avia --neighbour-rank 0 --tau-inter 0.2 && $1 server --lcm-url memq:// --check --lidar avia && $1 server --lcm-url memq:// --check --descriptor scan-context"
                     sh "${cm_emu_words} $<TARGET_FILE:commerge>")
 cm_cli_test(NAME "keygen: writes a 0600 key the server accepts with --check, refuses to overwrite it" RC 2
             REGEX "configuration OK \\(--check\\).*messages signed with key id 4.*--auth-key.*mode 0644: it must be readable by its owner only"

@@ -1207,3 +1207,107 @@ TEST_CASE("Merge server refuses a registration where the keyframes it places tog
   bad.colocation.near_m = 0.0;
   CHECK_FALSE(ValidateMergeServerParams(bad).ok());
 }
+
+namespace commerge {
+namespace {
+
+// A Scan Context grid of one place: random heights in a third of its cells, its columns turned by `turn` sectors
+// (the place seen with another heading), with a little noise.
+std::vector<float> RandomScanContext(std::uint32_t place, int turn, std::mt19937* noise) {
+  std::mt19937 rng(1000 + place);
+  std::uniform_real_distribution<float> height(0.5f, 6.0f), jitter(-0.05f, 0.05f), u(0.0f, 1.0f);
+  const int rings = kScanContextWireRings, sectors = kScanContextWireSectors;
+  std::vector<float> base(static_cast<std::size_t>(rings * sectors));
+  for (float& v : base) v = u(rng) < 0.3f ? height(rng) : 0.0f;  // structure in a third of the cells
+  std::vector<float> out(base.size());
+  for (int r = 0; r < rings; ++r) {
+    for (int c = 0; c < sectors; ++c) {
+      const float v = base[static_cast<std::size_t>(r * sectors + c)];
+      out[static_cast<std::size_t>(r * sectors + (c + turn) % sectors)] = v > 0.0f ? v + jitter(*noise) : 0.0f;
+    }
+  }
+  return out;
+}
+
+KeyframeBatch ScanContextBatch(int robot, std::uint32_t first, const std::vector<std::vector<float>>& descriptors) {
+  KeyframeBatch b;
+  b.robot_id = robot;
+  b.record_kind = KeyframeRecordKind::kScanContext;
+  const std::size_t bytes = KeyframeRecordBytesOf(KeyframeRecordKind::kScanContext);
+  for (std::size_t k = 0; k < descriptors.size(); ++k) {
+    KeyframePose pose;
+    pose.keyframe_index = first + static_cast<std::uint32_t>(k);
+    pose.T_map_sensor.translation() = Eigen::Vector3d(static_cast<double>(k), 0.0, 0.0);
+    const std::size_t at = b.records.size();
+    b.records.resize(at + bytes);
+    REQUIRE(EncodeRecordOfKind(KeyframeRecordKind::kScanContext, pose, Span<const float>(descriptors[k]),
+                               Span<std::uint8_t>(b.records.data() + at, bytes))
+                .ok());
+    b.stored_points.push_back(2000);
+  }
+  return b;
+}
+
+TEST_CASE("Merge server with Scan Context records: the other kind is refused and counted, stage A finds the "
+          "revisit by the Scan Context distance") {
+  MergeServerParams params;
+  params.record_kind = KeyframeRecordKind::kScanContext;
+  MergeServer server(2, 200, params);
+  CHECK(server.robot(0).dim == 1200);
+  CHECK(server.params().cascade.metric.kind == DescriptorMetric::Kind::kScanContext);
+
+  // Robot 0 drives places 0..59; robot 1 places 20..79, every place seen turned by 17 sectors (102 deg).
+  const int n = 60, shift = 20;
+  std::mt19937 noise(5);
+  std::vector<std::vector<float>> a, b;
+  for (int k = 0; k < n; ++k) a.push_back(RandomScanContext(static_cast<std::uint32_t>(k), 0, &noise));
+  for (int k = 0; k < n; ++k) b.push_back(RandomScanContext(static_cast<std::uint32_t>(k + shift), 17, &noise));
+  REQUIRE(server.OnKeyframeBatch(ScanContextBatch(0, 0, a)).ok());
+  REQUIRE(server.OnKeyframeBatch(ScanContextBatch(1, 0, b)).ok());
+  CHECK(server.stats().records == static_cast<std::uint64_t>(2 * n));
+
+  // A robot that sends 92-byte records to this server: refused as a whole, counted, the message names both kinds.
+  std::mt19937 rng(3);
+  std::vector<std::array<float, kKeyframeDescriptorDim>> d = {RandomDescriptor(&rng)};
+  const KeyframeBatch unit = MakeBatch(1, 100, d, {Eigen::Vector3d::Zero()}, 0);
+  const std::uint64_t rejected = server.stats().rejected_batches;
+  const Status refused = server.OnKeyframeBatch(unit);
+  CHECK(refused.code() == StatusCode::kInvalidArgument);
+  CHECK(refused.message().find("unit-40") != std::string::npos);
+  CHECK(refused.message().find("scan-context") != std::string::npos);
+  CHECK(refused.message().find("--descriptor") != std::string::npos);
+  CHECK(server.stats().rejected_batches == rejected + 1);
+  CHECK_FALSE(server.CheckKeyframeBatch(unit).ok());
+  CHECK(server.robot(1).size() == static_cast<std::size_t>(n));  // nothing of it was applied
+
+  // The decoded descriptors equal the sent ones within the record's quantisation.
+  for (std::size_t t = 0; t < 1200; ++t) {
+    CHECK(std::fabs(server.robot(0).descriptors[t] - a[0][t]) <= 6.05f / 255.0f);
+  }
+
+  // Stage A on the Scan Context distance: L_seq holds every cell of the true revisit (beta j sees alpha's place
+  // j + shift, whatever the heading) and, through the sequence smoothing's band, nothing further from it than the
+  // smoothing window (4 keyframes) plus one.
+  REQUIRE(server.RunCascades().ok());
+  const ExchangeCascadeResult* c = server.cascade(0, 1);
+  REQUIRE(c != nullptr);
+  REQUIRE(c->stage_a.found);
+  std::size_t on_diagonal = 0, off_band = 0;
+  for (const SequentialLoopCell& l : c->stage_a.cells) {
+    const long off = static_cast<long>(l.alpha_index) - static_cast<long>(l.beta_index) - shift;
+    on_diagonal += off == 0;
+    off_band += std::labs(off) > 5;
+  }
+  CHECK(on_diagonal == static_cast<std::size_t>(n - shift));
+  CHECK(off_band == 0);
+
+  // A server of 40-value records refuses the Scan Context batch the same way.
+  MergeServer unit_server(2, 200, MergeServerParams{});
+  const Status other = unit_server.OnKeyframeBatch(ScanContextBatch(0, 0, a));
+  CHECK(other.code() == StatusCode::kInvalidArgument);
+  CHECK(unit_server.stats().rejected_batches == 1);
+  CHECK(unit_server.robot(0).size() == 0);
+}
+
+}  // namespace
+}  // namespace commerge

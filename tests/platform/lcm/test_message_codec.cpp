@@ -80,6 +80,7 @@ commerge::keyframe_batch_t ToLcm(const KeyframeBatch& m) {
   msg.robot_id = static_cast<std::int16_t>(m.robot_id);
   msg.session = m.session;
   msg.sequence = m.sequence;
+  msg.record_kind = static_cast<std::int8_t>(m.record_kind);
   msg.num_records = static_cast<std::int32_t>(m.stored_points.size());
   msg.num_record_bytes = static_cast<std::int32_t>(m.records.size());
   msg.records = m.records;
@@ -185,9 +186,11 @@ AllDecoders DecodeWithAll(const Buffer& b) {
 }
 
 // Offsets of the count fields (8-byte fingerprint first, then the fields in declaration order).
-// utime 8, robot_id 2, session 8, sequence 4:
-constexpr std::size_t kBatchNumRecords = 8 + 8 + 2 + 8 + 4;         // 30
-constexpr std::size_t kBatchNumRecordBytes = kBatchNumRecords + 4;  // 34
+// utime 8, robot_id 2, session 8, sequence 4, (batch:) record_kind 1:
+constexpr std::size_t kBatchRecordKind = 8 + 8 + 2 + 8 + 4;         // 30
+constexpr std::size_t kBatchNumRecords = kBatchRecordKind + 1;      // 31
+constexpr std::size_t kBatchNumRecordBytes = kBatchNumRecords + 4;  // 35
+constexpr std::size_t kBatchRecords = kBatchNumRecordBytes + 4;     // 39
 constexpr std::size_t kPoseNumPoses = 8 + 8 + 2 + 8 + 4;            // 30
 // utime 8, robot_id 2, server_session 8, request_id 4:
 constexpr std::size_t kRequestNumKeyframes = 8 + 8 + 2 + 8 + 4;     // 30
@@ -206,21 +209,22 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
   m.stored_points[2] = static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max());
   const Buffer b = Encoded(m);
 
-  // Wire layout, read by hand: fingerprint, utime, robot_id, session, sequence, num_records, num_record_bytes,
-  // records, stored_points, descriptor_id.
-  REQUIRE(b.size() == 8 + 30 + 3 * 92 + 3 * 4 + 4);
+  // Wire layout, read by hand: fingerprint, utime, robot_id, session, sequence, record_kind, num_records,
+  // num_record_bytes, records, stored_points, descriptor_id.
+  REQUIRE(b.size() == 8 + 31 + 3 * 92 + 3 * 4 + 4);
   CHECK(GetBe(b, 0, 8) == commerge::keyframe_batch_t::getHash());
   CHECK(GetBe(b, 8, 8) == 1763800000123456);
   CHECK(GetBe(b, 16, 2) == 63);
   CHECK(GetBe(b, 18, 8) == 1763799999000001);
   CHECK(GetBe(b, 26, 4) == 41);
+  CHECK(GetBe(b, kBatchRecordKind, 1) == 1);
   CHECK(GetBe(b, kBatchNumRecords, 4) == 3);
   CHECK(GetBe(b, kBatchNumRecordBytes, 4) == 276);
-  CHECK(std::memcmp(b.data() + 38, m.records.data(), 276) == 0);
-  CHECK(GetBe(b, 38 + 276, 4) == 0);
-  CHECK(GetBe(b, 38 + 276 + 4, 4) == 1007);
-  CHECK(GetBe(b, 38 + 276 + 8, 4) == std::numeric_limits<std::int32_t>::max());
-  CHECK(static_cast<std::uint32_t>(GetBe(b, 38 + 276 + 12, 4)) == 0x761BEAA5u);
+  CHECK(std::memcmp(b.data() + kBatchRecords, m.records.data(), 276) == 0);
+  CHECK(GetBe(b, kBatchRecords + 276, 4) == 0);
+  CHECK(GetBe(b, kBatchRecords + 276 + 4, 4) == 1007);
+  CHECK(GetBe(b, kBatchRecords + 276 + 8, 4) == std::numeric_limits<std::int32_t>::max());
+  CHECK(static_cast<std::uint32_t>(GetBe(b, kBatchRecords + 276 + 12, 4)) == 0x761BEAA5u);
 
   // The byte ledger counts the wire: the generated type encodes the same values to the same bytes.
   const commerge::keyframe_batch_t lcm = ToLcm(m);
@@ -254,14 +258,14 @@ TEST_CASE("message codec: keyframe batch round trip keeps every field and every 
   }
 }
 
-TEST_CASE("message codec: an empty keyframe batch is the 38-byte header and the descriptor id, and round-trips") {
+TEST_CASE("message codec: an empty keyframe batch is the 39-byte header and the descriptor id, and round-trips") {
   KeyframeBatch m;
   m.utime_us = -5;
   m.robot_id = 0;
   m.session = 1;
   m.sequence = 0;
   const Buffer b = Encoded(m);
-  CHECK(b.size() == 42);
+  CHECK(b.size() == 43);
   CHECK(b == LcmEncode(ToLcm(m)));
   auto d = DecodeKeyframeBatch(S(b));
   REQUIRE(d.ok());
@@ -613,7 +617,7 @@ TEST_CASE("message codec: encoders refuse arrays beyond MAX and inconsistent siz
     m.records.assign(512 * 92, 0);
     m.stored_points.assign(512, 0);
     REQUIRE(EncodeKeyframeBatch(m, &out).ok());
-    CHECK(out.size() == 38 + 512 * 96 + 4);
+    CHECK(out.size() == kBatchRecords + 512 * 96 + 4);
     KeyframeBatch mismatch = MakeBatch(2);
     mismatch.stored_points.push_back(1);
     CheckInvalid(EncodeKeyframeBatch(mismatch, &out), {"keyframe_batch_t", "point counts"});
@@ -680,6 +684,7 @@ TEST_CASE("message codec: encoders refuse arrays beyond MAX and inconsistent siz
 TEST_CASE("message codec: decoders refuse counts beyond MAX in otherwise well-formed LCM messages") {
   {
     commerge::keyframe_batch_t msg{};
+    msg.record_kind = commerge::keyframe_batch_t::RECORD_UNIT40;
     msg.num_records = 513;
     msg.num_record_bytes = 513 * 92;
     msg.records.assign(513 * 92, 0);
@@ -780,9 +785,10 @@ TEST_CASE("message codec: a scan request whose keyframes are not ascending and n
   CHECK(ok->keyframes == std::vector<std::uint32_t>{0, 1, 9});
 }
 
-TEST_CASE("message codec: a keyframe batch whose byte count is not 92 per record is refused") {
-  auto decode = [](std::int32_t n, std::int32_t nb) {
+TEST_CASE("message codec: a keyframe batch whose byte count is not its record kind's per record is refused") {
+  auto decode = [](std::int32_t n, std::int32_t nb, std::int8_t kind = commerge::keyframe_batch_t::RECORD_UNIT40) {
     commerge::keyframe_batch_t msg{};
+    msg.record_kind = kind;
     msg.num_records = n;
     msg.num_record_bytes = nb;
     msg.records.assign(static_cast<std::size_t>(nb), 0);
@@ -796,6 +802,16 @@ TEST_CASE("message codec: a keyframe batch whose byte count is not 92 per record
   auto ok = decode(2, 184);
   REQUIRE(ok.ok());
   CHECK(ok->num_records() == 2);
+  CHECK(ok->record_kind == KeyframeRecordKind::kUnit40);
+  // Scan Context records are 1226 bytes; a kind the decoder does not know is refused before anything else.
+  const std::int8_t sc = commerge::keyframe_batch_t::RECORD_SCAN_CONTEXT;
+  CheckDataLoss(decode(2, 184, sc), {"num_record_bytes = 184", "1226 x num_records = 2452"});
+  auto sc_ok = decode(2, 2452, sc);
+  REQUIRE(sc_ok.ok());
+  CHECK(sc_ok->record_kind == KeyframeRecordKind::kScanContext);
+  CHECK(sc_ok->num_records() == 2);
+  CheckDataLoss(decode(2, 184, 0), {"record_kind = 0"});
+  CheckDataLoss(decode(2, 184, 3), {"record_kind = 3"});
   // A negative stored point count is refused too.
   commerge::keyframe_batch_t msg = ToLcm(MakeBatch(2));
   msg.stored_points[1] = -4;
