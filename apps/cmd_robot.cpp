@@ -50,7 +50,7 @@ struct RobotOptions {
   double keyframe_spacing_m = 1.0;
   // One keyframe_batch_t / pose_update_t stays inside one UDP datagram at a 1500-byte MTU (WiFi): LCM drops a
   // whole message when one IP fragment is lost. 12 records = about 1.2 kB encoded, 32 poses = about 1.1 kB.
-  std::size_t records_per_batch = 12;
+  std::size_t records_per_batch = 0;  ///< 0: as many as fit one 1500-byte datagram (12 of 92 B, 1 of 1226 B)
   std::size_t poses_per_update = 32;
   std::string lcm_url;
   double bandwidth_kbps = 4000.0;
@@ -176,7 +176,9 @@ int RobotProcess::Configure() {
   agent_params.mapper.loop.window_keyframes = o_.descriptor.tau_window_keyframes;
   agent_params.mapper.loop.max_icp_mean_squared_residual_m2 = o_.descriptor.tau_icp_m2;
   agent_params.mapper.voxel = StoredScanVoxel(o_.descriptor);
-  agent_params.max_records_per_batch = o_.records_per_batch;
+  agent_params.max_records_per_batch =
+      o_.records_per_batch > 0 ? o_.records_per_batch
+                               : (RecordKindForDescriptor(o_.descriptor.name) == KeyframeRecordKind::kScanContext ? 1 : 12);
   agent_params.max_poses_per_update = o_.poses_per_update;
   RobotLinkParams link_params;
   link_params.resend_timeout_s = o_.resend_timeout_s;
@@ -552,8 +554,9 @@ Command AddRobotCommand(CLI::App& root) {
   cmd->add_option("--rate-hz", o->rate_hz, "scans replayed per second")->check(CLI::Range(0.1, 1000.0))->capture_default_str();
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m, "distance between keyframes [m]")->capture_default_str();
   cmd->add_option("--lcm-url", o->lcm_url, "LCM provider URL (default: LCM_DEFAULT_URL)");
-  cmd->add_option("--records-per-batch", o->records_per_batch, "keyframe records per keyframe batch (the default "
-                  "keeps one message inside one 1500-byte datagram)")->check(CLI::Range(1, 512))->capture_default_str();
+  cmd->add_option("--records-per-batch", o->records_per_batch, "keyframe records per keyframe batch (default: as many "
+                  "as keep one message inside one 1500-byte datagram: 12 records of 92 bytes, 1 Scan Context record "
+                  "of 1226 bytes)")->check(CLI::Range(1, 512));
   cmd->add_option("--poses-per-update", o->poses_per_update, "poses per pose update (the default keeps one message "
                   "inside one 1500-byte datagram)")->check(CLI::Range(1, 4096))->capture_default_str();
   cmd->add_option("--bandwidth-kbps", o->bandwidth_kbps, "cap on what this robot sends [kbit/s] (0 = none; the "

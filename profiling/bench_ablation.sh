@@ -10,7 +10,7 @@
 #   paper-exact  --min-submap-scans 0 --max-widen-steps 0: exactly the mode's selection, one registration
 # One row per scenario and mode: scans sent as selected + padded + widened (the mode's own selection: send-all
 # every stored scan, A L_seq's endpoints, A+B the cover, A+C the clique's endpoints, A+B+C L_K's endpoints),
-# total bytes exchanged (keyframe records included) and robots merged, for both columns. Then per mode the sums
+# total bytes exchanged (keyframe records included) and robots placed, for both columns. Then per mode the sums
 # over the scenarios. Exit 0 unless a run fails (a crash, an unreadable input).
 set -euo pipefail
 bin=build/commerge
@@ -46,7 +46,7 @@ sums="$work/sums.tsv"
 failures=0
 echo "commerge ablation: $keyframes keyframes per robot, seed $seed, worlds $worlds, robots $robot_counts, overlaps $overlaps${run_args:+, run options: $run_args}"
 echo
-echo "| scenario | mode | ours: scans (selected + padded + widened) | ours: bytes | ours: robots merged | paper-exact: scans (selected) | paper-exact: bytes | paper-exact: robots merged |"
+echo "| scenario | mode | ours: scans (selected + padded + widened) | ours: bytes | ours: robots placed | paper-exact: scans (selected) | paper-exact: bytes | paper-exact: robots placed |"
 echo "|---|---|---|---|---|---|---|---|"
 for world in $worlds; do
   for robots in $robot_counts; do
@@ -96,7 +96,7 @@ done
 echo
 echo "Sums over the scenarios:"
 echo
-echo "| mode | ours: scans (selected + padded + widened) | ours: MiB | ours: robots merged | paper-exact: scans | paper-exact: MiB | paper-exact: robots merged |"
+echo "| mode | ours: scans (selected + padded + widened) | ours: MiB | ours: robots placed | paper-exact: scans | paper-exact: MiB | paper-exact: robots placed |"
 echo "|---|---|---|---|---|---|---|"
 for mode in "${modes[@]}"; do
   awk -F'\t' -v mode="$mode" '$1 == mode { s += $2; p += $3; w += $4; b += $5; r += $6; es += $7; eb += $8; er += $9; n += $10 }

@@ -338,6 +338,29 @@ KeyframeBatch LargestBatch(const SampleBank& bank) {
   return m;
 }
 
+// kMaxRecordsPerBatch Scan Context records (1226 B each, 627 KB: the largest legal keyframe_batch_t): grids of
+// heights in a third of the cells, a different pattern per keyframe.
+KeyframeBatch LargestScanContextBatch(const SampleBank& bank) {
+  KeyframeBatch m = bank.batches.empty() ? KeyframeBatch{} : bank.batches.front();
+  m.records.clear();
+  m.stored_points.clear();
+  m.record_kind = KeyframeRecordKind::kScanContext;
+  const std::size_t bytes = KeyframeRecordBytesOf(m.record_kind);
+  std::vector<float> grid(KeyframeRecordDimOf(m.record_kind));
+  for (std::size_t k = 0; k < kMaxRecordsPerBatch; ++k) {
+    for (std::size_t c = 0; c < grid.size(); ++c) {
+      grid[c] = (c * 7 + k) % 3 == 0 ? 0.5f + static_cast<float>((c * 13 + k * 5) % 40) * 0.1f : 0.0f;
+    }
+    const std::size_t at = m.records.size();
+    m.records.resize(at + bytes);
+    Check(EncodeRecordOfKind(m.record_kind, KeyframePose{static_cast<std::uint32_t>(k), SomePose(k)},
+                             Span<const float>(grid), Span<std::uint8_t>(m.records.data() + at, bytes)),
+          "Scan Context record");
+    m.stored_points.push_back(400 + static_cast<std::uint32_t>(k % 300));
+  }
+  return m;
+}
+
 PoseUpdate LargestPoseUpdate() {
   PoseUpdate m;
   m.utime_us = kInboxStartUs;
@@ -546,7 +569,8 @@ Samples<KeyframeBatch> SamplesOf(const SampleBank& b, Tag<KeyframeBatch>) {
   KeyframeBatch smallest;
   smallest.robot_id = 1;
   smallest.session = kInboxStartUs - 1;
-  return {true, Plus(Spread(b.batches, kSeedsPerKind), {Reannouncement(b), smallest}), {LargestBatch(b)}};
+  return {true, Plus(Spread(b.batches, kSeedsPerKind), {Reannouncement(b), smallest}),
+          {LargestBatch(b), LargestScanContextBatch(b)}};
 }
 Samples<PoseUpdate> SamplesOf(const SampleBank& b, Tag<PoseUpdate>) {
   return {true, Plus(Spread(b.pose_updates, kSeedsPerKind), {PoseUpdate{}}), {LargestPoseUpdate()}};
