@@ -443,14 +443,24 @@ std::size_t KeyframeRecordDimOf(KeyframeRecordKind kind) noexcept {
   return 0;
 }
 
-Status EncodeRecordOfKind(KeyframeRecordKind kind, const KeyframePose& pose, Span<const float> descriptor,
-                          Span<std::uint8_t> out) {
+namespace {
+
+// An unknown kind, or a descriptor span of another size than the kind's record carries.
+Status CheckRecordDescriptorSize(KeyframeRecordKind kind, std::size_t size) {
   const std::size_t dim = KeyframeRecordDimOf(kind);
   if (dim == 0) return InvalidArgument("keyframe record: unknown kind " + std::to_string(static_cast<int>(kind)));
-  if (descriptor.size() != dim) {
+  if (size != dim) {
     return InvalidArgument(std::string("keyframe record (") + KeyframeRecordKindName(kind) + "): descriptor of " +
-                           std::to_string(descriptor.size()) + " values, expected " + std::to_string(dim));
+                           std::to_string(size) + " values, expected " + std::to_string(dim));
   }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status EncodeRecordOfKind(KeyframeRecordKind kind, const KeyframePose& pose, Span<const float> descriptor,
+                          Span<std::uint8_t> out) {
+  if (Status st = CheckRecordDescriptorSize(kind, descriptor.size()); !st.ok()) return st;
   if (kind == KeyframeRecordKind::kScanContext) {
     return EncodeScanContextRecord(pose, descriptor, kScanContextWireRings, kScanContextWireSectors, out);
   }
@@ -464,12 +474,7 @@ Status EncodeRecordOfKind(KeyframeRecordKind kind, const KeyframePose& pose, Spa
 
 Result<KeyframePose> DecodeRecordOfKind(KeyframeRecordKind kind, Span<const std::uint8_t> bytes,
                                         Span<float> descriptor) {
-  const std::size_t dim = KeyframeRecordDimOf(kind);
-  if (dim == 0) return InvalidArgument("keyframe record: unknown kind " + std::to_string(static_cast<int>(kind)));
-  if (descriptor.size() != dim) {
-    return InvalidArgument(std::string("keyframe record (") + KeyframeRecordKindName(kind) + "): descriptor of " +
-                           std::to_string(descriptor.size()) + " values, expected " + std::to_string(dim));
-  }
+  if (Status st = CheckRecordDescriptorSize(kind, descriptor.size()); !st.ok()) return st;
   if (kind == KeyframeRecordKind::kScanContext) {
     return DecodeScanContextRecord(bytes, kScanContextWireRings, kScanContextWireSectors, descriptor);
   }

@@ -268,13 +268,7 @@ Status AffinityTileKernel::ComputeTile(std::size_t row_begin, std::size_t col_be
   Store4(vm, vmin);
   for (const float x : vm) smin = std::min(smin, x);
   cells_computed_ += static_cast<std::uint64_t>(rows) * static_cast<std::uint64_t>(cols);
-  tile->row_begin = row_begin;
-  tile->col_begin = col_begin;
-  tile->rows = rows;
-  tile->cols = cols;
-  tile->stride = cols;
-  tile->distances = tile_.data();
-  tile->min_distance = smin;
+  *tile = AffinityTile::Dense(row_begin, col_begin, rows, cols, tile_.data(), smin);
   return Status::Ok();
 }
 

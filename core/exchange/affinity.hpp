@@ -64,6 +64,11 @@ struct AffinityTile {
   float min_distance = std::numeric_limits<float>::quiet_NaN();
 
   float at(std::size_t r, std::size_t c) const noexcept { return distances[r * stride + c]; }
+  /// A dense block (stride = cols) of `data`, with its minimum.
+  static AffinityTile Dense(std::size_t row_begin, std::size_t col_begin, std::size_t rows, std::size_t cols,
+                            const float* data, float min_distance) noexcept {
+    return {row_begin, col_begin, rows, cols, cols, data, min_distance};
+  }
 };
 
 /// Anything that can produce affinity tiles on demand (the descriptor kernel; tests use a stored matrix).

@@ -241,13 +241,7 @@ Status ScanContextTileSource::ComputeTile(std::size_t row_begin, std::size_t col
     }
   }
   cells_computed_ += static_cast<std::uint64_t>(rows) * static_cast<std::uint64_t>(cols);
-  tile->row_begin = row_begin;
-  tile->col_begin = col_begin;
-  tile->rows = rows;
-  tile->cols = cols;
-  tile->stride = cols;
-  tile->distances = tile_.data();
-  tile->min_distance = tile_min;
+  *tile = AffinityTile::Dense(row_begin, col_begin, rows, cols, tile_.data(), tile_min);
   return Status::Ok();
 }
 

@@ -20,6 +20,7 @@
 #include "core/descriptor/solid.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/sim/synthetic_scan.hpp"
+#include "tests/support/scan_context_scans.hpp"
 #include "tests/support/pose_errors.hpp"
 
 namespace commerge {
@@ -499,20 +500,10 @@ constexpr int kRings = 20, kSectors = 60;
 constexpr std::size_t kCells = static_cast<std::size_t>(kRings) * kSectors;
 using ScRecord = std::vector<std::uint8_t>;
 
-// Scan Context of a ray-cast street scan (16 beams, 720 columns) from (x, y) with heading yaw.
+// Scan Context of a ray-cast street scan from (x, y) with heading yaw.
 std::vector<float> StreetScanContext(float x_m, float y_m, float yaw_rad, std::uint32_t seed) {
   static const BoxScene scene = MakeStreetScene(11);
-  SpinningLidar lidar;
-  lidar.beams = 16;
-  lidar.azimuth_steps = 720;
-  lidar.max_range_m = 90.0f;
-  std::vector<PointXYZI> pts;
-  CastScan(scene, lidar, x_m, y_m, 1.73f, yaw_rad, seed, &pts);
-  std::vector<float> sc(kCells);
-  const auto info = ComputeScanContext(pts, ScanContextParams{}, sc);
-  REQUIRE(info.ok());
-  REQUIRE(info->valid);
-  return sc;
+  return test::RayCastScanContext(scene, x_m, y_m, yaw_rad, seed);
 }
 
 ScRecord Encode(const KeyframePose& pose, const std::vector<float>& sc) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/exchange/affinity.hpp"
+#include "tests/core/exchange/affinity_tiles_check.hpp"
 
 namespace commerge {
 namespace {
@@ -182,27 +183,10 @@ TEST_CASE("affinity kernel values are position independent and tiles report thei
   const std::vector<float> whole = WholeMatrix(a, b);
   auto kernel = AffinityTileKernel::Create(a, b, 40, 40);
   REQUIRE(kernel.ok());
+  // Arbitrary blocks: offsets not aligned to the 6 x 8 micro blocks, 1-wide, full-capacity.
   std::mt19937 rng(4);
+  const std::uint64_t cells = test::CheckRandomTiles(*kernel, whole, n, m, 40, 300, &rng);
   AffinityTile t;
-  std::uint64_t cells = 0;
-  for (int trial = 0; trial < 300; ++trial) {
-    // Arbitrary blocks: offsets not aligned to the 6 x 8 micro blocks, 1-wide, full-capacity.
-    const std::size_t r0 = std::uniform_int_distribution<std::size_t>(0, n - 1)(rng);
-    const std::size_t c0 = std::uniform_int_distribution<std::size_t>(0, m - 1)(rng);
-    const std::size_t rows = std::uniform_int_distribution<std::size_t>(1, std::min<std::size_t>(40, n - r0))(rng);
-    const std::size_t cols = std::uniform_int_distribution<std::size_t>(1, std::min<std::size_t>(40, m - c0))(rng);
-    REQUIRE(kernel->ComputeTile(r0, c0, rows, cols, &t).ok());
-    cells += rows * cols;
-    float tile_min = std::numeric_limits<float>::infinity();
-    for (std::size_t r = 0; r < rows; ++r) {
-      for (std::size_t c = 0; c < cols; ++c) {
-        const float w = whole[(r0 + r) * m + c0 + c];
-        REQUIRE(t.at(r, c) == w);  // bit for bit (inf == inf)
-        tile_min = std::min(tile_min, w);
-      }
-    }
-    CHECK(t.min_distance == tile_min);
-  }
   CHECK(kernel->cells_computed() == cells);
   CHECK(whole[5 * m + 3] < 2e-3f);
   CHECK(std::isinf(whole[7 * m + 10]));

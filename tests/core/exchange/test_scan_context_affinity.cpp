@@ -19,6 +19,8 @@
 #include "core/exchange/sequential_matching.hpp"
 #include "core/sim/synthetic_scan.hpp"
 #include "platform/io/kitti_bin.hpp"
+#include "tests/core/exchange/affinity_tiles_check.hpp"
+#include "tests/support/scan_context_scans.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace commerge {
@@ -62,20 +64,7 @@ std::vector<float> RandomScanContexts(std::size_t count, int rings, int sectors,
   return v;
 }
 
-// Scan Context of a ray-cast scan of `scene` from (x, y) with heading yaw (16 beams, 720 columns).
-std::vector<float> ScanContextAt(const BoxScene& scene, float x_m, float y_m, float yaw_rad, std::uint32_t seed) {
-  SpinningLidar lidar;
-  lidar.beams = 16;
-  lidar.azimuth_steps = 720;
-  lidar.max_range_m = 90.0f;
-  std::vector<PointXYZI> pts;
-  CastScan(scene, lidar, x_m, y_m, 1.73f, yaw_rad, seed, &pts);
-  std::vector<float> sc(kDim);
-  const auto info = ComputeScanContext(pts, ScanContextParams{}, sc);
-  REQUIRE(info.ok());
-  REQUIRE(info->valid);
-  return sc;
-}
+using test::RayCastScanContext;
 
 void Append(std::vector<float>* set, const std::vector<float>& sc) { set->insert(set->end(), sc.begin(), sc.end()); }
 
@@ -173,22 +162,22 @@ TEST_CASE("Scan Context affinity exact mode equals MatchScanContext on random gr
 
 TEST_CASE("Scan Context affinity exact mode equals MatchScanContext on ray-cast street scans") {
   std::vector<float> va, vb;
-  for (int k = 0; k < 12; ++k) Append(&va, ScanContextAt(Street(), -60.0f + 10.0f * k, 0.0f, 0.0f, 1));
-  for (int k = 0; k < 9; ++k) Append(&vb, ScanContextAt(Street(), -55.0f + 13.0f * k, 1.0f, 0.4f * k, 2));
+  for (int k = 0; k < 12; ++k) Append(&va, RayCastScanContext(Street(), -60.0f + 10.0f * k, 0.0f, 0.0f, 1));
+  for (int k = 0; k < 9; ++k) Append(&vb, RayCastScanContext(Street(), -55.0f + 13.0f * k, 1.0f, 0.4f * k, 2));
   const double err = CheckExactAgainstBruteForce(va, vb, kRings, kSectors, 5);
   MESSAGE("exact vs MatchScanContext, street scans: max |diff| " << err);
   CHECK(err < kExactTol);
 }
 
 TEST_CASE("Scan Context affinity: a scan turned by whole sectors matches itself at distance ~0 in both modes") {
-  const std::vector<float> base = ScanContextAt(Street(), -20.0f, 0.5f, 0.0f, 3);
+  const std::vector<float> base = RayCastScanContext(Street(), -20.0f, 0.5f, 0.0f, 3);
   std::vector<float> va, vb;
   Append(&va, base);
   // Turned grids (exact copies with rolled columns) and ray-cast scans from a sensor turned by k x 6 deg.
   const int shifts[] = {0, 1, 5, 17, 30, 59};
   for (const int s : shifts) Append(&vb, RollColumns(base, kRings, kSectors, s));
   for (const int s : shifts) {
-    Append(&vb, ScanContextAt(Street(), -20.0f, 0.5f, static_cast<float>(s) * 6.0f * 3.14159265358979f / 180.0f, 3));
+    Append(&vb, RayCastScanContext(Street(), -20.0f, 0.5f, static_cast<float>(s) * 6.0f * 3.14159265358979f / 180.0f, 3));
   }
   for (const auto mode : {ScanContextAffinityMode::kExact, ScanContextAffinityMode::kSectorKeyShift}) {
     const std::string mode_name = ScanContextAffinityModeName(mode);
@@ -249,7 +238,7 @@ TEST_CASE("Scan Context affinity sector-key mode is never below exact and equals
   std::uniform_int_distribution<int> any_shift(0, kSectors - 1);
   std::vector<float> va, vb;
   for (int k = 0; k < 10; ++k) {
-    const std::vector<float> sc = ScanContextAt(Street(), -70.0f + 15.0f * k, 0.0f, 0.0f, 5);
+    const std::vector<float> sc = RayCastScanContext(Street(), -70.0f + 15.0f * k, 0.0f, 0.0f, 5);
     Append(&va, sc);
     std::vector<float> copy = RollColumns(sc, kRings, kSectors, any_shift(rng));
     for (float& v : copy) {
@@ -279,8 +268,8 @@ TEST_CASE("Scan Context affinity sector-key agreement with exact on ray-cast str
   std::mt19937 rng(17);
   std::uniform_real_distribution<float> yaw(-3.14159f, 3.14159f), lateral(-1.5f, 1.5f);
   std::vector<float> va, vb;
-  for (int k = 0; k < 30; ++k) Append(&va, ScanContextAt(Street(), -80.0f + 5.5f * k, lateral(rng), yaw(rng), 10u + k));
-  for (int k = 0; k < 30; ++k) Append(&vb, ScanContextAt(Street(), -78.0f + 5.5f * k, lateral(rng), yaw(rng), 50u + k));
+  for (int k = 0; k < 30; ++k) Append(&va, RayCastScanContext(Street(), -80.0f + 5.5f * k, lateral(rng), yaw(rng), 10u + k));
+  for (int k = 0; k < 30; ++k) Append(&vb, RayCastScanContext(Street(), -78.0f + 5.5f * k, lateral(rng), yaw(rng), 50u + k));
   const Agreement ag = CompareModes(va, vb);
   MESSAGE("street scans: sector-key equal to exact in " << 100.0 * ag.equal_fraction << " % of " << ag.cells
                                                         << " cells (" << 100.0 * ag.near_equal_fraction << " % of "
@@ -387,25 +376,7 @@ TEST_CASE("Scan Context affinity values are position independent and tiles repor
     CHECK(std::isinf(whole[7 * m + 10]));
     ScanContextTileSource src = MakeSource(a, b, Params(mode), 16);
     std::mt19937 rng(4);
-    AffinityTile t;
-    std::uint64_t cells = 0;
-    for (int trial = 0; trial < 60; ++trial) {
-      const std::size_t r0 = std::uniform_int_distribution<std::size_t>(0, n - 1)(rng);
-      const std::size_t c0 = std::uniform_int_distribution<std::size_t>(0, m - 1)(rng);
-      const std::size_t rows = std::uniform_int_distribution<std::size_t>(1, std::min<std::size_t>(16, n - r0))(rng);
-      const std::size_t cols = std::uniform_int_distribution<std::size_t>(1, std::min<std::size_t>(16, m - c0))(rng);
-      REQUIRE(src.ComputeTile(r0, c0, rows, cols, &t).ok());
-      cells += rows * cols;
-      float tile_min = std::numeric_limits<float>::infinity();
-      for (std::size_t r = 0; r < rows; ++r) {
-        for (std::size_t c = 0; c < cols; ++c) {
-          const float w = whole[(r0 + r) * m + c0 + c];
-          REQUIRE(t.at(r, c) == w);  // bit for bit (inf == inf)
-          tile_min = std::min(tile_min, w);
-        }
-      }
-      CHECK(t.min_distance == tile_min);
-    }
+    const std::uint64_t cells = test::CheckRandomTiles(src, whole, n, m, 16, 60, &rng);
     CHECK(src.cells_computed() == cells);
     CHECK(src.CellDistance(5, 3) == whole[5 * m + 3]);
   }
@@ -464,8 +435,8 @@ TEST_CASE("Stage A on Scan Context affinity tiles finds two robots' shared path"
   const int n = 60;
   std::vector<float> va, vb;
   for (int k = 0; k < n; ++k) {
-    Append(&va, ScanContextAt(Street(), -75.0f + 2.5f * k, -0.25f, 0.0f, 100u + k));
-    Append(&vb, ScanContextAt(Street(), -74.5f + 2.5f * k, 0.25f, 0.3f, 300u + k));
+    Append(&va, RayCastScanContext(Street(), -75.0f + 2.5f * k, -0.25f, 0.0f, 100u + k));
+    Append(&vb, RayCastScanContext(Street(), -74.5f + 2.5f * k, 0.25f, 0.3f, 300u + k));
   }
   SequentialMatchParams sp;
   sp.tau_inter = 0.2;
