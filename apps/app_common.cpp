@@ -217,6 +217,10 @@ KeyframeRecordKind RecordKindForDescriptor(const std::string& descriptor) {
   return descriptor == "scan-context" ? KeyframeRecordKind::kScanContext : KeyframeRecordKind::kUnit40;
 }
 
+std::int32_t DescriptorFloatsFor(const std::string& descriptor) {
+  return static_cast<std::int32_t>(KeyframeRecordDimOf(RecordKindForDescriptor(descriptor)));
+}
+
 std::string CascadeSettingsText(const MergeServerParams& params) {
   const SequentialMatchParams& a = params.cascade.stage_a;
   std::string text = a.neighbour_rank == 0
@@ -355,6 +359,7 @@ int SetUpMemory(AppKind app, const MemoryFlags& f, MemorySetup* s, bool print_ta
   if (f.merged_map_mb > 0) c.merged_map_bytes = f.merged_map_mb * kMiB;
   if (f.queue_mb > 0) c.message_queue_bytes = f.queue_mb * kMiB;
   if (f.solver_mb > 0) c.solver_workspace_bytes = f.solver_mb * kMiB;
+  if (f.descriptor_floats > 0) c.descriptor_floats = f.descriptor_floats;
   if (Status st = ValidateMemoryConfig(c); !st.ok()) {
     std::fprintf(stderr, "commerge: %s\n", st.message().c_str());
     return kExitUsage;

@@ -44,6 +44,7 @@ struct MemoryFlags {
   std::int64_t queue_mb = 0;
   std::int64_t solver_mb = 0;
   std::int64_t heap_cap_mb = 0;     // 0 = no hard cap
+  std::int32_t descriptor_floats = 0;  // 0 = 40; set from --descriptor (1200 for scan-context), not a flag
   std::string proc_root = "/proc";  // testing hooks: fake /proc and cgroup trees
   std::string cgroup_root = "/sys/fs/cgroup";
 };
@@ -106,6 +107,8 @@ double PaperTauInter(const std::string& lidar);
 void ApplySensorTauInter(bool tau_inter_given, const std::string& lidar, MergeServerParams* params);
 /// The keyframe records of a --descriptor (scan-context: Scan Context records; ring and solid: 40 unit values).
 KeyframeRecordKind RecordKindForDescriptor(const std::string& descriptor);
+/// Floats per keyframe descriptor of a --descriptor (40, Scan Context 1200): MemoryFlags::descriptor_floats.
+std::int32_t DescriptorFloatsFor(const std::string& descriptor);
 /// Stage A's threshold and stage B's cover in words, for the start-up line of run and server:
 /// "stage A tau_inter 0.05 per cell, stage B pairwise" or "stage A neighbour rank 1 under tau_inter 0.5, ...".
 std::string CascadeSettingsText(const MergeServerParams& params);

@@ -13,6 +13,7 @@ namespace commerge::app {
 Command AddBudgetCommand(CLI::App& root) {
   struct Opts {
     std::string app = "robot";
+    std::string descriptor = "ring";
     MemoryFlags memory;
   };
   auto o = std::make_shared<Opts>();
@@ -22,9 +23,14 @@ Command AddBudgetCommand(CLI::App& root) {
   cmd->add_option("--app", o->app, "robot | server | run")
       ->check(CLI::IsMember({"robot", "server", "run"}))
       ->capture_default_str();
+  cmd->add_option("--descriptor", o->descriptor,
+                  "the robots' --descriptor: Scan Context keeps 1200 values per keyframe, the others 40")
+      ->check(CLI::IsMember({"ring", "solid", "scan-context"}))
+      ->capture_default_str();
   AddMemoryFlags(cmd, &o->memory);
   return {cmd, [o]() -> int {
     const AppKind app = *ParseAppKind(o->app);
+    o->memory.descriptor_floats = DescriptorFloatsFor(o->descriptor);
     MemorySetup setup;
     const int rc = SetUpMemory(app, o->memory, &setup, /*print_table=*/true);
     if (rc != kExitOk) return rc;

@@ -129,7 +129,9 @@ class RobotProcess {
 };
 
 int RobotProcess::Configure() {
-  if (int rc = SetUpMemory(AppKind::kRobot, o_.memory, &setup_, false); rc != kExitOk) return rc;
+  MemoryFlags memory = o_.memory;
+  memory.descriptor_floats = DescriptorFloatsFor(o_.descriptor.name);
+  if (int rc = SetUpMemory(AppKind::kRobot, memory, &setup_, false); rc != kExitOk) return rc;
   if (o_.live == !o_.data.empty()) {
     std::fprintf(stderr, "%s: give exactly one input: --data DIR (replay) or --live (odometry stack on LCM)\n", kTag);
     return kExitUsage;

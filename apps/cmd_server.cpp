@@ -106,7 +106,9 @@ class ServerProcess {
 };
 
 int ServerProcess::Configure() {
-  if (int rc = SetUpMemory(AppKind::kServer, o_.memory, &setup_, false); rc != kExitOk) return rc;
+  MemoryFlags memory = o_.memory;
+  memory.descriptor_floats = DescriptorFloatsFor(o_.descriptor);
+  if (int rc = SetUpMemory(AppKind::kServer, memory, &setup_, false); rc != kExitOk) return rc;
   // Robot ids 0..--robots-1 are accepted (the memory flag that also sizes the budget).
   robots_ = setup_.config.max_robots;
   if (robots_ < 2 || robots_ > 8) {

@@ -132,6 +132,7 @@ int SetUpRun(RunJob* job) {
   const RunOptions& o = job->options;
   MemoryFlags memory = o.memory;
   if (memory.robots == 0) memory.robots = job->num_robots();
+  memory.descriptor_floats = DescriptorFloatsFor(o.descriptor.name);
   if (int rc = SetUpMemory(AppKind::kRun, memory, &job->memory, /*print_table=*/false); rc != kExitOk) return rc;
   if (job->memory.config.max_robots < job->num_robots()) {
     return Fail(*job, kExitUsage, "--robots " + std::to_string(job->memory.config.max_robots) + " is fewer than the " +

@@ -100,6 +100,7 @@ Status ValidateMemoryConfig(const MemoryConfig& c) {
       {"merged_map_bytes", c.merged_map_bytes, 1024 * kGiB},
       {"message_queue_bytes", c.message_queue_bytes, 1024 * kGiB},
       {"solver_workspace_bytes", c.solver_workspace_bytes, 1024 * kGiB},
+      {"descriptor_floats", c.descriptor_floats, 65536},
   };
   for (const Field& f : fields) {
     if (f.value <= 0 || f.value > f.max) {
@@ -135,8 +136,9 @@ using R = BudgetRecordSizes;
 void AddRobotModules(BudgetTable* t, const MemoryConfig& c, const std::string& prefix, std::int64_t n) {
   const std::string times = n > 1 ? " x " + Str(n) + " robots" : "";
   const std::int64_t k = c.max_keyframes_per_robot;
-  t->Add(prefix + "descriptor_db", n * k * R::kDescriptorRecordBytes,
-         Str(k) + " keyframes (--max-keyframes) x " + Str(R::kDescriptorRecordBytes) + " B" + times);
+  const std::int64_t record = R::DescriptorRecordBytes(c.descriptor_floats);
+  t->Add(prefix + "descriptor_db", n * k * record,
+         Str(k) + " keyframes (--max-keyframes) x " + Str(record) + " B" + times);
   t->Add(prefix + "pose_graph", n * k * R::kPoseGraphBytesPerKeyframe,
          Str(k) + " keyframes x " + Str(R::kPoseGraphBytesPerKeyframe) + " B" + times);
   t->Add(prefix + "scan_store", n * c.scan_store_bytes, "--scan-store-mb" + times);
@@ -152,8 +154,9 @@ void AddRobotModules(BudgetTable* t, const MemoryConfig& c, const std::string& p
 void AddServerModules(BudgetTable* t, const MemoryConfig& c, const std::string& prefix) {
   const std::int64_t r = c.max_robots;
   const std::int64_t k = c.max_keyframes_per_robot;
-  t->Add(prefix + "descriptor_db", r * k * R::kDescriptorRecordBytes,
-         Str(r) + " robots (--robots) x " + Str(k) + " keyframes x " + Str(R::kDescriptorRecordBytes) + " B");
+  const std::int64_t record = R::DescriptorRecordBytes(c.descriptor_floats);
+  t->Add(prefix + "descriptor_db", r * k * record,
+         Str(r) + " robots (--robots) x " + Str(k) + " keyframes x " + Str(record) + " B");
   // Streaming affinity: two 256x256 float tiles plus O(N + M) labelling state per robot pair.
   const std::int64_t pairs = r * (r - 1) / 2;
   // Place consensus: one pair's cluster set at a time, at most kServerConsensusMaxCells cells.

@@ -48,6 +48,9 @@ struct MemoryConfig {
   std::int64_t merged_map_bytes = 64 * 1024 * 1024;  ///< server: the merged global map
   std::int64_t message_queue_bytes = 8 * 1024 * 1024;     ///< outgoing/incoming message queues per process
   std::int64_t solver_workspace_bytes = 64 * 1024 * 1024;  ///< server: LP relaxations and branch-and-bound
+  /// Floats of one keyframe descriptor (40: SOLiD, the ring descriptor; 1200: Scan Context 20 x 60): the
+  /// descriptor databases of robots and server hold one per keyframe (BudgetRecordSizes::DescriptorRecordBytes).
+  std::int32_t descriptor_floats = 40;
 };
 
 /// Defaults sized for the board (the Jetson Nano defaults keep a robot under 384 MB and a server under 512 MB).
@@ -76,6 +79,11 @@ class BudgetTable {
 /// Per-record sizes that the budget formulas use (exact sizes of the structures the modules hold).
 struct BudgetRecordSizes {
   static constexpr std::int64_t kDescriptorRecordBytes = 512;  ///< R-SOLiD + A-SOLiD floats, pose, index
+  /// A keyframe of the descriptor databases with `floats` descriptor values: kDescriptorRecordBytes for up to 40,
+  /// 4 B more per value beyond (Scan Context's 1200: 5 152 B).
+  static constexpr std::int64_t DescriptorRecordBytes(std::int32_t floats) noexcept {
+    return kDescriptorRecordBytes + 4 * (floats > 40 ? static_cast<std::int64_t>(floats) - 40 : 0);
+  }
   /// Node (128 B), the mapper's odometry pose (128 B), its edges (432 B each: odometry and loops) and the sparse
   /// solver's workspace (~2.4 kB per node on a plain circuit, profiling/bench_pose_graph; more with the fill-in
   /// of many loops). Sized for the worst case the pose-graph test measures: 5.3 kB with a loop at every

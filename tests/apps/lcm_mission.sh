@@ -23,6 +23,8 @@
 #   replay          a clean mission recorded with `commerge record` (complete by the senders' sequence numbers),
 #                   then played back with lcm-logplayer into a fresh `commerge server --replay`, which must
 #                   reproduce the recorded merge
+#   scan-context    robots and server with --descriptor scan-context (1226-byte Scan Context records, one per
+#                   batch) and 10 % of the packets dropped as in loss10
 #   attack          cm_lcm_sampler --attack (give --sampler) captures the daemons' signed messages and publishes
 #                   them replayed, tampered, re-signed with another team's key, and signed as robot 40; server and
 #                   robots must refuse and count every one (until the first merge result that places every robot:
@@ -52,7 +54,7 @@ while [ $# -gt 0 ]; do
 done
 [ -n "$bin" ] && [ -n "$data" ] && [ -n "$work" ] && [ -n "$scenario" ] || usage
 case "$scenario" in
-  clean|loss10|loss50|tbf2mbit|delay2s|dup-reorder|robot-restart|server-restart|hostile|live|replay|attack) ;;
+  clean|loss10|loss50|tbf2mbit|delay2s|dup-reorder|robot-restart|server-restart|hostile|live|replay|attack|scan-context) ;;
   *) echo "lcm_mission.sh: unknown scenario '$scenario'" >&2; exit 2 ;;
 esac
 for f in "$data/robot_0/poses.txt" "$data/robot_1/poses.txt" "$data/start_transforms.txt"; do
@@ -106,8 +108,13 @@ server_args=(server --out "$work/server" --robots 2 --tau-area 1000 --round-quie
 robot_args=(--lidar vlp-16 --keyframe-spacing-m 0.9 --rate-hz 40 --linger-s 200 "${auth[@]}")
 fault=()
 case "$scenario" in
-  loss10|loss50)
-    pct=${scenario#loss}
+  loss10|loss50|scan-context)
+    pct=10
+    [ "$scenario" = scan-context ] || pct=${scenario#loss}
+    if [ "$scenario" = scan-context ]; then
+      server_args+=(--descriptor scan-context)
+      robot_args+=(--descriptor scan-context)
+    fi
     # Match the destination address (non-first IP fragments carry no UDP header) on ingress (PLATFORM.md 4.5).
     nft add table ip cmloss
     nft add chain ip cmloss pre '{ type filter hook prerouting priority -300; }'
@@ -294,7 +301,7 @@ for id in 0 1; do
   bytes_text+=" robot $id sent $sent B ($resent B = $pct % re-sent);"
 done
 dropped=""
-if [ "$scenario" = loss10 ] || [ "$scenario" = loss50 ]; then
+if [ "$scenario" = loss10 ] || [ "$scenario" = loss50 ] || [ "$scenario" = scan-context ]; then
   dropped=" nftables dropped $(nft list table ip cmloss | sed -n 's/.*counter packets \([0-9]*\).*/\1/p') packets;"
 fi
 
