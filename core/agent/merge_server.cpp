@@ -466,6 +466,7 @@ void MergeServer::ResetRobot(int robot) {
   if (robot < 0 || robot >= max_robots()) return;
   NoteMemory();
   robots_[static_cast<std::size_t>(robot)] = RobotKeyframeDb();
+  robots_[static_cast<std::size_t>(robot)].dim = KeyframeRecordDimOf(params_.record_kind);
   const std::uint64_t begin = Key(robot, 0), end = Key(robot + 1, 0);
   for (auto it = partial_.lower_bound(begin); it != partial_.end() && it->first < end;) {
     held_bytes_ -= it->second.total_bytes;

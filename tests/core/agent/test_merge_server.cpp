@@ -1301,6 +1301,16 @@ TEST_CASE("Merge server with Scan Context records: the other kind is refused and
   CHECK(on_diagonal == static_cast<std::size_t>(n - shift));
   CHECK(off_band == 0);
 
+  // A robot that restarts (a new session resets it) keeps the server's descriptor width: its new batch applies.
+  server.ResetRobot(1);
+  CHECK(server.robot(1).size() == 0);
+  CHECK(server.robot(1).dim == 1200);
+  REQUIRE(server.OnKeyframeBatch(ScanContextBatch(1, 0, b)).ok());
+  CHECK(server.robot(1).size() == static_cast<std::size_t>(n));
+  REQUIRE(server.RunCascades().ok());
+  REQUIRE(server.cascade(0, 1) != nullptr);
+  CHECK(server.cascade(0, 1)->stage_a.found);
+
   // A server of 40-value records refuses the Scan Context batch the same way.
   MergeServer unit_server(2, 200, MergeServerParams{});
   const Status other = unit_server.OnKeyframeBatch(ScanContextBatch(0, 0, a));
