@@ -7,11 +7,14 @@
 // pairwise transforms into one frame per robot, rejecting pairs inconsistent with the rest.
 //
 // Exchange modes (the paper's ablation, Table "ablation2"): which scans a pair's plan asks for.
-//   send-all : every stored scan of both robots (the baseline); registration uses stage A's scans
+//   send-all : every stored scan of both robots (the baseline); each pair registers the complete stored maps
 //   A        : both endpoints of every loop of L_seq (stage A's best cluster)
 //   A+B      : stage B's balanced vertex cover of L_seq
 //   A+C      : the endpoints of the maximum edge-weighted clique over all of L_seq (no stage B)
 //   A+B+C    : the full cascade's exchange policy (the endpoints of L_K)
+// Every mode but send-all is padded to ExchangePolicyParams::min_scans_per_robot per robot with stage A's
+// keyframes, and every mode but send-all is widened (MergeServerParams::max_widen_steps): one rule, so the
+// modes compare; the plan counts selected and padded scans apart.
 #pragma once
 
 #include <array>

@@ -20,7 +20,7 @@ struct ExchangePolicyParams {
   /// 64-beam scan keeps after the 1 m voxel grid (KITTI 00: 124 668 -> 4 273 points).
   std::uint32_t assumed_points_per_scan = 4300;
   /// Fewest scans asked of each robot (ours, not in the paper; 0 = exactly the scans of L_K, the paper's
-  /// policy). The paper sends raw scans, so a handful of them make a dense submap; our robots keep 1 m voxel
+  /// policy). The server pads every other exchange mode's selection by the same rule (MergeServer::Plan). The paper sends raw scans, so a handful of them make a dense submap; our robots keep 1 m voxel
   /// scans (a few hundred points each), and a submap of 4-6 of them leaves the coarse registration without
   /// enough features (generated campus, 3 robots: 6 + 4 and 4 + 2 scans failed, 10 + 10 merged). When L_K
   /// names fewer keyframes of a robot, keyframes of the same robot that stage A matched to the other robot
