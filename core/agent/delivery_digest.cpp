@@ -46,9 +46,7 @@ Result<DeliveryDigest> RobotDeliveryDigest(const RobotMapper& mapper) {
   d.keyframes = mapper.num_keyframes();
   d.delivered = d.keyframes;
   // The record kind RobotAgent sends for this mapper's descriptor.
-  const KeyframeRecordKind kind = mapper.descriptor_kind() == DescriptorKind::kScanContext
-                                      ? KeyframeRecordKind::kScanContext
-                                      : KeyframeRecordKind::kUnit40;
+  const KeyframeRecordKind kind = RecordKindOf(mapper.descriptor_kind());
   std::vector<std::uint8_t> bytes(KeyframeRecordBytesOf(kind));
   std::vector<float> sent(KeyframeRecordDimOf(kind));
   for (std::size_t k = 0; k < mapper.num_keyframes(); ++k) {

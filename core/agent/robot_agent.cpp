@@ -43,8 +43,7 @@ RobotAgent::RobotAgent(int robot_id, const RobotAgentParams& params, const Robot
   }
   if (params_status_.ok() && descriptor != nullptr) {
     // The record that carries the descriptor: 40 unit values (SOLiD, ring occupancy) or the Scan Context grid.
-    record_kind_ = descriptor->kind() == DescriptorKind::kScanContext ? KeyframeRecordKind::kScanContext
-                                                                      : KeyframeRecordKind::kUnit40;
+    record_kind_ = RecordKindOf(descriptor->kind());
     if (descriptor->dimension() != KeyframeRecordDimOf(record_kind_)) {
       params_status_ = InvalidArgument("the place descriptor has " + std::to_string(descriptor->dimension()) +
                                        " values; its keyframe record (" + KeyframeRecordKindName(record_kind_) +

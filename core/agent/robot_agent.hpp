@@ -50,7 +50,8 @@ struct ScanAnswer {
 
 class RobotAgent {
  public:
-  /// `descriptor` must produce kKeyframeDescriptorDim values (R-SOLiD); `descriptor` and `store` are not owned.
+  /// `descriptor` must produce the values its record carries (RecordKindOf: 40 for SOLiD and the ring descriptor,
+  /// 20 x 60 for Scan Context); `descriptor` and `store` are not owned.
   RobotAgent(int robot_id, const RobotAgentParams& params, const RobotMapperCapacity& capacity,
              PlaceDescriptor* descriptor, ScanStore* store);
 

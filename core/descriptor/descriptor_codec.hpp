@@ -60,6 +60,7 @@
 
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
+#include "core/descriptor/place_descriptor.hpp"
 
 namespace commerge {
 
@@ -146,6 +147,11 @@ enum class KeyframeRecordKind : std::uint8_t {
 /// The one Scan Context grid on the wire (the paper's and Kim & Kim's 20 x 60): 1226-byte records.
 constexpr int kScanContextWireRings = 20;
 constexpr int kScanContextWireSectors = 60;
+/// The record that carries a descriptor of `kind`: kScanContext for Scan Context, kUnit40 for SOLiD and the ring
+/// descriptor (the one place that decides it, for RobotAgent and the delivery digest).
+constexpr KeyframeRecordKind RecordKindOf(DescriptorKind kind) noexcept {
+  return kind == DescriptorKind::kScanContext ? KeyframeRecordKind::kScanContext : KeyframeRecordKind::kUnit40;
+}
 /// "unit-40" / "scan-context" ("unknown" otherwise).
 const char* KeyframeRecordKindName(KeyframeRecordKind kind) noexcept;
 /// A kind a decoder accepts (1 or 2).
