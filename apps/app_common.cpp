@@ -322,14 +322,15 @@ void AddMemoryFlags(CLI::App* cmd, MemoryFlags* f) {
       ->capture_default_str();
   cmd->add_option("--robots", f->robots, "Robots one server keeps data for (default: per board)")
       ->check(CLI::Range(1, 64));
-  cmd->add_option("--max-keyframes", f->max_keyframes, "Keyframes per robot the pools hold (default: per board)")
+  cmd->add_option("--max-keyframes", f->max_keyframes, "Keyframes per robot the pools hold (default: run: what the datasets make; robot, server: per board)")
       ->check(CLI::PositiveNumber);
-  cmd->add_option("--scan-store-mb", f->scan_store_mb, "Robot scan store size [MiB] (default: per board)")
+  cmd->add_option("--scan-store-mb", f->scan_store_mb, "Robot scan store size [MiB] (default: run: what the datasets fill, at most the board's; robot: per board)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--max-submap-points", f->max_submap_points,
                   "Points per submap on the server; larger submaps are voxelised coarser (default: 100000)")
       ->check(CLI::PositiveNumber);
-  cmd->add_option("--merged-map-mb", f->merged_map_mb, "Merged map size on the server [MiB] (default: per board)")
+  cmd->add_option("--merged-map-mb", f->merged_map_mb, "Merged map on the server [MiB]: its points and the builder's workspace; a full map leaves later scans "
+                  "out and says how many (default: per board; run: at most what the datasets fill)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--queue-mb", f->queue_mb, "Message queue bytes per process [MiB] (default: per board)")
       ->check(CLI::PositiveNumber);
@@ -351,7 +352,7 @@ int SetUpMemory(AppKind app, const MemoryFlags& f, MemorySetup* s, bool print_ta
   }
   s->board = *board;
   MemoryConfig& c = s->config;
-  c = DefaultMemoryConfig(s->board);
+  c = SizeMemoryForMission(DefaultMemoryConfig(s->board), f.mission);
   if (f.robots > 0) c.max_robots = f.robots;
   if (f.max_keyframes > 0) c.max_keyframes_per_robot = f.max_keyframes;
   if (f.scan_store_mb > 0) c.scan_store_bytes = f.scan_store_mb * kMiB;

@@ -45,6 +45,7 @@ struct MemoryFlags {
   std::int64_t solver_mb = 0;
   std::int64_t heap_cap_mb = 0;     // 0 = no hard cap
   std::int32_t descriptor_floats = 0;  // 0 = 40; set from --descriptor (1200 for scan-context), not a flag
+  MissionExtent mission;               // `run`: the opened datasets (SizeMemoryForMission before the flags), not a flag
   std::string proc_root = "/proc";  // testing hooks: fake /proc and cgroup trees
   std::string cgroup_root = "/sys/fs/cgroup";
 };

@@ -124,6 +124,7 @@ int ServerProcess::Configure() {
   server_params_ = o_.server;
   server_params_.record_kind = RecordKindForDescriptor(o_.descriptor);
   server_params_.max_submap_points = static_cast<std::size_t>(setup_.config.max_submap_points);
+  server_params_.max_scan_points = static_cast<std::size_t>(setup_.config.max_points_per_stored_scan);
   if (Result<LidarSensor> sensor = LidarSensorFor(o_.lidar); !sensor.ok()) {
     std::fprintf(stderr, "%s: --lidar: %s\n", kTag, sensor.status().message().c_str());
     return kExitUsage;
@@ -228,7 +229,7 @@ void ServerProcess::WriteRoundFiles(const MergeResultMessage& result) {
   const MergeRoundResult& round = link_->last_round();
   Status st = platform::WriteTransforms(o_.out_dir + "/transforms.txt", result,
                                         std::string(kTag) + ", round " + std::to_string(result.round));
-  MergedMapBuilder map{MergedMapParams{}};
+  MergedMapBuilder map{MergedMapParamsForBytes(setup_.config.merged_map_bytes)};
   std::vector<PointXYZI> scan;
   std::error_code ec;
   std::filesystem::create_directories(o_.out_dir + "/trajectories", ec);
@@ -256,7 +257,13 @@ void ServerProcess::WriteRoundFiles(const MergeResultMessage& result) {
   if (ec) st = IoError("cannot create " + o_.out_dir + "/trajectories: " + ec.message());
   if (!st.ok()) std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
   if (!o_.quiet) {
-    std::fprintf(stderr, "%s: %s; merged_map.pcd/.ply %zu points\n", kTag, link_->state().c_str(), map.points().size());
+    std::string left_out;
+    if (map.scans_left_out() > 0) {
+      left_out = " (" + std::to_string(map.scans_left_out()) + " scans left out: the map is full at --merged-map-mb " +
+                 std::to_string(setup_.config.merged_map_bytes / kMiB) + ")";
+    }
+    std::fprintf(stderr, "%s: %s; merged_map.pcd/.ply %zu points%s\n", kTag, link_->state().c_str(),
+                 map.points().size(), left_out.c_str());
   }
 }
 

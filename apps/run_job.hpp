@@ -146,8 +146,8 @@ constexpr double kWrongMergeDeg = 3.0;
 /// Prints the mode table and the final mode's result (and keeps the text for the report's summary.md).
 std::string PrintResults(const RunJob& job);
 /// Writes transforms.txt, trajectories/, merged_map.pcd/.ply, and with --report the pictures, summary.md and
-/// metrics.tsv. Returns the merged map's point count.
-std::size_t WriteRunOutputs(const RunJob& job, const std::string& summary);
+/// metrics.tsv. Returns the merged map's size: "N points", and the scans left out when it was full.
+std::string WriteRunOutputs(const RunJob& job, const std::string& summary);
 /// report/keyframes_<r>.tsv for every robot (--dump-keyframes).
 void DumpKeyframes(const RunJob& job);
 /// The robot's loops file (trajectories/robot_<r>_loops.txt).

@@ -128,11 +128,43 @@ int ReadInputs(RunJob* job) {
 
 // ---- step 2: the budget of the whole run (robots and server), checked before any work; outputs; the server
 
+// The robots' keyframer: CreateRobots gives it to every robot, MeasureMission replays it to size the pools.
+KeyframerParams RunKeyframer(const RunOptions& o) {
+  KeyframerParams k;
+  k.keyframe_spacing_m = o.keyframe_spacing_m;
+  return k;
+}
+
+// What the opened datasets will need, before any pool is made: each robot's keyframes (its keyframer on the
+// odometry it will map with: the same decisions RobotMapper makes) and the points of the largest scan file.
+Result<MissionExtent> MeasureMission(const RunJob& job) {
+  MissionExtent m;
+  m.robots = job.num_robots();
+  std::size_t keyframes = 1, points = 1;
+  for (const RobotRun& r : job.robots) {
+    Keyframer keyframer(RunKeyframer(job.options));
+    for (const Eigen::Isometry3d& pose : r.data.poses) keyframer.Offer(pose);
+    keyframes = std::max<std::size_t>(keyframes, keyframer.num_keyframes());
+    for (const std::string& file : r.data.scan_files) {
+      auto n = platform::KittiBinPointCount(file);
+      if (!n.ok()) return n.status();
+      points = std::max(points, *n);
+    }
+  }
+  constexpr std::size_t kMaxInt32 = 0x7fffffff;
+  m.max_keyframes_per_robot = static_cast<std::int32_t>(std::min(keyframes, kMaxInt32));
+  m.max_points_per_raw_scan = static_cast<std::int32_t>(std::min(points, kMaxInt32));
+  return m;
+}
+
 int SetUpRun(RunJob* job) {
   const RunOptions& o = job->options;
   MemoryFlags memory = o.memory;
   if (memory.robots == 0) memory.robots = job->num_robots();
   memory.descriptor_floats = DescriptorFloatsFor(o.descriptor.name);
+  auto mission = MeasureMission(*job);
+  if (!mission.ok()) return Fail(*job, kExitFailure, mission.status().message());
+  memory.mission = *mission;
   if (int rc = SetUpMemory(AppKind::kRun, memory, &job->memory, /*print_table=*/false); rc != kExitOk) return rc;
   if (job->memory.config.max_robots < job->num_robots()) {
     return Fail(*job, kExitUsage, "--robots " + std::to_string(job->memory.config.max_robots) + " is fewer than the " +
@@ -140,8 +172,12 @@ int SetUpRun(RunJob* job) {
   }
   MergeServerParams shown = o.server;
   shown.record_kind = RecordKindForDescriptor(o.descriptor.name);
-  std::printf("%s: %d robots; descriptor: %s; %s; %s\n", job->tag, job->num_robots(), job->descriptor_text.c_str(),
-              CascadeSettingsText(shown).c_str(), job->memory.verdict.c_str());
+  const MemoryConfig& sized = job->memory.config;
+  std::printf("%s: %d robots; descriptor: %s; %s; pools for %d keyframes and %d-point scans a "
+              "robot, scan stores of %s; %s\n",
+              job->tag, job->num_robots(), job->descriptor_text.c_str(), CascadeSettingsText(shown).c_str(),
+              sized.max_keyframes_per_robot, sized.max_points_per_raw_scan,
+              FormatBytes(sized.scan_store_bytes).c_str(), job->memory.verdict.c_str());
   std::error_code ec;
   job->report_dir = o.out_dir + "/report";
   std::filesystem::create_directories(job->report_dir, ec);
@@ -151,6 +187,7 @@ int SetUpRun(RunJob* job) {
   MergeServerParams server_params = o.server;
   server_params.record_kind = RecordKindForDescriptor(o.descriptor.name);
   server_params.max_submap_points = static_cast<std::size_t>(job->memory.config.max_submap_points);
+  server_params.max_scan_points = static_cast<std::size_t>(job->memory.config.max_points_per_stored_scan);
   server_params.colocation.max_heading_deg = ColocationHeadingDeg(o.sensor);
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) return Fail(*job, kExitUsage, st.message());
   job->server = std::make_unique<MergeServer>(
@@ -215,12 +252,13 @@ int CreateRobots(RunJob* job) {
     if (!descriptor.ok() || !store_params.ok()) {
       return Fail(*job, kExitFailure, (!descriptor.ok() ? descriptor.status() : store_params.status()).message());
     }
+    store_params->touch_at_start = false;  // sized for the datasets' largest scans; resident as they fill it
     r.descriptor = std::move(descriptor->descriptor);
     auto store = ScanStore::Create(*store_params);
     if (!store.ok()) return Fail(*job, kExitFailure, "robot " + std::to_string(ri) + " scan store: " + store.status().message());
     r.store = std::move(*store);
     RobotAgentParams agent_params;
-    agent_params.mapper.keyframer.keyframe_spacing_m = job->options.keyframe_spacing_m;
+    agent_params.mapper.keyframer = RunKeyframer(job->options);
     agent_params.mapper.descriptor_input = job->descriptor_input;
     agent_params.mapper.loop.max_descriptor_distance = job->tau_intra;
     agent_params.mapper.loop.window_keyframes = job->options.descriptor.tau_window_keyframes;
@@ -647,10 +685,10 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
     if (int rc = RunMode(&job, mode, &progress); rc != kExitOk) return rc;
   }
   const std::string summary = PrintResults(job);
-  const std::size_t map_points = WriteRunOutputs(job, summary);
+  const std::string map_text = WriteRunOutputs(job, summary);
   const platform::RssFigures rss = platform::ReadRss();
-  std::printf("\nwrote %s (merged_map.pcd/.ply %zu points, transforms.txt, trajectories/, report/)\n", o.out_dir.c_str(),
-              map_points);
+  std::printf("\nwrote %s (merged_map.pcd/.ply %s, transforms.txt, trajectories/, report/)\n", o.out_dir.c_str(),
+              map_text.c_str());
   std::printf("time %.1f s; peak RSS after the robots %s, at the end %s (robots and server in one process)\n",
               SecondsSince(job.start), FormatBytes(job.robots_peak_rss).c_str(), FormatBytes(rss.peak_bytes).c_str());
   const ModeOutcome& final_mode = job.outcomes.back();

@@ -748,8 +748,10 @@ void DumpKeyframes(const RunJob& job) {
   }
 }
 
-std::size_t WriteRunOutputs(const RunJob& job, const std::string& summary) {
-  MergedMapBuilder after{MergedMapParams{}}, before{MergedMapParams{}};
+std::string WriteRunOutputs(const RunJob& job, const std::string& summary) {
+  // Both maps within the merged_map module (--merged-map-mb): half each when the report draws the map before.
+  const std::int64_t map_bytes = job.memory.config.merged_map_bytes / (job.options.report ? 2 : 1);
+  MergedMapBuilder after{MergedMapParamsForBytes(map_bytes)}, before{MergedMapParamsForBytes(map_bytes)};
   WriteMergeFiles(job, &after, job.options.report ? &before : nullptr);
   if (job.options.report) {
     ReportWriter rep{job.report_dir, {}};
@@ -764,7 +766,12 @@ std::size_t WriteRunOutputs(const RunJob& job, const std::string& summary) {
   }
   WriteMetrics(job);
   if (job.options.dump_keyframes) DumpKeyframes(job);
-  return after.points().size();
+  std::string text = std::to_string(after.points().size()) + " points";
+  if (after.scans_left_out() > 0) {
+    text += ", " + std::to_string(after.scans_left_out()) + " scans left out: the map is full at " +
+            FormatBytes(map_bytes) + " (--merged-map-mb)";
+  }
+  return text;
 }
 
 }  // namespace commerge::app

@@ -155,6 +155,10 @@ Status ValidateMergeServerParams(const MergeServerParams& params) {
                            " is outside 1..8");
   }
   if (params.max_scans_held < 1) return InvalidArgument("max_scans_held must be >= 1");
+  if (params.max_scan_points < 1 || params.max_scan_points > kMaxEncodedScanPoints) {
+    return InvalidArgument("max_scan_points = " + std::to_string(params.max_scan_points) + " is outside 1.." +
+                           std::to_string(kMaxEncodedScanPoints));
+  }
   if (params.max_widen_steps < 0 || params.max_widen_steps > 8) {
     return InvalidArgument("max_widen_steps = " + std::to_string(params.max_widen_steps) + " is outside 0..8");
   }
@@ -388,6 +392,12 @@ Status MergeServer::OnScanChunk(const ScanChunk& chunk) {
     return Reject(&stats_.rejected_chunks,
                   InvalidArgument(what + ": inconsistent sizes (total " + std::to_string(total) + " bytes, payload " +
                                   std::to_string(chunk.payload.size()) + ")"));
+  }
+  if (total > EncodedScanBytes(params_.max_scan_points)) {
+    return Reject(&stats_.rejected_chunks,
+                  InvalidArgument(what + ": a scan of " + std::to_string(total) + " bytes holds more than the " +
+                                  std::to_string(params_.max_scan_points) + " points a stored scan may (" +
+                                  std::to_string(EncodedScanBytes(params_.max_scan_points)) + " bytes)"));
   }
   const std::uint64_t key = Key(chunk.robot_id, chunk.keyframe);
   if (scans_.count(key)) {
@@ -819,7 +829,17 @@ std::size_t MergeServer::BuildSubmap(int robot, Span<const std::uint32_t> keyfra
   *missing = 0;
   VoxelGridParams v;
   v.voxel_size_m = voxel_size_m;
-  constexpr std::size_t kUnionPointsPerSubmap = 4;
+  // The union is voxelised once it holds more than this many submaps' worth of points: it never holds more than
+  // that plus one scan (max_scan_points), and neither do the grid's workspace and the voxelised output. Reserved
+  // once, so none of them grows past the submaps budget module (MakeBudgetTable).
+  constexpr std::size_t kUnionPointsPerSubmap = BudgetRecordSizes::kSubmapUnionFactor;
+  const std::size_t union_capacity = kUnionPointsPerSubmap * params_.max_submap_points + params_.max_scan_points;
+  if (union_points_.capacity() < union_capacity) {
+    union_points_.reserve(union_capacity);
+    voxel_grid_.Reserve(union_capacity);
+    scan_points_.reserve(params_.max_scan_points);
+  }
+  sensor_origins->reserve(keyframes.size());
   const RobotKeyframeDb& db = robots_[static_cast<std::size_t>(robot)];
   for (std::uint32_t k : keyframes) {
     auto it = scans_.find(Key(robot, k));

@@ -98,6 +98,9 @@ struct MergeServerParams {
   RegistrationGates gates;
   int registration_hypotheses = 2;
   FrameSolverParams frames;
+  /// Points of the largest scan a robot may send (its stored scans: MemoryConfig::max_points_per_stored_scan);
+  /// a larger scan is refused at its first chunk. Bounds the submaps' workspace (budget module "submaps").
+  std::size_t max_scan_points = 8192;
   /// Bytes of scans (complete and partial) the server holds at once; chunks beyond are refused and counted.
   std::uint64_t max_scan_bytes = 512ull << 20;
   /// Scans (complete and partial) held at once: bounds the bookkeeping whatever the scans' sizes.

@@ -36,9 +36,11 @@ inline std::int64_t VoxelIndex(float c, double voxel_size_m) {
 
 }  // namespace
 
-VoxelGrid::VoxelGrid(std::size_t expected_points) {
-  entries_.reserve(expected_points);
-  scratch_.reserve(expected_points);
+VoxelGrid::VoxelGrid(std::size_t expected_points) { Reserve(expected_points); }
+
+void VoxelGrid::Reserve(std::size_t points) {
+  entries_.reserve(points);
+  scratch_.reserve(points);
 }
 
 std::size_t VoxelGrid::workspace_capacity_bytes() const noexcept {

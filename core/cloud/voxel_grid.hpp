@@ -41,6 +41,8 @@ class VoxelGrid {
 
   /// Reserves the workspace for `expected_points` input points.
   explicit VoxelGrid(std::size_t expected_points = 0);
+  /// Reserves the workspace for clouds of up to `points` input points (no allocation in Downsample up to them).
+  void Reserve(std::size_t points);
 
   /// Clears `*out` and fills it with one centroid per occupied voxel, ordered by ascending (ix, iy, iz).
   /// Errors (invalid argument, `*out` cleared): `out` is null; voxel_size_m is not finite or <= 0; more
@@ -51,12 +53,15 @@ class VoxelGrid {
 
   /// Bytes currently reserved by the workspace (grows to fit the largest cloud, never shrinks).
   std::size_t workspace_capacity_bytes() const noexcept;
+  /// Workspace per input point (two sort entries): a grid made for N points holds N times this.
+  static constexpr std::size_t kWorkspaceBytesPerPoint = 32;
 
  private:
   struct Entry {
     std::uint64_t key;    // packed voxel index relative to the cloud's minimum voxel
     std::uint32_t index;  // position in the input
   };
+  static_assert(2 * sizeof(Entry) == kWorkspaceBytesPerPoint, "kWorkspaceBytesPerPoint is the entries' size");
   static constexpr int kRadixBits = 8;
   static constexpr int kMaxRadixPasses = 8;  // 64-bit keys
   static constexpr std::size_t kRadixBuckets = std::size_t{1} << kRadixBits;

@@ -83,6 +83,25 @@ MemoryConfig DefaultMemoryConfig(BoardProfile profile) {
   return c;
 }
 
+MemoryConfig SizeMemoryForMission(const MemoryConfig& board, const MissionExtent& mission) {
+  using R = BudgetRecordSizes;
+  MemoryConfig c = board;
+  if (mission.robots <= 0) return c;
+  c.max_robots = mission.robots;
+  c.max_keyframes_per_robot = std::max<std::int32_t>(1, mission.max_keyframes_per_robot);
+  c.max_points_per_raw_scan = std::max<std::int32_t>(1, mission.max_points_per_raw_scan);
+  c.max_points_per_stored_scan = std::min(board.max_points_per_stored_scan, c.max_points_per_raw_scan);
+  const std::int64_t keyframes = c.max_keyframes_per_robot;
+  const std::int64_t all_keyframes = keyframes * c.max_robots;
+  c.scan_store_bytes = std::min(board.scan_store_bytes, keyframes * R::StoredScanBytes(c.max_points_per_stored_scan));
+  c.max_scans_in_flight =
+      static_cast<std::int32_t>(std::min<std::int64_t>(board.max_scans_in_flight, all_keyframes));
+  // Every stored point of every robot in the map, and the builder's batch (MergedMapParamsForBytes: a quarter).
+  const std::int64_t map_points = all_keyframes * c.max_points_per_stored_scan;
+  c.merged_map_bytes = std::min(board.merged_map_bytes, map_points * R::kMergedMapPointBytes * 4 / 3);
+  return c;
+}
+
 Status ValidateMemoryConfig(const MemoryConfig& c) {
   struct Field {
     const char* name;
@@ -169,8 +188,14 @@ void AddServerModules(BudgetTable* t, const MemoryConfig& c, const std::string& 
   t->Add(prefix + "scan_reassembly", c.max_scans_in_flight * c.max_points_per_stored_scan * R::kStoredPointBytes,
          Str(c.max_scans_in_flight) + " scans x " + Str(c.max_points_per_stored_scan) + " points x " +
              Str(R::kStoredPointBytes) + " B");
-  t->Add(prefix + "submaps", 2 * std::int64_t{c.max_submap_points} * 16,
-         "2 submaps x " + Str(c.max_submap_points) + " points (--max-submap-points) x 16 B");
+  // The union of one submap's scans, the grid's workspace and both voxelised submaps (each at most the union),
+  // one decoded scan, and each submap's scan origins (24 B a selected keyframe).
+  const std::int64_t union_points = R::kSubmapUnionFactor * c.max_submap_points + c.max_points_per_stored_scan;
+  t->Add(prefix + "submaps",
+         union_points * R::kSubmapUnionPointBytes + 16 * std::int64_t{c.max_points_per_stored_scan} + 2 * 24 * k,
+         "(" + Str(R::kSubmapUnionFactor) + " x " + Str(c.max_submap_points) + " points (--max-submap-points) + " +
+             Str(c.max_points_per_stored_scan) + ") x " + Str(R::kSubmapUnionPointBytes) +
+             " B of union, grid and both submaps + one scan + 2 x " + Str(k) + " scan origins x 24 B");
   t->Add(prefix + "registration",
          2 * std::int64_t{c.max_submap_points} * R::kRegistrationPointBytes + R::kRegistrationGridBytes,
          "2 submaps x " + Str(c.max_submap_points) + " points x " + Str(R::kRegistrationPointBytes) + " B + " +

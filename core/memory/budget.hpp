@@ -47,7 +47,8 @@ struct MemoryConfig {
   std::int32_t max_submap_points = 100000;
   std::int64_t merged_map_bytes = 64 * 1024 * 1024;  ///< server: the merged global map
   std::int64_t message_queue_bytes = 8 * 1024 * 1024;     ///< outgoing/incoming message queues per process
-  std::int64_t solver_workspace_bytes = 64 * 1024 * 1024;  ///< server: LP relaxations and branch-and-bound
+  /// server: LP relaxations and branch-and-bound (0.3 MiB used at Town scale, profiling/RESULTS.md)
+  std::int64_t solver_workspace_bytes = 32 * 1024 * 1024;
   /// Floats of one keyframe descriptor (40: SOLiD, the ring descriptor; 1200: Scan Context 20 x 60): the
   /// descriptor databases of robots and server hold one per keyframe (BudgetRecordSizes::DescriptorRecordBytes).
   std::int32_t descriptor_floats = 40;
@@ -55,6 +56,20 @@ struct MemoryConfig {
 
 /// Defaults sized for the board (the Jetson Nano defaults keep a robot under 384 MB and a server under 512 MB).
 MemoryConfig DefaultMemoryConfig(BoardProfile profile);
+
+/// What a process that opens its datasets before making its pools (`commerge run`) knows of the work: the
+/// robots, the most keyframes one robot will make (its keyframer on its odometry) and the largest scan.
+struct MissionExtent {
+  std::int32_t robots = 0;                   ///< 0 = unknown: SizeMemoryForMission is not applied
+  std::int32_t max_keyframes_per_robot = 0;  ///< keyframes of the robot that makes the most
+  std::int32_t max_points_per_raw_scan = 0;  ///< points of the largest scan file
+};
+
+/// `board` (DefaultMemoryConfig) sized for `mission`: robots, keyframes and raw points as the mission needs
+/// them (more than the board's defaults when the mission is larger: the start-up check then decides); the
+/// stored scans, the scan store, the scans in flight and the merged map at most what the mission can fill,
+/// never more than `board`'s. Solver and queue sizes stay the board's.
+MemoryConfig SizeMemoryForMission(const MemoryConfig& board, const MissionExtent& mission);
 /// Every field positive and below a sanity cap; the error names the field and its value.
 Status ValidateMemoryConfig(const MemoryConfig& config);
 
@@ -97,6 +112,19 @@ struct BudgetRecordSizes {
   /// map, scene-scaled voxels on): 182 B (test_robot_mapper).
   static constexpr std::int64_t kRawPointWorkBytes = 192;
   static constexpr std::int64_t kStoredPointBytes = 6;    ///< int16 centimetres x 3
+  /// A scan in a robot's scan store: its record header (8 B), the encoded scan's header (12 B) and points, and
+  /// its index entry (16 B); ScanStore checks these against its layout.
+  static constexpr std::int64_t kStoredScanOverheadBytes = 8 + 12 + 16;
+  static constexpr std::int64_t StoredScanBytes(std::int64_t points) noexcept {
+    return kStoredScanOverheadBytes + kStoredPointBytes * points;
+  }
+  /// Submaps (MergeServer::BuildSubmap): the union of a submap's scans is voxelised once it holds more than this
+  /// many submaps' worth of points, so it, the voxel grid's workspace (32 B a point) and each voxelised submap
+  /// (16 B a point) hold at most that plus one scan.
+  static constexpr std::int64_t kSubmapUnionFactor = 4;
+  static constexpr std::int64_t kSubmapUnionPointBytes = 16 + 32 + 2 * 16;
+  /// A point of the merged map: x, y, z, intensity (16 B) and its robot id (2 B).
+  static constexpr std::int64_t kMergedMapPointBytes = 18;
   /// Loop check per point of the two scans: k-d trees and ICP scratch, plus the GICP refinement's neighbour
   /// lists (10 per point), normals, covariances and factors; ~330 B on 1 800-point VLP-16 scans (LoopVerifier
   /// test).

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: the merged map, built one scan at a time. Each scan of a robot placed in the world frame (robot 0's
 // map frame) goes in with T_world_map * T_map_sensor; a robot's points are voxel-downsampled in batches of at most
-// batch_points (plus one scan), so the workspace stays bounded whatever the mission's length; every point keeps
-// its robot id. Both apps build merged_map.pcd / .ply with it (platform/io/merge_outputs.hpp) from the scans the
+// batch_points, so the workspace stays bounded whatever the mission's length; the map holds at most max_points
+// (its buffers never grow past them), so memory_bytes() stays within MergedMapParamsForBytes's figure; every
+// point keeps its robot id. Both apps build merged_map.pcd / .ply with it (platform/io/merge_outputs.hpp) from the scans the
 // process holds: in `commerge run` every robot's stored scans, in `commerge server` the scans the robots sent.
 #pragma once
 
@@ -22,14 +23,24 @@ namespace commerge {
 struct MergedMapParams {
   double voxel_size_m = 1.0;             ///< of the map's voxels [m], >= 0.005
   std::size_t batch_points = 2000000;    ///< points placed before a batch is voxelised, >= 1
-  /// Points the map may hold; scans beyond are left out and counted (MergedMap::scans_left_out), >= 1.
+  /// Points the map may hold; scans beyond are left out and counted (scans_left_out()), >= 1.
   std::size_t max_points = 400000000;
 };
 
 Status ValidateMergedMapParams(const MergedMapParams& params);
 
+/// The map within `bytes` (the merged_map budget module, --merged-map-mb): a quarter for the batch and its voxel
+/// workspace (kBatchPointBytes a point), the rest for the map's points (kMapPointBytes). memory_bytes() never
+/// exceeds `bytes` (at least one point of each).
+MergedMapParams MergedMapParamsForBytes(std::int64_t bytes, double voxel_size_m = 1.0);
+
 class MergedMapBuilder {
  public:
+  /// Per point of the batch: the placed point, its voxel output and the voxel grid's two sort entries.
+  static constexpr std::size_t kBatchPointBytes = 2 * sizeof(PointXYZI) + VoxelGrid::kWorkspaceBytesPerPoint;
+  /// Per point of the map: the point and its robot id.
+  static constexpr std::size_t kMapPointBytes = sizeof(PointXYZI) + sizeof(std::uint16_t);
+
   /// `params` must be valid (ValidateMergedMapParams).
   explicit MergedMapBuilder(const MergedMapParams& params);
 
@@ -49,6 +60,7 @@ class MergedMapBuilder {
 
  private:
   void Flush();
+  void Append(std::size_t n);
 
   MergedMapParams params_;
   VoxelGridParams voxel_params_;

@@ -55,8 +55,11 @@ Result<std::unique_ptr<ScanStore>> ScanStore::Create(const ScanStoreParams& para
   if (params.policy == ScanStorePolicy::kSpillOldest && sink == nullptr) {
     return InvalidArgument("scan store policy spill-oldest needs a spill sink");
   }
-  // value-initialised: the pages are touched now (start-up), not on the first Put that reaches them.
-  std::unique_ptr<std::uint8_t[]> block(new (std::nothrow) std::uint8_t[params.capacity_bytes]());
+  // value-initialised: the pages are touched now (start-up), not on the first Put that reaches them. Only the
+  // bytes Put writes are ever read.
+  std::unique_ptr<std::uint8_t[]> block(params.touch_at_start
+                                            ? new (std::nothrow) std::uint8_t[params.capacity_bytes]()
+                                            : new (std::nothrow) std::uint8_t[params.capacity_bytes]);
   std::unique_ptr<Entry[]> entries(new (std::nothrow) Entry[params.max_scans]());
   if (!block || !entries) {
     return ResourceExhausted("cannot allocate the scan store: " + Bytes(ReservedBytes(params)) + " (" +
@@ -298,6 +301,15 @@ ScanStoreStats ScanStore::stats() const noexcept {
   s.num_spilled = num_spilled_;
   return s;
 }
+
+// SizeMemoryForMission sizes a store by BudgetRecordSizes::StoredScanBytes: the same layout.
+static_assert(BudgetRecordSizes::StoredScanBytes(0) ==
+                  static_cast<std::int64_t>(ScanStore::kRecordHeaderBytes + EncodedScanBytes(0) +
+                                            ScanStore::kIndexEntryBytes),
+              "BudgetRecordSizes::kStoredScanOverheadBytes differs from the scan store's layout");
+static_assert(BudgetRecordSizes::StoredScanBytes(1) - BudgetRecordSizes::StoredScanBytes(0) ==
+                  static_cast<std::int64_t>(EncodedScanBytes(1) - EncodedScanBytes(0)),
+              "BudgetRecordSizes::kStoredPointBytes differs from the scan codec");
 
 Result<ScanStoreParams> ScanStoreParamsFromBudget(const MemoryConfig& config, ScanStorePolicy policy) {
   if (config.scan_store_bytes <= 0 || config.max_keyframes_per_robot <= 0 || config.max_points_per_stored_scan <= 0) {

@@ -69,6 +69,10 @@ struct ScanStoreParams {
   /// Index entries = most scans held at once (kIndexEntryBytes each). >= 1.
   std::size_t max_scans = 0;
   ScanStorePolicy policy = ScanStorePolicy::kEvictOldest;
+  /// Zero the record block at creation, so its pages are resident from the start: a daemon on a board that
+  /// cannot hold its store fails at start-up, not mid-mission. `commerge run` sizes the store for the largest
+  /// scans its datasets can make and leaves the pages to the scans that fill them (false).
+  bool touch_at_start = true;
 };
 
 /// Counters; all byte figures refer to the record block.

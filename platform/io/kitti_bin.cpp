@@ -10,10 +10,9 @@
 
 namespace commerge::platform {
 
-Result<PointCloudFile> ReadKittiBin(const std::string& path) {
-  auto file = OpenForRead(path);
-  if (!file.ok()) return file.status();
-  std::FILE* f = file->get();
+namespace {
+
+Result<std::size_t> RecordsOf(std::FILE* f, const std::string& path) {
   auto size = FileSize(f, path);
   if (!size.ok()) return size.status();
   const std::uint64_t bytes = *size;
@@ -21,8 +20,26 @@ Result<PointCloudFile> ReadKittiBin(const std::string& path) {
     return DataLoss(path + ": size " + std::to_string(bytes) + " bytes is not a multiple of the 16-byte KITTI " +
                     "record (x, y, z, intensity as float32); the file is truncated or not a KITTI scan");
   }
+  return static_cast<std::size_t>(bytes / sizeof(PointXYZI));
+}
+
+}  // namespace
+
+Result<std::size_t> KittiBinPointCount(const std::string& path) {
+  auto file = OpenForRead(path);
+  if (!file.ok()) return file.status();
+  return RecordsOf(file->get(), path);
+}
+
+Result<PointCloudFile> ReadKittiBin(const std::string& path) {
+  auto file = OpenForRead(path);
+  if (!file.ok()) return file.status();
+  std::FILE* f = file->get();
+  auto records = RecordsOf(f, path);
+  if (!records.ok()) return records.status();
+  const std::uint64_t bytes = *records * sizeof(PointXYZI);
   PointCloudFile out;
-  out.records_in_file = static_cast<std::size_t>(bytes / sizeof(PointXYZI));
+  out.records_in_file = *records;
   out.points.resize(out.records_in_file);
   if (out.records_in_file > 0 &&
       std::fread(out.points.data(), sizeof(PointXYZI), out.records_in_file, f) != out.records_in_file) {

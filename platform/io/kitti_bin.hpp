@@ -26,6 +26,10 @@ struct PointCloudFile {
 /// (data loss: truncated), read failure (i/o error). An empty file is a valid scan with no points.
 Result<PointCloudFile> ReadKittiBin(const std::string& path);
 
+/// Points of a KITTI .bin scan by its size, without reading it (sizing pools before the work). Errors as
+/// ReadKittiBin's: missing, size not a multiple of 16 bytes.
+Result<std::size_t> KittiBinPointCount(const std::string& path);
+
 /// Writes points as a KITTI .bin scan (overwrites). Non-finite points are written as they are.
 Status WriteKittiBin(const std::string& path, Span<const PointXYZI> points);
 

@@ -276,6 +276,14 @@ cm_cli_test(NAME "run: an unknown exchange mode is a usage error" RC 2 REGEX "un
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-a/robot_0" "${CM_CLI_OUT}/sim-a/robot_1" --modes A,B
                     --out "${CM_CLI_OUT}/run-bad")
 set_tests_properties("cli: run: an unknown exchange mode is a usage error" PROPERTIES FIXTURES_REQUIRED sim_a)
+# The pools of `run` follow its datasets: keyframes as the robots make them, the largest scan file's points, and
+# smaller pools for a shorter slice (tests/apps/run_pools_test.sh computes both from the files and the output).
+cm_cli_test(NAME "run: the pools follow the datasets, keyframes and scan points, and shrink with a shorter slice" RC 0
+            REGEX "pools for [0-9]+ keyframes .robots made at most [0-9]+., [0-9]+ points a scan .largest file.*run pools follow the datasets"
+            COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/run_pools_test.sh" "${CM_CLI_OUT}/run-pools"
+                    "${cm_emu_words} $<TARGET_FILE:commerge>" "${CM_CLI_OUT}/sim-a/robot_0" "${CM_CLI_OUT}/sim-a/robot_1")
+set_tests_properties("cli: run: the pools follow the datasets, keyframes and scan points, and shrink with a shorter slice"
+                     PROPERTIES FIXTURES_REQUIRED sim_a)
 cm_cli_test(NAME "run: --min-submap-scans above 1000 is a usage error" RC 2 REGEX "--min-submap-scans: Value 1001 not in range"
             COMMAND ${CM_BIN} run "${CM_CLI_OUT}/nowhere" "${CM_CLI_OUT}/nowhere2" --min-submap-scans 1001
                     --out "${CM_CLI_OUT}/run-bad")

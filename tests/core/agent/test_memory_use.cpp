@@ -344,3 +344,57 @@ TEST_CASE("Merge server memory: the cascade, the submaps and the registration co
   CHECK(Module(after, "solvers").high_water_bytes >= solvers);
   CHECK(Module(after, "registration").high_water_bytes >= Module(use, "registration").used_bytes);
 }
+
+TEST_CASE("Merge server memory: the submaps stay within their budget module however many scans a pair selects") {
+  // Small submaps and scans, so that 40 selected scans a robot overflow the union many times over.
+  MemoryConfig config = DefaultMemoryConfig(BoardProfile::kJetsonNano);
+  config.max_robots = 2;
+  config.max_keyframes_per_robot = 100;
+  config.max_submap_points = 1000;
+  config.max_points_per_stored_scan = 3000;
+  const BudgetEntry* budget = MakeBudgetTable(AppKind::kServer, config).Find("submaps");
+  REQUIRE(budget != nullptr);
+  MergeServerParams params;
+  params.max_submap_points = static_cast<std::size_t>(config.max_submap_points);
+  params.max_scan_points = static_cast<std::size_t>(config.max_points_per_stored_scan);
+  MergeServer server(2, 100, params);
+  const int n = 40;
+  for (const KeyframeBatch& b : ShiftedPairBatches(n, 5)) REQUIRE(server.OnKeyframeBatch(b).ok());
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(-30.0f, 30.0f), h(0.0f, 6.0f);
+  const auto scan_of = [&](std::size_t points) {
+    std::vector<PointXYZI> scan;
+    for (std::size_t i = 0; i < points; ++i) scan.push_back({u(rng), u(rng), h(rng), 1.0f});
+    return scan;
+  };
+  PairSelection sel;
+  sel.alpha = 0;
+  sel.beta = 1;
+  for (int robot = 0; robot < 2; ++robot) {
+    for (int k = 0; k < n; ++k) {
+      // Every size up to the largest a stored scan may have.
+      const std::size_t points = (k % 4 == 0) ? params.max_scan_points : 500 + 60 * static_cast<std::size_t>(k);
+      for (const ScanChunk& c : ChunksOf(robot, static_cast<std::uint32_t>(k), EncodeForTest(scan_of(points)))) {
+        REQUIRE(server.OnScanChunk(c).ok());
+      }
+      (robot == 0 ? sel.alpha_keyframes : sel.beta_keyframes).push_back(static_cast<std::uint32_t>(k));
+    }
+  }
+  // A scan larger than a stored scan may be is refused at its first chunk and counted.
+  const std::uint64_t rejected = server.stats().rejected_chunks;
+  const Status refused = server.OnScanChunk(ChunksOf(0, 60, EncodeForTest(scan_of(params.max_scan_points + 1)))[0]);
+  CHECK_FALSE(refused.ok());
+  CHECK(refused.message().find("3000 points") != std::string::npos);
+  CHECK(server.stats().rejected_chunks == rejected + 1);
+
+  auto merged = server.MergePair(sel);
+  REQUIRE(merged.ok());
+  CHECK(merged->alpha_scans == static_cast<std::size_t>(n));
+  CHECK(merged->beta_scans == static_cast<std::size_t>(n));
+  const ModuleMemory submaps = Module(server.MemoryUse(), "submaps");
+  MESSAGE("submaps high-water " << submaps.high_water_bytes << " B of a budget of " << budget->bytes << " B");
+  // The union was filled to its capacity (the bound is not slack) and never beyond the module.
+  CHECK(submaps.high_water_bytes >= BudgetRecordSizes::kSubmapUnionFactor * config.max_submap_points *
+                                        static_cast<std::int64_t>(sizeof(PointXYZI)));
+  CHECK(submaps.high_water_bytes <= budget->bytes);
+}

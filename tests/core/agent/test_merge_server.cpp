@@ -527,7 +527,10 @@ PairMergeResult MergeStreetPair(const MergeServerParams& params, double scan_vox
   SyntheticSubmapPair pair;
   REQUIRE(MakeStreetSubmapPair(spec, &pair).ok());
   *T_truth = pair.T_target_source;
-  MergeServer server(2, 100, params);
+  // Each robot's whole submap arrives as one scan: the server takes scans that large.
+  MergeServerParams large_scans = params;
+  large_scans.max_scan_points = std::max({params.max_scan_points, pair.target.points.size(), pair.source.points.size()});
+  MergeServer server(2, 100, large_scans);
   std::mt19937 rng(3);
   const auto d = RandomDescriptor(&rng);
   REQUIRE(server.OnKeyframeBatch(MakeBatch(0, 0, {d}, {Eigen::Vector3d::Zero()}, 0)).ok());

@@ -67,6 +67,65 @@ TEST_CASE("Budget tables follow their formulas (independent recomputation of the
                                  BudgetRecordSizes::kRuntimeBytes);
 }
 
+TEST_CASE("The budget of `run` follows its input: pools sized from the mission, at most the board's where the mission fills less") {
+  const MemoryConfig desktop = DefaultMemoryConfig(BoardProfile::kDesktop);
+  // Unknown mission: the board's defaults untouched.
+  const MemoryConfig unknown = SizeMemoryForMission(desktop, MissionExtent{});
+  CHECK(unknown.max_keyframes_per_robot == desktop.max_keyframes_per_robot);
+  CHECK(unknown.scan_store_bytes == desktop.scan_store_bytes);
+
+  MissionExtent five;
+  five.robots = 5;
+  five.max_keyframes_per_robot = 400;
+  five.max_points_per_raw_scan = 30000;
+  const MemoryConfig c = SizeMemoryForMission(desktop, five);
+  REQUIRE(ValidateMemoryConfig(c).ok());
+  CHECK(c.max_robots == 5);
+  CHECK(c.max_keyframes_per_robot == 400);
+  CHECK(c.max_points_per_raw_scan == 30000);
+  CHECK(c.max_points_per_stored_scan == desktop.max_points_per_stored_scan);  // 8192 < 30000
+  // Every keyframe's scan at the largest stored size: record and scan headers, 6 B a point, the index entry.
+  CHECK(c.scan_store_bytes == 400 * (8 + 12 + 16 + 6 * std::int64_t{8192}));
+  CHECK(c.max_scans_in_flight == 5 * 400);
+  CHECK(c.merged_map_bytes == 5 * 400 * std::int64_t{8192} * 18 * 4 / 3);
+  CHECK(c.solver_workspace_bytes == desktop.solver_workspace_bytes);
+  CHECK(c.message_queue_bytes == desktop.message_queue_bytes);
+  // The store the robots make from it holds every keyframe's largest scan.
+  const std::int64_t index = 400 * 16;
+  CHECK(c.scan_store_bytes - index >= 400 * (8 + 12 + 6 * std::int64_t{8192}));
+
+  // The run's budget grows with the robots, the keyframes and the scans, and stays below the board's defaults.
+  MissionExtent two = five;
+  two.robots = 2;
+  MissionExtent longer = five;
+  longer.max_keyframes_per_robot = 3000;
+  MissionExtent small_scans = five;
+  small_scans.max_points_per_raw_scan = 2000;
+  const auto total = [&](const MissionExtent& m) {
+    return MakeBudgetTable(AppKind::kRun, SizeMemoryForMission(desktop, m)).total_bytes();
+  };
+  CHECK(total(two) < total(five));
+  CHECK(total(five) < total(longer));
+  CHECK(total(small_scans) < total(five));
+  MemoryConfig board_for_five = desktop;
+  board_for_five.max_robots = 5;
+  CHECK(total(longer) < MakeBudgetTable(AppKind::kRun, board_for_five).total_bytes());
+  // Small scans are stored no larger than they are.
+  CHECK(SizeMemoryForMission(desktop, small_scans).max_points_per_stored_scan == 2000);
+
+  // A mission larger than the board's defaults gets what it needs (the start-up check decides whether it fits);
+  // the scan store and the merged map stay at most the board's.
+  MissionExtent huge = five;
+  huge.max_keyframes_per_robot = 2 * desktop.max_keyframes_per_robot;
+  huge.max_points_per_raw_scan = 2 * desktop.max_points_per_raw_scan;
+  const MemoryConfig h = SizeMemoryForMission(desktop, huge);
+  CHECK(h.max_keyframes_per_robot == huge.max_keyframes_per_robot);
+  CHECK(h.max_points_per_raw_scan == huge.max_points_per_raw_scan);
+  CHECK(h.scan_store_bytes == desktop.scan_store_bytes);
+  CHECK(h.merged_map_bytes == desktop.merged_map_bytes);
+  CHECK(h.max_scans_in_flight == desktop.max_scans_in_flight);
+}
+
 TEST_CASE("The descriptor databases are budgeted for the descriptor's values: Scan Context's 1200 floats") {
   MemoryConfig c = DefaultMemoryConfig(BoardProfile::kJetsonNano);
   c.max_robots = 3;

@@ -4,7 +4,9 @@
 // point cap, and the workspace given back by Finish().
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <vector>
 
@@ -30,7 +32,7 @@ Eigen::Isometry3d Pose(double yaw_rad, double x, double y) {
   return T;
 }
 
-// The reference: batches of scans (a batch ends after the scan that takes it beyond batch_points), each placed by
+// The reference: the placed points in batches of batch_points (the last one of a robot shorter), each placed by
 // hand and voxelised alone.
 void Reference(const std::vector<std::vector<PointXYZI>>& scans, const std::vector<Eigen::Isometry3d>& T_map_sensor,
                const Eigen::Isometry3d& T_world_map, std::size_t batch_points, std::uint16_t id,
@@ -48,10 +50,10 @@ void Reference(const std::vector<std::vector<PointXYZI>>& scans, const std::vect
   for (std::size_t s = 0; s < scans.size(); ++s) {
     const Eigen::Matrix4d M = (T_world_map * T_map_sensor[s]).matrix();
     for (const PointXYZI& p : scans[s]) {
+      if (batch.size() == batch_points) flush();
       const Eigen::Vector4d q = M * Eigen::Vector4f(p.x, p.y, p.z, 1.0f).cast<double>();
       batch.push_back({static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), p.intensity});
     }
-    if (batch.size() > batch_points) flush();
   }
   flush();
 }
@@ -117,6 +119,45 @@ TEST_CASE("Merged map: the point cap leaves later scans out and counts them, and
   CHECK(map.scans_added() + map.scans_left_out() == added);
   CHECK(map.memory_bytes() < before_finish);
   CHECK(map.robot_ids().size() == map.points().size());
+}
+
+TEST_CASE("Merged map: within the bytes of MergedMapParamsForBytes whatever the scans, and full maps count what they leave out") {
+  std::mt19937 rng(17);
+  for (std::int64_t bytes : {std::int64_t{4096}, std::int64_t{200000}, std::int64_t{3} << 20}) {
+    CAPTURE(bytes);
+    const MergedMapParams params = MergedMapParamsForBytes(bytes, 0.5);
+    REQUIRE(ValidateMergedMapParams(params).ok());
+    CHECK(params.voxel_size_m == 0.5);
+    // The split: a quarter (at least one point) for the batch, the rest for the map's points.
+    CHECK(params.batch_points == std::max<std::size_t>(1, static_cast<std::size_t>(bytes) / 4 /
+                                                              MergedMapBuilder::kBatchPointBytes));
+    CHECK(params.batch_points * MergedMapBuilder::kBatchPointBytes +
+              params.max_points * MergedMapBuilder::kMapPointBytes <= static_cast<std::size_t>(bytes));
+    MergedMapBuilder map(params);
+    std::size_t most = 0, scans = 0;
+    for (int r = 0; r < 3; ++r) {
+      map.BeginRobot(static_cast<std::uint16_t>(r), Pose(0.5 * r, 40.0 * r, 3.0));
+      for (int k = 0; k < 60; ++k, ++scans) {
+        // Scans of every size, some larger than the batch, spread so that few points share a voxel.
+        const std::size_t n = (k % 7 == 0) ? 3 * params.batch_points + 5 : static_cast<std::size_t>(50 + 37 * k);
+        map.AddScan(Span<const PointXYZI>(RandomScan(&rng, n)), Pose(0.1 * k, 45.0 * k, -2.0 * r));
+        most = std::max(most, map.memory_bytes());
+      }
+    }
+    map.Finish();
+    most = std::max(most, map.memory_bytes());
+    CHECK(most <= static_cast<std::size_t>(bytes));
+    CHECK(map.points().size() <= params.max_points);
+    CHECK(map.scans_added() + map.scans_left_out() == scans);
+    CHECK(map.robot_ids().size() == map.points().size());
+  }
+  // A budget the scans fit in leaves nothing out.
+  MergedMapBuilder roomy(MergedMapParamsForBytes(std::int64_t{64} << 20));
+  roomy.BeginRobot(0, Eigen::Isometry3d::Identity());
+  for (int k = 0; k < 10; ++k) roomy.AddScan(Span<const PointXYZI>(RandomScan(&rng, 2000)), Pose(0.0, 50.0 * k, 0.0));
+  roomy.Finish();
+  CHECK(roomy.scans_left_out() == 0);
+  CHECK(roomy.scans_added() == 10);
 }
 
 TEST_CASE("Merged map parameters are validated") {

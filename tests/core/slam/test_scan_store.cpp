@@ -38,11 +38,12 @@ std::vector<std::uint8_t> MakeScan(std::uint32_t keyframe, std::size_t n) {
 }
 
 std::unique_ptr<ScanStore> MakeStore(std::size_t capacity_bytes, std::size_t max_scans, ScanStorePolicy policy,
-                                     ScanSpillSink* sink = nullptr) {
+                                     ScanSpillSink* sink = nullptr, bool touch_at_start = true) {
   ScanStoreParams p;
   p.capacity_bytes = capacity_bytes;
   p.max_scans = max_scans;
   p.policy = policy;
+  p.touch_at_start = touch_at_start;
   Result<std::unique_ptr<ScanStore>> store = ScanStore::Create(p, sink);
   REQUIRE_MESSAGE(store.ok(), store.status().ToString());
   return std::move(store.value());
@@ -175,6 +176,7 @@ struct RunConfig {
   std::size_t max_scans;
   std::uint32_t seed;
   bool failing_sink = false;
+  bool touch_at_start = true;
 };
 
 void RunModelTest(const RunConfig& cfg) {
@@ -184,7 +186,7 @@ void RunModelTest(const RunConfig& cfg) {
   CAPTURE(cfg.max_scans);
   CAPTURE(cfg.seed);
   MemorySink sink;
-  std::unique_ptr<ScanStore> store = MakeStore(cfg.capacity_bytes, cfg.max_scans, cfg.policy, &sink);
+  std::unique_ptr<ScanStore> store = MakeStore(cfg.capacity_bytes, cfg.max_scans, cfg.policy, &sink, cfg.touch_at_start);
   Model model;
   model.capacity = cfg.capacity_bytes;
   model.max_scans = cfg.max_scans;
@@ -333,6 +335,12 @@ void RunModelTest(const RunConfig& cfg) {
 // non-increasing indices, the rest lookups of random keyframes), compared with the model after every one.
 TEST_CASE("scan_store: model test, evict-oldest agrees with the reference model over random puts and lookups") {
   RunModelTest({ScanStorePolicy::kEvictOldest, 16 * 1024, 1000, 1});
+}
+
+TEST_CASE("scan_store: model test, a store whose block is not touched at creation (commerge run) agrees with the model") {
+  RunConfig cfg{ScanStorePolicy::kEvictOldest, 16 * 1024, 1000, 4};
+  cfg.touch_at_start = false;
+  RunModelTest(cfg);
 }
 
 TEST_CASE("scan_store: model test, evict-oldest with an odd capacity agrees with the reference model") {
