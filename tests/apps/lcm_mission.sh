@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: BSD-3-Clause
-# One LCM mission with separate processes (commerge server + two commerge robot) under a network fault, inside a
-# private network namespace (udpm on loopback only, ttl=0; never a real interface). Used by the CTest tests
-# "lcm mission: ..." (tests/apps/lcm_mission_tests.cmake) and runnable by hand:
+# One LCM mission with separate processes (commerge server + one commerge robot per robot of the dataset) under a
+# network fault, inside a private network namespace (udpm on loopback only, ttl=0; never a real interface). Used by
+# the CTest tests "lcm mission: ..." (tests/apps/lcm_mission_tests.cmake) and runnable by hand:
 #
 #   tests/apps/lcm_mission.sh --commerge build-host/commerge --data SIMDIR --work /tmp/m --scenario loss50
 #
-# SIMDIR is a two-robot `commerge sim` dataset (robot_0, robot_1, start_transforms.txt). Scenarios:
+# SIMDIR is a `commerge sim` dataset of N = 2..5 robots (robot_0 .. robot_<N-1>, start_transforms.txt with one row
+# per robot); N is the number of robot_<i>/poses.txt, counted from robot_0. The server runs with --robots N and
+# --exit-when-merged N, the robots with --exit-when-merged N. Scenarios:
 #   clean           no fault
 #   loss10 loss50   nftables drops 10 % / 50 % of the packets to the LCM multicast group, at random (ingress)
 #   tbf2mbit        tc tbf limits loopback to 2 Mbit/s (robots capped at 800 kbit/s each)
@@ -17,7 +19,7 @@
 #   server-restart  the server is killed (SIGKILL) mid-mission and started again (a new session)
 #   hostile         cm_lcm_sampler --hostile (give --sampler) publishes, during the mission, messages the daemons
 #                   must refuse and count: truncated, foreign fingerprint, random, 100 kB random, another type, and
-#                   keyframes / poses of robot 40 (not one of --robots 2); server and robots must count all of them
+#                   keyframes / poses of robot 40 (not one of --robots N); server and robots must count all of them
 #   live            robot 1 maps live input: `commerge feed` plays its directory as lidar_scan_t + odometry_t at
 #                   20 Hz on the board-local input URL, and `commerge robot --live` synchronises and maps it
 #   replay          a clean mission recorded with `commerge record` (complete by the senders' sequence numbers),
@@ -34,9 +36,10 @@
 # Passes (exit 0) when every final process exits 0 and
 #   - each robot's descriptor digest line equals the server's line for that robot and session (every keyframe
 #     and every descriptor delivered, bit for bit: 100 %),
-#   - robot 1's T_world_map in transforms.txt is within 0.5 m / 2 deg of the truth from start_transforms.txt,
+#   - the T_world_map of every robot r >= 1 in transforms.txt is within 0.5 m / 2 deg of the truth from
+#     start_transforms.txt, inv(T_gt_start0) * T_gt_start_r,
 #   - the server wrote merged_map.pcd and .ply, readable by `commerge voxelize`, with at least 1000 points.
-# Prints one summary line with the bytes each robot sent, the share re-sent, and the transform error.
+# Prints one summary line with the bytes each robot sent, the share re-sent, and each robot's transform error.
 set -euo pipefail
 
 usage() { sed -n '3,/^set -euo/p' "$0" | sed '$d'; exit 2; }
@@ -60,6 +63,15 @@ esac
 for f in "$data/robot_0/poses.txt" "$data/robot_1/poses.txt" "$data/start_transforms.txt"; do
   [ -f "$f" ] || { echo "lcm_mission.sh: missing $f (generate the dataset with commerge sim)" >&2; exit 2; }
 done
+n=0  # robots in the dataset
+while [ -f "$data/robot_$n/poses.txt" ]; do n=$((n + 1)); done
+if [ "$n" -gt 5 ]; then echo "lcm_mission.sh: $data holds $n robots; commerge sim writes 2..5" >&2; exit 2; fi
+rows=$(awk 'NF == 12' "$data/start_transforms.txt" | wc -l)
+if [ "$rows" != "$n" ]; then
+  echo "lcm_mission.sh: $data/start_transforms.txt holds $rows 3x4 rows for $n robots" >&2
+  exit 2
+fi
+ids=$(seq 0 $((n - 1)))
 
 # Re-run inside a private network namespace: multicast must never reach a real interface.
 if [ "${CM_MISSION_IN_NETNS:-0}" != 1 ]; then
@@ -103,9 +115,13 @@ cleanup() {
 }
 trap cleanup EXIT
 
-server_args=(server --out "$work/server" --robots 2 --tau-area 1000 --round-quiet-s 3 --exit-when-merged 2
-             --max-runtime-s 240 --linger-s 30 "${auth[@]}")
-robot_args=(--lidar vlp-16 --keyframe-spacing-m 0.9 --rate-hz 40 --linger-s 200 "${auth[@]}")
+# Give-up times grow with the robots (more data, more pairs per round): 2 robots 240 s, 5 robots 330 s; the robots
+# wait for the merge until 40 s before the server gives up.
+max_runtime_s=$((180 + 30 * n))
+server_args=(server --out "$work/server" --robots "$n" --tau-area 1000 --round-quiet-s 3 --exit-when-merged "$n"
+             --max-runtime-s "$max_runtime_s" --linger-s 30 "${auth[@]}")
+robot_args=(--lidar vlp-16 --keyframe-spacing-m 0.9 --rate-hz 40 --linger-s $((max_runtime_s - 40))
+            --exit-when-merged "$n" "${auth[@]}")
 fault=()
 case "$scenario" in
   loss10|loss50|scan-context)
@@ -145,11 +161,13 @@ wait_listening() {  # $@ = log names of daemons: waits (at most 60 s) until each
     exit 1
   done
 }
+robot_pid=() robot_log=()  # by robot id: the final process and its log name
 start_robot() {  # $1 = id, $2 = log name
   local input=(--data "$data/robot_$1")
   if [ "$scenario" = live ] && [ "$1" = 1 ]; then input=(--live --idle-finish-s 3); fi
   "$bin" robot --id "$1" "${input[@]}" "${robot_args[@]}" "${fault[@]}" >"$work/$2.out" 2>"$work/$2.err" &
-  eval "robot$1_pid=$!"
+  robot_pid[$1]=$!
+  robot_log[$1]=$2
   pids+=("$!")
 }
 
@@ -168,15 +186,14 @@ fi
 start=$SECONDS
 start_server server
 sleep 0.5
-start_robot 0 robot0
-start_robot 1 robot1
+for id in $ids; do start_robot "$id" "robot$id"; done
 case "$scenario" in
   hostile)
     [ -x "$sampler" ] || { echo "lcm_mission.sh: hostile needs --sampler (cm_lcm_sampler)" >&2; exit 2; }
     # Every hostile message must reach a subscriber: wait until each daemon has subscribed (it names its session
     # right after). Under CPU load a robot's start-up once took over a second, and the 27 messages it published
     # before were counted by no robot (both robots 273 of 300, CI 270).
-    wait_listening server robot0 robot1
+    wait_listening server "${robot_log[@]}"
     "$sampler" --hostile --count 20 --rate-hz 10 >"$work/sampler.out" 2>"$work/sampler.err" &
     sampler_pid=$!
     pids+=("$sampler_pid")
@@ -198,8 +215,8 @@ case "$scenario" in
     ;;
   robot-restart)
     sleep 2.5
-    kill -9 "$robot1_pid"
-    wait "$robot1_pid" 2>/dev/null || true
+    kill -9 "${robot_pid[1]}"
+    wait "${robot_pid[1]}" 2>/dev/null || true
     echo "lcm_mission.sh: killed robot 1 after 2.5 s, starting it again" >&2
     start_robot 1 robot1-restarted
     ;;
@@ -222,11 +239,8 @@ wait_for() {  # $1 = pid, $2 = name
   rc=1
 }
 server_log=server
-robot1_log=robot1
 [ "$scenario" = server-restart ] && server_log=server-restarted
-[ "$scenario" = robot-restart ] && robot1_log=robot1-restarted
-wait_for "$robot0_pid" robot0
-wait_for "$robot1_pid" "$robot1_log"
+for id in $ids; do wait_for "${robot_pid[$id]}" "${robot_log[$id]}"; done
 wait_for "$server_pid" "$server_log"
 [ "$scenario" = live ] && wait_for "$feed_pid" feed
 [ "$scenario" = hostile ] || [ "$scenario" = attack ] && wait_for "$sampler_pid" sampler
@@ -234,10 +248,8 @@ elapsed=$((SECONDS - start))
 [ "$rc" = 0 ] || { echo "lcm_mission.sh: $scenario: a process failed" >&2; exit 1; }
 
 # Every keyframe and descriptor of each robot's final session is at the server, bit for bit.
-for id in 0 1; do
-  log=robot$id
-  [ "$id" = 1 ] && log=$robot1_log
-  robot_line=$(grep "^robot $id session " "$work/$log.out" | sed "s/^robot $id //")
+for id in $ids; do
+  robot_line=$(grep "^robot $id session " "$work/${robot_log[$id]}.out" | sed "s/^robot $id //")
   server_line=$(grep "^server: robot $id session " "$work/$server_log.out" | sed "s/^server: robot $id //")
   if [ -z "$robot_line" ] || [ "$robot_line" != "$server_line" ]; then
     echo "lcm_mission.sh: robot $id: descriptors not all delivered:" >&2
@@ -250,15 +262,17 @@ for id in 0 1; do
   esac
 done
 
-# Robot 1's placement against the truth: T_true = inv(T_gt_start0) * T_gt_start1.
-transform_error() {  # $1 = transforms.txt -> "translation_m yaw_deg"
-  awk -v tf="$1" '
-    NR == FNR { n++; for (i = 1; i <= 12; i++) s[n, i] = $i; next }
-    $1 == "robot" && $2 == "1" && $3 == "merged" { for (i = 1; i <= 12; i++) e[i] = $(i + 3); found = 1 }
+# Each robot's placement against the truth: T_true(r) = inv(T_gt_start0) * T_gt_start_r.
+transform_error() {  # $1 = transforms.txt, $2 = robot id r >= 1 -> "translation_m yaw_deg" or "unmerged"
+  awk -v id="$2" '
+    NR == FNR { if (NF == 12) { n++; for (i = 1; i <= 12; i++) s[n, i] = $i }; next }
+    $1 == "robot" && $2 == id && $3 == "merged" { for (i = 1; i <= 12; i++) e[i] = $(i + 3); found = 1 }
     END {
       if (!found) { print "unmerged"; exit }
-      # rows of the 3x4 matrices: a = start 0, b = start 1
-      for (r = 0; r < 3; r++) for (c = 0; c < 4; c++) { a[r, c] = s[1, 4 * r + c + 1]; b[r, c] = s[2, 4 * r + c + 1] }
+      # rows of the 3x4 matrices: a = start 0, b = start r (row r + 1 of start_transforms.txt)
+      for (r = 0; r < 3; r++) for (c = 0; c < 4; c++) {
+        a[r, c] = s[1, 4 * r + c + 1]; b[r, c] = s[id + 1, 4 * r + c + 1]
+      }
       # T = inv(a) * b: R = a_R^T b_R, t = a_R^T (b_t - a_t)
       for (r = 0; r < 3; r++) {
         for (c = 0; c < 3; c++) { R[r, c] = 0; for (k = 0; k < 3; k++) R[r, c] += a[k, r] * b[k, c] }
@@ -271,15 +285,26 @@ transform_error() {  # $1 = transforms.txt -> "translation_m yaw_deg"
       printf "%.3f %.2f\n", sqrt(dx * dx + dy * dy + dz * dz), (d < 0 ? -d : d)
     }' "$data/start_transforms.txt" "$1"
 }
-err=$(transform_error "$work/server/transforms.txt")
-if [ "$err" = unmerged ]; then echo "lcm_mission.sh: robot 1 is not merged in transforms.txt" >&2; exit 1; fi
-read -r err_m err_deg <<<"$err"
-if ! awk -v m="$err_m" -v d="$err_deg" 'BEGIN { exit !(m < 0.5 && d < 2.0) }'; then
-  echo "lcm_mission.sh: wrong merge: robot 1 is $err_m m / $err_deg deg from the truth" >&2
-  exit 1
-fi
+errors_text=""
+failed=0
+for id in $ids; do
+  [ "$id" = 0 ] && continue  # robot 0's map is the world frame
+  err=$(transform_error "$work/server/transforms.txt" "$id")
+  if [ "$err" = unmerged ]; then
+    echo "lcm_mission.sh: robot $id is not merged in transforms.txt" >&2
+    failed=1
+    continue
+  fi
+  read -r err_m err_deg <<<"$err"
+  if ! awk -v m="$err_m" -v d="$err_deg" 'BEGIN { exit !(m < 0.5 && d < 2.0) }'; then
+    echo "lcm_mission.sh: wrong merge: robot $id is $err_m m / $err_deg deg from the truth" >&2
+    failed=1
+  fi
+  errors_text+=" robot $id within $err_m m / $err_deg deg of the truth;"
+done
+[ "$failed" = 0 ] || exit 1
 
-# The server's map files: the scans it holds of both robots, in the world frame (robot id per point).
+# The server's map files: the scans it holds of every robot, in the world frame (robot id per point).
 for f in merged_map.pcd merged_map.ply; do
   [ -s "$work/server/$f" ] || { echo "lcm_mission.sh: the server wrote no $f" >&2; exit 1; }
 done
@@ -291,10 +316,8 @@ if [ -z "$map_points" ] || [ "$map_points" -lt 1000 ]; then
 fi
 
 bytes_text=""
-for id in 0 1; do
-  log=robot$id
-  [ "$id" = 1 ] && log=$robot1_log
-  line=$(grep "^robot $id: " "$work/$log.out")
+for id in $ids; do
+  line=$(grep "^robot $id: " "$work/${robot_log[$id]}.out")
   sent=$(sed -n 's/.*bytes sent \([0-9]*\), resent \([0-9]*\).*/\1/p' <<<"$line")
   resent=$(sed -n 's/.*bytes sent \([0-9]*\), resent \([0-9]*\).*/\2/p' <<<"$line")
   pct=$(awk -v s="$sent" -v r="$resent" 'BEGIN { printf "%.1f", (s > 0) ? 100 * r / s : 0 }')
@@ -319,14 +342,14 @@ if [ "$scenario" = hostile ] || [ "$scenario" = attack ]; then
   [ "$scenario" = attack ] && expected_robot=$((expected_robot > 12 ? expected_robot - 12 : 0))
   # hostile: each robot must count every one of the 300 (the sampler starts once every daemon listens).
   robot_counts=""
-  for id in 0 1; do
-    n=$(sed -n 's/.*rejected messages \([0-9]*\).*/\1/p' "$work/robot$id.out")
-    if [ -z "$n" ] || [ -z "$expected_robot" ] || [ "$n" -lt "$expected_robot" ]; then
-      echo "lcm_mission.sh: robot $id counted ${n:-?} rejected messages, fewer than the ${expected_robot:-?} hostile" \
+  for id in $ids; do
+    k=$(sed -n 's/.*rejected messages \([0-9]*\).*/\1/p' "$work/${robot_log[$id]}.out")
+    if [ -z "$k" ] || [ -z "$expected_robot" ] || [ "$k" -lt "$expected_robot" ]; then
+      echo "lcm_mission.sh: robot $id counted ${k:-?} rejected messages, fewer than the ${expected_robot:-?} hostile" \
            "ones $(rcvbuf_note)" >&2
       exit 1
     fi
-    robot_counts+=" $n"
+    robot_counts+=" $k"
   done
   dropped+=" $scenario: server rejected $counted (>= $expected sent), robots rejected$robot_counts"
   [ "$scenario" = hostile ] && dropped+=" of $expected_robot sent"
@@ -334,8 +357,10 @@ if [ "$scenario" = hostile ] || [ "$scenario" = attack ]; then
 fi
 if [ "$scenario" = attack ]; then
   # Each kind of attack reached the server's verifier and was refused for its own reason.
-  for who in "server" "robot 0" "robot 1"; do
-    [ "$who" = server ] && log=$server_log || log=robot${who#robot }
+  whos=(server)
+  for id in $ids; do whos+=("robot $id"); done
+  for who in "${whos[@]}"; do
+    [ "$who" = server ] && log=$server_log || log=${robot_log[${who#robot }]}
     summary=$(grep "^$who auth: " "$work/$log.out")
     for reason in "replayed" "bad MAC" "unknown sender"; do
       case "$summary" in
@@ -361,8 +386,8 @@ if [ "$scenario" = replay ]; then
   # The recording must be complete by the senders' sequence numbers, or no replay could reproduce the merge.
   grep -q "; 0 missing by the senders' sequence numbers" "$work/logger.out" ||
     { echo "lcm_mission.sh: the recording is incomplete: $(cat "$work/logger.out") $(rcvbuf_note)" >&2; exit 1; }
-  server_args=(server --out "$work/replay" --robots 2 --tau-area 1000 --round-quiet-s 3 --exit-when-merged 2
-               --max-runtime-s 240 --linger-s 0 --replay "${auth[@]}")
+  server_args=(server --out "$work/replay" --robots "$n" --tau-area 1000 --round-quiet-s 3 --exit-when-merged "$n"
+               --max-runtime-s "$max_runtime_s" --linger-s 0 --replay "${auth[@]}")
   start_server replay-server
   sleep 0.5
   lcm-logplayer "$work/mission.lcmlog" >"$work/logplayer.out" 2>&1 &
@@ -371,8 +396,16 @@ if [ "$scenario" = replay ]; then
   wait_for "$server_pid" replay-server
   kill "$player_pid" 2>/dev/null || true
   [ "$rc" = 0 ] || { echo "lcm_mission.sh: the replay server did not merge" >&2; exit 1; }
-  diff_m=$(awk '$1 == "robot" && $2 == "1" { n++; for (i = 4; i <= 15; i++) v[n, i] = $i }
-                END { m = 0; for (i = 4; i <= 15; i++) { d = v[1, i] - v[2, i]; if (d < 0) d = -d; if (d > m) m = d }
+  # Every robot's line: merged or not and T_world_map (a robot missing from one file differs by its matrix).
+  diff_m=$(awk 'FNR == 1 { f++ }
+                $1 == "robot" { r[$2] = 1; st[f, $2] = $3; for (i = 4; i <= 15; i++) v[f, $2, i] = $i }
+                END { m = 0
+                      for (id in r) {
+                        if (st[1, id] != st[2, id]) m = 1e9
+                        for (i = 4; i <= 15; i++) {
+                          d = v[1, id, i] - v[2, id, i]; if (d < 0) d = -d; if (d > m) m = d
+                        }
+                      }
                       printf "%.6f", m }' "$work/server/transforms.txt" "$work/replay/transforms.txt")
   if ! awk -v d="$diff_m" 'BEGIN { exit !(d < 0.001) }'; then
     echo "lcm_mission.sh: the replayed merge differs from the recorded one by $diff_m (largest matrix entry)" \
@@ -380,9 +413,9 @@ if [ "$scenario" = replay ]; then
     exit 1
   fi
   echo "lcm mission replay: $(stat -c %s "$work/mission.lcmlog") B log replayed into a fresh server; largest" \
-       "difference of T_world_map(1) from the recorded merge: $diff_m; $(sed 's/^record: //' "$work/logger.out")"
+       "difference of T_world_map from the recorded merge: $diff_m; $(sed 's/^record: //' "$work/logger.out")"
 fi
 
 dropped+=" kernel receive-buffer drops $(udp_rcvbuf_errors);"
-echo "lcm mission $scenario: merged in ${elapsed} s; descriptors delivered 100 % (digests equal);$bytes_text$dropped" \
-     "robot 1 within $err_m m / $err_deg deg of the truth; server map $map_points points"
+echo "lcm mission $scenario, $n robots: merged in ${elapsed} s; descriptors delivered 100 % (digests equal);" \
+     "${bytes_text# }$dropped ${errors_text# } server map $map_points points"

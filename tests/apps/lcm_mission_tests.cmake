@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
-# Network fault tests of the LCM daemons (issue "LCM runtime"): one mission each, with commerge server and two
-# commerge robot processes inside a private network namespace (tests/apps/lcm_mission.sh). Host build only
-# (separate processes under qemu would take minutes each); labelled `heavy`, which CI runs on the host.
-# Included from tests/CMakeLists.txt.
+# Network fault tests of the LCM daemons (issue "LCM runtime"): one mission each, with commerge server and one
+# commerge robot process per robot of the dataset inside a private network namespace (tests/apps/lcm_mission.sh):
+# every scenario on a two-robot dataset, and loss10 on a five-robot one. Host build only (separate processes under
+# qemu would take minutes each); labelled `heavy`, which CI runs on the host. Included from tests/CMakeLists.txt.
 if(CMAKE_CROSSCOMPILING)
   return()
 endif()
@@ -24,6 +24,23 @@ foreach(scenario clean loss10 loss50 tbf2mbit delay2s dup-reorder robot-restart 
   set_tests_properties("${name}" PROPERTIES FIXTURES_REQUIRED lcm_mission_data LABELS heavy TIMEOUT 400
                                             SKIP_REGULAR_EXPRESSION "CM-SKIP:")
 endforeach()
+
+# Five robots (server --robots 5 --exit-when-merged 5), authenticated, 10 % of the packets dropped: every robot
+# must be placed within 0.5 m / 2 deg and deliver every descriptor. 40-65 s on 2 busy cores; the script gives up
+# after 330 s.
+set(CM_MISSION_DATA5 "${CMAKE_CURRENT_BINARY_DIR}/lcm-mission/data5")
+add_test(NAME "lcm mission: generate the five-robot urban dataset"
+         COMMAND $<TARGET_FILE:commerge> sim --world urban --robots 5 --overlap complete --keyframes 200 --lidar vlp16
+                 --direction same --wobble-deg 0 --seed 11 --force --out "${CM_MISSION_DATA5}")
+set_tests_properties("lcm mission: generate the five-robot urban dataset"
+                     PROPERTIES FIXTURES_SETUP lcm_mission_data5 LABELS heavy TIMEOUT 300)
+set(name "lcm mission: 5 robots with 10 % loss end merged with every descriptor delivered")
+add_test(NAME "${name}"
+         COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/lcm_mission.sh" --commerge $<TARGET_FILE:commerge>
+                 --data "${CM_MISSION_DATA5}" --work "${CMAKE_CURRENT_BINARY_DIR}/lcm-mission/5-robots-loss10"
+                 --scenario loss10)
+set_tests_properties("${name}" PROPERTIES FIXTURES_REQUIRED lcm_mission_data5 LABELS heavy TIMEOUT 500
+                                          SKIP_REGULAR_EXPRESSION "CM-SKIP:")
 
 # LcmBus on real udpm (the unit tests use LCM's in-process memq://, which has no per-subscription limit): the test
 # case skips itself outside the namespace the wrapper creates. Fast; not `heavy`, so the ASan build runs it too.
