@@ -3,7 +3,7 @@
 // one thread. Goal: under 1 s on one core for the cascade of all ten pairs of 5 robots x 3 000 keyframes.
 //
 // Usage: bench_round [--robots R] [--keyframes N] [--more M] [--seed S] [--threads T] [--cover pairwise|joint]
-//                    [--direction alternate|same] [--no-breakdown]
+//                    [--direction alternate|same] [--no-breakdown] [--cache FILE]
 //   R robots (2..5, default 5), N keyframes each for the first round (default 3000), M more each for the second
 //   round (default 300; 0 = one round), mission seed S (default 1), T threads for the setup only (default 1;
 //   the timed rounds always run in the calling thread), stage B per pair (the server's default) or joint.
@@ -18,6 +18,10 @@
 // file-local there). Descriptor id: DescriptorInputId(ring id, {level}). Poses sent are the odometry poses (the
 // robots' intra-robot loop closure is not run); stored point counts are the 1 m voxel counts of the scans
 // (capped at 8192, the store's limit). Every scan is cast, none reused.
+//
+// --cache FILE: when FILE holds the robots' data for the same robots, keyframes (N + M), seed and direction, the
+// ray-casting is skipped and the data read from it; otherwise the data are simulated and written to FILE. The data
+// are the same either way (floats and doubles stored bit for bit), so the timed rounds are too.
 //
 // Feeding: per robot, KeyframeBatch messages of up to 256 records (RobotAgentParams' default) encoded with
 // EncodeRecordOfKind (kUnit40), robots interleaved batch by batch, into MergeServer::OnKeyframeBatch; keyframes
@@ -236,6 +240,69 @@ Status Feed(const std::vector<RobotData>& robots, std::size_t begin, std::size_t
   return Status::Ok();
 }
 
+// The --cache file: a header of the mission's identity, then per robot its arrays bit for bit.
+struct CacheHeader {
+  char magic[8] = {'b', 'r', 'c', 'a', 'c', 'h', 'e', '1'};
+  std::uint64_t robots = 0, keyframes = 0, seed = 0, same_direction = 0, dim = kDim;
+  std::uint64_t scan_points = 0;  // ray-cast points summed over the scans (printed)
+};
+
+bool SameHeader(const CacheHeader& a, const CacheHeader& b) {
+  return std::memcmp(a.magic, b.magic, sizeof a.magic) == 0 && a.robots == b.robots && a.keyframes == b.keyframes &&
+         a.seed == b.seed && a.same_direction == b.same_direction && a.dim == b.dim;
+}
+
+template <class T>
+bool WriteArray(std::FILE* f, const std::vector<T>& v) {
+  return std::fwrite(v.data(), sizeof(T), v.size(), f) == v.size();
+}
+template <class T>
+bool ReadArray(std::FILE* f, std::vector<T>* v, std::size_t count) {
+  v->resize(count);
+  return std::fread(v->data(), sizeof(T), count, f) == count;
+}
+
+bool WriteCache(const char* path, const CacheHeader& h, const std::vector<RobotData>& robots) {
+  std::FILE* f = std::fopen(path, "wb");
+  if (!f) return false;
+  bool ok = std::fwrite(&h, sizeof h, 1, f) == 1;
+  for (const RobotData& d : robots) {
+    std::vector<double> poses, gt;
+    for (const Eigen::Isometry3d& T : d.T_map_sensor) poses.insert(poses.end(), T.data(), T.data() + 16);
+    for (const Eigen::Vector3d& p : d.gt_m) gt.insert(gt.end(), p.data(), p.data() + 3);
+    ok = ok && WriteArray(f, d.descriptors) && WriteArray(f, d.valid) && WriteArray(f, poses) &&
+         WriteArray(f, d.stored_points) && WriteArray(f, gt);
+  }
+  return std::fclose(f) == 0 && ok;
+}
+
+// True when `path` holds data for `h` (read into *robots).
+bool ReadCache(const char* path, const CacheHeader& h, std::vector<RobotData>* robots, std::size_t* scan_points) {
+  std::FILE* f = std::fopen(path, "rb");
+  if (!f) return false;
+  CacheHeader got;
+  bool ok = std::fread(&got, sizeof got, 1, f) == 1 && SameHeader(got, h);
+  *scan_points = static_cast<std::size_t>(got.scan_points);
+  const std::size_t n = static_cast<std::size_t>(h.keyframes);
+  robots->assign(static_cast<std::size_t>(h.robots), RobotData{});
+  for (RobotData& d : *robots) {
+    if (!ok) break;
+    std::vector<double> poses, gt;
+    ok = ReadArray(f, &d.descriptors, n * kDim) && ReadArray(f, &d.valid, n) && ReadArray(f, &poses, n * 16) &&
+         ReadArray(f, &d.stored_points, n) && ReadArray(f, &gt, n * 3);
+    if (!ok) break;
+    d.T_map_sensor.resize(n);
+    d.gt_m.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      std::copy(poses.begin() + static_cast<std::ptrdiff_t>(16 * k), poses.begin() + static_cast<std::ptrdiff_t>(16 * k + 16),
+                d.T_map_sensor[k].data());
+      d.gt_m[k] = Eigen::Vector3d(gt[3 * k], gt[3 * k + 1], gt[3 * k + 2]);
+    }
+  }
+  std::fclose(f);
+  return ok;
+}
+
 std::vector<Eigen::Vector3d> Positions(const RobotKeyframeDb& db) {
   std::vector<Eigen::Vector3d> p(db.size());
   for (std::size_t k = 0; k < db.size(); ++k) p[k] = db.T_map_sensor[k].translation();
@@ -406,7 +473,7 @@ Status PrintBreakdown(const MergeServer& server) {
 int Usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--robots 2..5] [--keyframes N] [--more M] [--seed S] [--threads T] "
-               "[--cover pairwise|joint] [--direction alternate|same] [--no-breakdown]\n",
+               "[--cover pairwise|joint] [--direction alternate|same] [--no-breakdown] [--cache FILE]\n",
                argv0);
   return 2;
 }
@@ -417,6 +484,7 @@ int main(int argc, char** argv) {
   int robots = 5, keyframes = 3000, more = 300, threads = 1;
   unsigned long long seed = 1;
   bool breakdown = true, same_direction = false;
+  const char* cache = nullptr;
   StageBCover cover = StageBCover::kPairwise;
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
@@ -441,6 +509,8 @@ int main(int argc, char** argv) {
       const std::string d = argv[++i];
       if (d != "alternate" && d != "same") return Usage(argv[0]);
       same_direction = d == "same";
+    } else if (std::strcmp(argv[i], "--cache") == 0 && has_value) {
+      cache = argv[++i];
     } else if (std::strcmp(argv[i], "--no-breakdown") == 0) {
       breakdown = false;
     } else {
@@ -477,9 +547,22 @@ int main(int argc, char** argv) {
   std::vector<RobotData> data;
   std::size_t scan_points = 0;
   const auto t_cast = Clock::now();
-  if (Status st = SimulateRobots(*plan, *world, lidar, total, threads, &data, &scan_points); !st.ok()) {
-    std::fprintf(stderr, "bench_round: simulation: %s\n", st.ToString().c_str());
-    return 1;
+  CacheHeader header;
+  header.robots = static_cast<std::uint64_t>(robots);
+  header.keyframes = total;
+  header.seed = seed;
+  header.same_direction = same_direction ? 1 : 0;
+  const bool cached = cache != nullptr && ReadCache(cache, header, &data, &scan_points);
+  if (!cached) {
+    if (Status st = SimulateRobots(*plan, *world, lidar, total, threads, &data, &scan_points); !st.ok()) {
+      std::fprintf(stderr, "bench_round: simulation: %s\n", st.ToString().c_str());
+      return 1;
+    }
+    header.scan_points = scan_points;
+    if (cache != nullptr && !WriteCache(cache, header, data)) {
+      std::fprintf(stderr, "bench_round: cannot write the cache %s\n", cache);
+      return 1;
+    }
   }
   const double cast_s = SecondsSince(t_cast);
   DescriptorInputParams input;
@@ -498,8 +581,12 @@ int main(int argc, char** argv) {
               LidarKindName(lidar.kind), lidar.rays_per_frame(), total * data.size(),
               static_cast<double>(scan_points) / static_cast<double>(total * data.size()), valid,
               100.0 * static_cast<double>(valid) / static_cast<double>(total * data.size()));
-  std::printf("setup: plan + world %.1f s, ray-cast + descriptors %.1f s with %d thread%s (%.0f scans/s)\n", plan_s,
-              cast_s, threads, threads > 1 ? "s" : "", static_cast<double>(total * data.size()) / cast_s);
+  if (cached) {
+    std::printf("setup: plan + world %.1f s, scans and descriptors read from %s\n", plan_s, cache);
+  } else {
+    std::printf("setup: plan + world %.1f s, ray-cast + descriptors %.1f s with %d thread%s (%.0f scans/s)\n", plan_s,
+                cast_s, threads, threads > 1 ? "s" : "", static_cast<double>(total * data.size()) / cast_s);
+  }
 
   MergeServerParams params;
   params.record_kind = KeyframeRecordKind::kUnit40;
