@@ -39,7 +39,7 @@ float SequenceSmoothedCell(const float* a, std::size_t n, std::size_t m, std::si
 /// An AffinityTileSource serving V (above) computed from an inner source. A tile of rows x cols asks the
 /// inner source for the block grown by w + 1 on every side (clipped to the matrix), so the inner source must
 /// accept blocks of up to (max_tile_rows + 2w + 2) x (max_tile_cols + 2w + 2). Memory: one output tile and
-/// one of S grown by a cell. Every tile reports its exact minimum.
+/// one of S grown by a cell, a few rows of sums. Every tile reports its exact minimum.
 class SequenceSmoothedTileSource final : public AffinityTileSource {
  public:
   /// Errors: half_window above kMaxSequenceHalfWindow, a zero tile capacity. `inner` is borrowed.
@@ -57,6 +57,8 @@ class SequenceSmoothedTileSource final : public AffinityTileSource {
   std::size_t max_rows_ = 0, max_cols_ = 0;
   std::vector<float> out_;       // V of the tile
   std::vector<float> smoothed_;  // S of the tile grown by one cell
+  std::vector<float> row_min_;   // S's minimum over 3 columns, tile columns x grown rows
+  std::vector<double> diag_, anti_, diag_next_, anti_next_;  // window sums of one row (running sums)
 };
 
 }  // namespace commerge
