@@ -130,18 +130,8 @@ class StreamingLabeler {
   }
 
   Status Consume(const Block& b) {
-    // Order check: a new band starts at the region's first column right below the previous band.
-    if (b.col_begin == c0_) {
-      if (next_col_ != c1_ || b.row_begin != band_begin_ + band_rows_) return OrderError(b);
-      band_begin_ = b.row_begin;
-      band_rows_ = b.rows;
-      left_col_.assign(b.rows, kNoLabel);
-    } else if (b.row_begin != band_begin_ || b.rows != band_rows_ || b.col_begin != next_col_) {
-      return OrderError(b);
-    }
-    if (b.rows == 0 || b.cols == 0 || b.row_begin + b.rows > r1_ || b.col_begin + b.cols > c1_) return OrderError(b);
-
-    const std::size_t width = c1_ - c0_, x0 = b.col_begin - c0_;
+    if (Status s = CheckOrder(b); !s.ok()) return s;
+    const std::size_t x0 = b.col_begin - c0_;
     if (!std::isnan(b.min_distance) && !(b.min_distance <= tau_)) {
       // No cell of the block below tau (the common case far from a revisit): only the minimum and the
       // border labels (all empty) change.
@@ -155,60 +145,27 @@ class StreamingLabeler {
       if (next_col_ == c1_) EndBand();
       return Status::Ok();
     }
-    const bool has_left = b.col_begin > c0_;
     labels_.assign(b.rows * b.cols, kNoLabel);
     for (std::size_t r = 0; r < b.rows; ++r) {
       const float* row = b.distances + r * b.stride;
-      for (std::size_t c = 0; c < b.cols; ++c) {
-        const float d = row[c];
-        if (std::isfinite(d) && static_cast<double>(d) < min_distance_) min_distance_ = static_cast<double>(d);
-        if (!(d <= tau_)) continue;
-        ++num_below_;
-        std::int32_t label = kNoLabel;
-        auto join = [&](std::int32_t other) {
-          if (other == kNoLabel) return;
-          if (label == kNoLabel) {
-            label = other;
-          } else {
-            Union(label, other);
-          }
-        };
-        const std::size_t x = x0 + c;
-        if (r > 0) {
-          const std::int32_t* up = labels_.data() + (r - 1) * b.cols;
-          if (c > 0) join(up[c - 1]);
-          join(up[c]);
-          if (c + 1 < b.cols) join(up[c + 1]);
-        } else {
-          if (x > 0) join(prev_row_[x - 1]);
-          join(prev_row_[x]);
-          if (x + 1 < width) join(prev_row_[x + 1]);
-        }
-        if (c > 0) {
-          join(labels_[r * b.cols + c - 1]);
-        } else if (has_left) {  // previous block's last column: up-left (r > 0), left, down-left
-          if (r > 0) join(left_col_[r - 1]);
-          join(left_col_[r]);
-          if (r + 1 < b.rows) join(left_col_[r + 1]);
-        }
-        const std::size_t i = b.row_begin + r, j = b.col_begin + c;
-        if (label == kNoLabel) label = NewNode(i, j);
-        labels_[r * b.cols + c] = label;
-        SequentialCluster& s = nodes_[static_cast<std::size_t>(Find(label))].cluster;
-        s.row_min = std::min(s.row_min, i);
-        s.row_max = std::max(s.row_max, i);
-        s.col_min = std::min(s.col_min, j);
-        s.col_max = std::max(s.col_max, j);
-        ++s.cell_count;
-        s.distance_sum += static_cast<double>(d);
-        if (record_) cells_.push_back({i, j, label, d});
-      }
+      for (std::size_t c = 0; c < b.cols; ++c) LabelCell(b, labels_.data(), r, c, row[c]);
     }
-    for (std::size_t r = 0; r < b.rows; ++r) left_col_[r] = labels_[r * b.cols + b.cols - 1];
-    std::copy(labels_.end() - static_cast<std::ptrdiff_t>(b.cols), labels_.end(),
-              next_row_.begin() + static_cast<std::ptrdiff_t>(x0));
-    next_col_ = b.col_begin + b.cols;
-    if (next_col_ == c1_) EndBand();
+    EndBlock(b, labels_.data());
+    return Status::Ok();
+  }
+
+  // Consume for a block given by its finite cells only (every other cell +inf), row-major within the block:
+  // the same state changes as Consume on the dense block, in the same order.
+  Status ConsumeSparse(const Block& b, Span<const NeighbourRankTileSource::KeptCell> cells) {
+    if (Status s = CheckOrder(b); !s.ok()) return s;
+    if (sparse_labels_.size() < b.rows * b.cols) sparse_labels_.resize(b.rows * b.cols, kNoLabel);
+    touched_.clear();
+    for (const NeighbourRankTileSource::KeptCell& cell : cells) {
+      const std::size_t r = cell.row - b.row_begin, c = cell.col - b.col_begin;
+      if (LabelCell(b, sparse_labels_.data(), r, c, cell.value)) touched_.push_back(r * b.cols + c);
+    }
+    EndBlock(b, sparse_labels_.data());
+    for (const std::size_t q : touched_) sparse_labels_[q] = kNoLabel;  // clean for the next block
     return Status::Ok();
   }
 
@@ -267,6 +224,80 @@ class StreamingLabeler {
     return Status(StatusCode::kInternal, "sequential matching: tile " + std::to_string(b.rows) + " x " +
                                              std::to_string(b.cols) + " at (" + std::to_string(b.row_begin) + ", " +
                                              std::to_string(b.col_begin) + ") out of row-major tile order");
+  }
+
+  // Order check: a new band starts at the region's first column right below the previous band.
+  Status CheckOrder(const Block& b) {
+    if (b.col_begin == c0_) {
+      if (next_col_ != c1_ || b.row_begin != band_begin_ + band_rows_) return OrderError(b);
+      band_begin_ = b.row_begin;
+      band_rows_ = b.rows;
+      left_col_.assign(b.rows, kNoLabel);
+    } else if (b.row_begin != band_begin_ || b.rows != band_rows_ || b.col_begin != next_col_) {
+      return OrderError(b);
+    }
+    if (b.rows == 0 || b.cols == 0 || b.row_begin + b.rows > r1_ || b.col_begin + b.cols > c1_) return OrderError(b);
+    return Status::Ok();
+  }
+
+  // Cell (r, c) of block b with value d: the running minimum, and when d <= tau its label (joined with the
+  // labelled neighbours above and to the left) in labels (b.rows x b.cols, this block's labels so far). True when
+  // the cell was labelled.
+  bool LabelCell(const Block& b, std::int32_t* labels, std::size_t r, std::size_t c, float d) {
+    if (std::isfinite(d) && static_cast<double>(d) < min_distance_) min_distance_ = static_cast<double>(d);
+    if (!(d <= tau_)) return false;
+    ++num_below_;
+    const std::size_t width = c1_ - c0_, x0 = b.col_begin - c0_;
+    const bool has_left = b.col_begin > c0_;
+    std::int32_t label = kNoLabel;
+    auto join = [&](std::int32_t other) {
+      if (other == kNoLabel) return;
+      if (label == kNoLabel) {
+        label = other;
+      } else {
+        Union(label, other);
+      }
+    };
+    const std::size_t x = x0 + c;
+    if (r > 0) {
+      const std::int32_t* up = labels + (r - 1) * b.cols;
+      if (c > 0) join(up[c - 1]);
+      join(up[c]);
+      if (c + 1 < b.cols) join(up[c + 1]);
+    } else {
+      if (x > 0) join(prev_row_[x - 1]);
+      join(prev_row_[x]);
+      if (x + 1 < width) join(prev_row_[x + 1]);
+    }
+    if (c > 0) {
+      join(labels[r * b.cols + c - 1]);
+    } else if (has_left) {  // previous block's last column: up-left (r > 0), left, down-left
+      if (r > 0) join(left_col_[r - 1]);
+      join(left_col_[r]);
+      if (r + 1 < b.rows) join(left_col_[r + 1]);
+    }
+    const std::size_t i = b.row_begin + r, j = b.col_begin + c;
+    if (label == kNoLabel) label = NewNode(i, j);
+    labels[r * b.cols + c] = label;
+    SequentialCluster& s = nodes_[static_cast<std::size_t>(Find(label))].cluster;
+    s.row_min = std::min(s.row_min, i);
+    s.row_max = std::max(s.row_max, i);
+    s.col_min = std::min(s.col_min, j);
+    s.col_max = std::max(s.col_max, j);
+    ++s.cell_count;
+    s.distance_sum += static_cast<double>(d);
+    if (record_) cells_.push_back({i, j, label, d});
+    return true;
+  }
+
+  // After a block's cells: its last column and last row become the left and upper borders of what follows.
+  void EndBlock(const Block& b, const std::int32_t* labels) {
+    const std::size_t x0 = b.col_begin - c0_;
+    for (std::size_t r = 0; r < b.rows; ++r) left_col_[r] = labels[r * b.cols + b.cols - 1];
+    std::copy(labels + (b.rows - 1) * b.cols, labels + b.rows * b.cols,
+              next_row_.begin() + static_cast<std::ptrdiff_t>(x0));
+    next_col_ = b.col_begin + b.cols;
+    if (next_col_ == c1_) EndBand();
   }
 
   std::int32_t NewNode(std::size_t i, std::size_t j) {
@@ -346,6 +377,8 @@ class StreamingLabeler {
   std::uint64_t tau_area_ = 0;
   bool compact_ = true, record_ = false;
   std::vector<std::int32_t> prev_row_, next_row_, left_col_, labels_, remap_;
+  std::vector<std::int32_t> sparse_labels_;  // ConsumeSparse's block labels, all kNoLabel between blocks
+  std::vector<std::size_t> touched_;         // the entries of sparse_labels_ set in the current block
   std::vector<Node> nodes_, compacted_;
   std::vector<RecordedCell> cells_;
   std::size_t band_begin_ = 0, band_rows_ = 0, next_col_ = 0;
@@ -405,8 +438,44 @@ Status ValidateSequentialMatchParams(const SequentialMatchParams& p) {
 
 namespace {
 
-// Stage A proper: thresholds whatever the source serves (A, or V of a SequenceSmoothedTileSource).
-Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const SequentialMatchParams& p) {
+// The blocks of the tile_rows x tile_cols grid meeting rows [row_lo, row_hi) x cols [col_lo, col_hi), clipped to
+// that region, in row-major tile order, each with its kept cells of `ranked` (sparse()): calls
+// f(const Block&, Span<const KeptCell>) -> Status. The blocks are those the tile passes below consume.
+template <class F>
+Status ForEachSparseBlock(const NeighbourRankTileSource& ranked, std::size_t tile_rows, std::size_t tile_cols,
+                          std::size_t row_lo, std::size_t row_hi, std::size_t col_lo, std::size_t col_hi, F&& f) {
+  using KeptCell = NeighbourRankTileSource::KeptCell;
+  const std::size_t n = ranked.num_rows(), m = ranked.num_cols();
+  std::vector<Span<const KeptCell>> rest;  // per row of the band: its kept cells not yet handed out
+  std::vector<KeptCell> cells;
+  for (std::size_t r0 = row_lo / tile_rows * tile_rows; r0 < row_hi;) {
+    const std::size_t rows = std::min(tile_rows, n - r0);
+    const std::size_t br0 = std::max(r0, row_lo), br1 = std::min(r0 + rows, row_hi);
+    rest.clear();
+    for (std::size_t i = br0; i < br1; ++i) rest.push_back(ranked.RowCells(i, col_lo, col_hi));
+    for (std::size_t c0 = col_lo / tile_cols * tile_cols; c0 < col_hi;) {
+      const std::size_t cols = std::min(tile_cols, m - c0);
+      const std::size_t bc0 = std::max(c0, col_lo), bc1 = std::min(c0 + cols, col_hi);
+      cells.clear();
+      for (Span<const KeptCell>& row : rest) {
+        std::size_t q = 0;
+        while (q < row.size() && row[q].col < bc1) cells.push_back(row[q++]);
+        row = row.subspan(q, row.size() - q);
+      }
+      const Block b{br0, bc0, br1 - br0, bc1 - bc0, 0, nullptr, std::numeric_limits<float>::quiet_NaN(), false};
+      if (Status s = f(b, Span<const KeptCell>(cells)); !s.ok()) return s;
+      c0 += cols;
+    }
+    r0 += rows;
+  }
+  return Status::Ok();
+}
+
+// Stage A proper: thresholds whatever the source serves (A, or V of a SequenceSmoothedTileSource). With `ranked`
+// (the source itself, sparse()), the passes read its kept cells instead of its tiles: the same blocks, the same
+// labelling.
+Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const SequentialMatchParams& p,
+                                        const NeighbourRankTileSource* ranked) {
   Status s;
   SequentialMatchResult result;
   result.min_distance = std::numeric_limits<double>::infinity();
@@ -418,10 +487,19 @@ Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const Sequen
   const auto tau = static_cast<float>(p.tau_inter);
   StreamingLabeler labeler;
   labeler.Begin(0, n, 0, m, tau, p.tau_area, /*compact=*/true, /*record_cells=*/false);
-  s = ForEachAffinityTile(source, p.tile_rows, p.tile_cols, [&](const AffinityTile& t) {
-    return labeler.Consume(
-        Block{t.row_begin, t.col_begin, t.rows, t.cols, t.stride, t.distances, t.min_distance, /*min_is_exact=*/true});
-  });
+  const auto whole_matrix = [&](StreamingLabeler* l) {
+    if (ranked != nullptr) {
+      return ForEachSparseBlock(*ranked, p.tile_rows, p.tile_cols, 0, n, 0, m,
+                                [&](const Block& b, Span<const NeighbourRankTileSource::KeptCell> cells) {
+                                  return l->ConsumeSparse(b, cells);
+                                });
+    }
+    return ForEachAffinityTile(source, p.tile_rows, p.tile_cols, [&](const AffinityTile& t) {
+      return l->Consume(Block{t.row_begin, t.col_begin, t.rows, t.cols, t.stride, t.distances, t.min_distance,
+                              /*min_is_exact=*/true});
+    });
+  };
+  s = whole_matrix(&labeler);
   if (!s.ok()) return s;
   s = labeler.Finish();
   if (!s.ok()) return s;
@@ -436,10 +514,7 @@ Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const Sequen
     } else if (result.num_cells_below_threshold > 0) {
       StreamingLabeler all;
       all.Begin(0, n, 0, m, tau, p.tau_area, /*compact=*/false, /*record_cells=*/true);
-      s = ForEachAffinityTile(source, p.tile_rows, p.tile_cols, [&](const AffinityTile& t) {
-        return all.Consume(Block{t.row_begin, t.col_begin, t.rows, t.cols, t.stride, t.distances, t.min_distance,
-                                 /*min_is_exact=*/true});
-      });
+      s = whole_matrix(&all);
       if (!s.ok()) return s;
       s = all.Finish();
       if (!s.ok()) return s;
@@ -461,8 +536,15 @@ Result<SequentialMatchResult> RunStageA(AffinityTileSource& source, const Sequen
   StreamingLabeler span_labeler;
   span_labeler.Begin(b.row_min, b.row_max + 1, b.col_min, b.col_max + 1, tau, p.tau_area, /*compact=*/false,
                      /*record_cells=*/true);
+  if (ranked != nullptr) {
+    s = ForEachSparseBlock(*ranked, p.tile_rows, p.tile_cols, b.row_min, b.row_max + 1, b.col_min, b.col_max + 1,
+                           [&](const Block& block, Span<const NeighbourRankTileSource::KeptCell> cells) {
+                             return span_labeler.ConsumeSparse(block, cells);
+                           });
+    if (!s.ok()) return s;
+  }
   AffinityTile tile;
-  for (std::size_t r0 = b.row_min / p.tile_rows * p.tile_rows; r0 <= b.row_max;) {
+  for (std::size_t r0 = b.row_min / p.tile_rows * p.tile_rows; ranked == nullptr && r0 <= b.row_max;) {
     const std::size_t rows = std::min(p.tile_rows, n - r0);
     for (std::size_t c0 = b.col_min / p.tile_cols * p.tile_cols; c0 <= b.col_max;) {
       const std::size_t cols = std::min(p.tile_cols, m - c0);
@@ -514,12 +596,12 @@ Result<SequentialMatchResult> RunSequentialMatching(AffinityTileSource& source, 
     smoothed.emplace(std::move(*made));
     served = &*smoothed;
   }
-  if (p.neighbour_rank == 0) return RunStageA(*served, p);
+  if (p.neighbour_rank == 0) return RunStageA(*served, p, nullptr);
   Result<NeighbourRankTileSource> ranked =
       NeighbourRankTileSource::Create(served, p.neighbour_rank, p.tile_rows, p.tile_cols);
   if (!ranked.ok()) return ranked.status();
   if (Status prep = ranked->Prepare(); !prep.ok()) return prep;
-  return RunStageA(*ranked, p);
+  return RunStageA(*ranked, p, ranked->sparse() ? &*ranked : nullptr);
 }
 
 std::size_t SequentialMatchTileHalo(const SequentialMatchParams& params) noexcept {
