@@ -6,12 +6,15 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "core/descriptor/solid.hpp"
 #include "core/exchange/exchange_cascade.hpp"
 #include "core/exchange/place_ambiguity.hpp"
 
@@ -213,4 +216,88 @@ TEST_CASE("Cascade: an ambiguous cluster that no other cluster confirms is not p
 }
 
 }  // namespace
+}  // namespace commerge
+
+namespace commerge {
+namespace {
+
+// The definition, keyframe by keyframe with SolidDistance (MeasurePlaceAmbiguity computes the unit-L2 distances
+// from cached squared norms and must give the same counts).
+PlaceAmbiguity NaiveAmbiguity(const DescriptorSetView& a, const std::vector<Eigen::Vector3d>& pa,
+                              const DescriptorSetView& b, const std::vector<Eigen::Vector3d>& pb,
+                              const std::vector<SequentialLoopCell>& l_seq, double far_m) {
+  const auto row = [](const DescriptorSetView& s, std::size_t k) { return s.values.subspan(k * s.dim, s.dim); };
+  const auto valid = [](const DescriptorSetView& s, std::size_t k) { return s.valid.empty() || s.valid[k] != 0; };
+  PlaceAmbiguity out;
+  for (const bool alpha_side : {true, false}) {
+    const DescriptorSetView& own = alpha_side ? a : b;
+    const std::vector<Eigen::Vector3d>& pos = alpha_side ? pa : pb;
+    std::vector<double> cross(own.count(), std::numeric_limits<double>::infinity());
+    std::vector<bool> seen(own.count(), false);
+    for (const SequentialLoopCell& c : l_seq) {
+      if (!valid(a, c.alpha_index) || !valid(b, c.beta_index)) continue;
+      const std::size_t k = alpha_side ? c.alpha_index : c.beta_index;
+      seen[k] = true;
+      cross[k] = std::min(cross[k], SolidDistance(row(a, c.alpha_index), row(b, c.beta_index)));
+    }
+    for (std::size_t k = 0; k < own.count(); ++k) {
+      if (!seen[k]) continue;
+      bool ambiguous = false;
+      for (std::size_t o = 0; o < own.count() && !ambiguous; ++o) {
+        if (!valid(own, o) || (pos[o] - pos[k]).squaredNorm() <= far_m * far_m) continue;
+        ambiguous = SolidDistance(row(own, k), row(own, o)) <= cross[k];
+      }
+      (alpha_side ? out.alpha_keyframes : out.beta_keyframes) += 1;
+      (alpha_side ? out.alpha_ambiguous : out.beta_ambiguous) += ambiguous ? 1 : 0;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("Place ambiguity equals the definition with SolidDistance on random sets with copies, zero and bad rows") {
+  std::mt19937 rng(77);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  for (int trial = 0; trial < 20; ++trial) {
+    const std::size_t n = 40 + static_cast<std::size_t>(trial), m = 30, dim = 1 + static_cast<std::size_t>(trial) % 12;
+    std::vector<float> da(n * dim), db(m * dim);
+    for (float& v : da) v = g(rng);
+    for (float& v : db) v = g(rng);
+    // Copies (self distance equal to a cross distance, or 0), a zero row, a non-finite row, a huge row.
+    for (std::size_t i = 0; i < dim; ++i) {
+      da[5 * dim + i] = da[25 * dim + i];
+      db[3 * dim + i] = da[25 * dim + i];
+      da[7 * dim + i] = 0.0f;
+      da[9 * dim + i] = 1e30f;
+    }
+    da[8 * dim] = std::numeric_limits<float>::quiet_NaN();
+    std::vector<std::uint8_t> va(n, 1);
+    va[11] = 0;
+    std::vector<Eigen::Vector3d> pa(n), pb(m);
+    for (std::size_t i = 0; i < n; ++i) pa[i] = Eigen::Vector3d(static_cast<double>(i), 0.0, 0.0);
+    for (std::size_t j = 0; j < m; ++j) pb[j] = Eigen::Vector3d(static_cast<double>(j), 1.0, 0.0);
+    std::vector<SequentialLoopCell> l_seq;
+    for (std::size_t q = 0; q < 25; ++q) l_seq.push_back({rng() % n, rng() % m, 0.1f});
+    l_seq.push_back({25, 3, 0.0f});
+    l_seq.push_back({7, 4, 0.0f});
+    l_seq.push_back({8, 5, 0.0f});
+    l_seq.push_back({9, 6, 0.0f});
+    const DescriptorSetView a{Span<const float>(da), dim, Span<const std::uint8_t>(va)};
+    const DescriptorSetView b{Span<const float>(db), dim, {}};
+    for (const double far_m : {0.0, 3.0, 12.0}) {
+      CAPTURE(trial);
+      CAPTURE(far_m);
+      const PlaceAmbiguity want = NaiveAmbiguity(a, pa, b, pb, l_seq, far_m);
+      auto got = MeasurePlaceAmbiguity(a, Span<const Eigen::Vector3d>(pa), b, Span<const Eigen::Vector3d>(pb),
+                                       Span<const SequentialLoopCell>(l_seq), far_m);
+      REQUIRE(got.ok());
+      CHECK(got->alpha_keyframes == want.alpha_keyframes);
+      CHECK(got->alpha_ambiguous == want.alpha_ambiguous);
+      CHECK(got->beta_keyframes == want.beta_keyframes);
+      CHECK(got->beta_ambiguous == want.beta_ambiguous);
+    }
+  }
+}
+
 }  // namespace commerge
