@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -21,6 +23,26 @@ void KeepSmallest(float v, float* list, std::size_t k) {
     --pos;
   }
   list[pos] = v;
+}
+
+typedef float V4f __attribute__((vector_size(16)));  // GCC/Clang vector extension, as in affinity.cpp
+typedef std::int32_t V4i __attribute__((vector_size(16)));
+
+// True when one of the 8 values v[q] is at or below row_kth or at or below col_kth[q * k] (NaN never is).
+bool AnyAtOrBelow(const float* v, float row_kth, const float* col_kth, std::size_t k) noexcept {
+  if (k == 1) {
+    V4f a, b, ca, cb;
+    std::memcpy(&a, v, sizeof a);
+    std::memcpy(&b, v + 4, sizeof b);
+    std::memcpy(&ca, col_kth, sizeof ca);
+    std::memcpy(&cb, col_kth + 4, sizeof cb);
+    const V4f r = {row_kth, row_kth, row_kth, row_kth};
+    const V4i m = (a <= r) | (a <= ca) | (b <= r) | (b <= cb);
+    return (m[0] | m[1] | m[2] | m[3]) != 0;
+  }
+  bool any = false;
+  for (std::size_t q = 0; q < 8; ++q) any |= (v[q] <= row_kth) | (v[q] <= col_kth[q * k]);
+  return any;
 }
 
 }  // namespace
@@ -111,9 +133,7 @@ Status NeighbourRankTileSource::Prepare() {
       for (; c + 8 <= t.cols; c += 8) {
         const float row_kth = row_list[k_ - 1];
         const float* col_kth = col_kth_.data() + (t.col_begin + c) * k_ + (k_ - 1);
-        bool any = false;
-        for (std::size_t q = 0; q < 8; ++q) any |= (row[c + q] <= row_kth) | (row[c + q] <= col_kth[q * k_]);
-        if (!any) continue;
+        if (!AnyAtOrBelow(row + c, row_kth, col_kth, k_)) continue;
         for (std::size_t q = 0; q < 8; ++q) visit(i, t.col_begin + c + q, row[c + q], row_list);
       }
       for (; c < t.cols; ++c) visit(i, t.col_begin + c, row[c], row_list);

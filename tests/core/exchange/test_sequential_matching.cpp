@@ -902,6 +902,86 @@ TEST_CASE("Neighbour rank: stage A with k equals the naive stage A on the ranked
   }
 }
 
+// Everything stage A returns, compared field by field (clusters with their cells included).
+void CheckSameResult(const SequentialMatchResult& a, const SequentialMatchResult& b) {
+  CHECK(a.found == b.found);
+  CHECK(a.num_clusters == b.num_clusters);
+  CHECK(a.num_cells_below_threshold == b.num_cells_below_threshold);
+  CHECK(a.largest_span_area == b.largest_span_area);
+  CHECK(a.second_span_area == b.second_span_area);
+  CHECK(a.min_distance == b.min_distance);
+  CHECK(a.no_candidate_reason == b.no_candidate_reason);
+  CHECK(a.clusters_skipped == b.clusters_skipped);
+  const auto same_cluster = [](const SequentialCluster& x, const SequentialCluster& y) {
+    return x.row_min == y.row_min && x.row_max == y.row_max && x.col_min == y.col_min && x.col_max == y.col_max &&
+           x.cell_count == y.cell_count && x.distance_sum == y.distance_sum;
+  };
+  const auto same_cells = [](const std::vector<SequentialLoopCell>& x, const std::vector<SequentialLoopCell>& y) {
+    if (x.size() != y.size()) return false;
+    for (std::size_t q = 0; q < x.size(); ++q) {
+      if (x[q].alpha_index != y[q].alpha_index || x[q].beta_index != y[q].beta_index ||
+          !(x[q].distance == y[q].distance)) {
+        return false;
+      }
+    }
+    return true;
+  };
+  if (a.found && b.found) CHECK(same_cluster(a.best, b.best));
+  CHECK(same_cells(a.cells, b.cells));
+  REQUIRE(a.clusters.clusters.size() == b.clusters.clusters.size());
+  for (std::size_t k = 0; k < a.clusters.clusters.size(); ++k) {
+    CHECK(same_cluster(a.clusters.clusters[k], b.clusters.clusters[k]));
+  }
+  CHECK(a.clusters.begin == b.clusters.begin);
+  CHECK(same_cells(a.clusters.cells, b.clusters.cells));
+}
+
+TEST_CASE("Neighbour rank: kept cells stored or not (ties beyond the slots), stage A equals the dense passes") {
+  std::uint32_t seed = 1200;
+  for (const int kind : {0, 1, 2}) {  // random; values on a coarse grid (many ties); one value everywhere
+    for (const auto& nm : std::vector<std::pair<std::size_t, std::size_t>>{{60, 75}, {130, 140}}) {
+      const std::size_t n = nm.first, m = nm.second;
+      std::vector<float> a = RandomMatrixWithHoles(n, m, ++seed);
+      for (float& v : a) {
+        if (!std::isfinite(v)) continue;
+        if (kind == 1) v = std::round(v * 8.0f) / 8.0f;
+        if (kind == 2) v = 0.25f;
+      }
+      MatrixTileSource src(std::move(a), n, m);
+      for (const std::size_t k : {std::size_t{1}, std::size_t{2}}) {
+        CAPTURE(kind);
+        CAPTURE(n);
+        CAPTURE(k);
+        const std::vector<float> served = DenseRanked(src.matrix(), n, m, k);
+        auto ranked = NeighbourRankTileSource::Create(&src, k, 16, 16);
+        REQUIRE(ranked.ok());
+        REQUIRE(ranked->Prepare().ok());
+        if (kind == 0) CHECK(ranked->sparse());
+        if (kind == 2) CHECK_FALSE(ranked->sparse());
+        // Stage A through the rank source (sparse passes when the cells are stored) against stage A's dense
+        // passes on the served matrix itself.
+        MatrixTileSource dense(std::vector<float>(served), n, m);
+        for (const std::size_t tile : {std::size_t{16}, std::size_t{64}}) {
+          for (const std::uint64_t tau_area : {std::uint64_t{1}, std::uint64_t{100}}) {
+            SequentialMatchParams p;
+            p.tau_inter = 0.5;
+            p.tau_area = tau_area;
+            p.tile_rows = p.tile_cols = tile;
+            p.all_clusters_max_cells = 1000000;
+            SequentialMatchParams pr = p;
+            pr.neighbour_rank = k;
+            auto want = RunSequentialMatching(dense, p);
+            auto got = RunSequentialMatching(src, pr);
+            REQUIRE(want.ok());
+            REQUIRE(got.ok());
+            CheckSameResult(*got, *want);
+          }
+        }
+      }
+    }
+  }
+}
+
 TEST_CASE("Neighbour rank finds revisits that no one absolute threshold separates, and no cluster in noise") {
   // Two places seen by two sensors: in the first, every distance is low (background 0.1-0.6, revisit
   // 0.02-0.08); in the second, high (background 0.4-1.2, revisit 0.3-0.45). Each has 40 keyframes of shared
