@@ -115,7 +115,9 @@ struct SequentialMatchResult {
 /// Stage A over any tile source (two passes; the source must be deterministic). With sequence_half_window
 /// w >= 1 the source is read through a SequenceSmoothedTileSource, so it must accept blocks of up to
 /// (tile_rows + 2w + 2) x (tile_cols + 2w + 2). With neighbour_rank k >= 1 the (smoothed) source is read through
-/// a NeighbourRankTileSource (one more pass). Tie-break between equal
+/// a NeighbourRankTileSource: one pass over the (smoothed) source in its Prepare; when it stores its kept cells
+/// (NeighbourRankTileSource::sparse()), stage A's passes read those instead of tiles, so the source is read once
+/// in all. Tie-break between equal
 /// means: smaller row_min, then col_min, then row_max, then col_max. Errors only for bad parameters or a
 /// failing source; degenerate inputs (empty sets, nothing below tau_inter, clusters too small) give an OK
 /// result with found == false and no_candidate_reason set.
