@@ -125,6 +125,7 @@ int ServerProcess::Configure() {
   server_params_.record_kind = RecordKindForDescriptor(o_.descriptor);
   server_params_.max_submap_points = static_cast<std::size_t>(setup_.config.max_submap_points);
   server_params_.max_scan_points = static_cast<std::size_t>(setup_.config.max_points_per_stored_scan);
+  server_params_.stage_ac_ablation = mode_ == ExchangeMode::kStageAC;
   if (Result<LidarSensor> sensor = LidarSensorFor(o_.lidar); !sensor.ok()) {
     std::fprintf(stderr, "%s: --lidar: %s\n", kTag, sensor.status().message().c_str());
     return kExitUsage;

@@ -188,6 +188,8 @@ int SetUpRun(RunJob* job) {
   server_params.record_kind = RecordKindForDescriptor(o.descriptor.name);
   server_params.max_submap_points = static_cast<std::size_t>(job->memory.config.max_submap_points);
   server_params.max_scan_points = static_cast<std::size_t>(job->memory.config.max_points_per_stored_scan);
+  server_params.stage_ac_ablation =
+      std::find(job->modes.begin(), job->modes.end(), ExchangeMode::kStageAC) != job->modes.end();
   server_params.colocation.max_heading_deg = ColocationHeadingDeg(o.sensor);
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) return Fail(*job, kExitUsage, st.message());
   job->server = std::make_unique<MergeServer>(

@@ -557,7 +557,7 @@ Status MergeServer::RunCascades() {
       state.beta = b;
       state.cascade = std::move(*result);
       const auto& l_seq = state.cascade.stage_a.cells;
-      if (!l_seq.empty()) {
+      if (!l_seq.empty() && params_.stage_ac_ablation) {
         // The A+C ablation: stage C over every loop of L_seq (both endpoints "selected").
         std::vector<int> all_a, all_b;
         for (std::uint32_t k : Endpoints(Span<const SequentialLoopCell>(l_seq), true)) all_a.push_back(static_cast<int>(k));
@@ -644,6 +644,10 @@ std::vector<std::uint32_t> MergeServer::StoredKeyframes(int robot) const {
 
 Result<ExchangePlan> MergeServer::Plan(ExchangeMode mode) const {
   if (!params_status_.ok()) return params_status_;
+  if (mode == ExchangeMode::kStageAC && !params_.stage_ac_ablation) {
+    return InvalidArgument("mode A+C needs the A+C ablation's stage C (MergeServerParams::stage_ac_ablation), "
+                           "which this server does not run");
+  }
   ExchangePlan plan;
   plan.mode = mode;
   std::vector<std::vector<std::uint32_t>> wanted(robots_.size()), own(robots_.size());

@@ -112,6 +112,10 @@ struct MergeServerParams {
   /// verification) or at an ambiguous place (the cascade's `ambiguous`) is never widened: its one registration
   /// decides, unless widen_ambiguous_support allows it.
   int max_widen_steps = 2;
+  /// The A+C ablation (Plan(kStageAC)): stage C over every loop of L_seq, run with each pair's cascade. Off
+  /// when no one plans mode A+C (`commerge server` in any other mode, `run` without A+C in --modes): it costs a
+  /// clique solve per pair and round (a tenth of a 5-robot round at 3 000 keyframes, profiling/bench_round).
+  bool stage_ac_ablation = true;
   /// Ours; 0 = off (an ambiguous cluster is never widened). [keyframes] An ambiguous cluster whose place
   /// consensus support (ExchangeCascadeResult::consensus_support_chosen) reaches this is widened like any other:
   /// corridors and rooms that repeat make true clusters ambiguous too, and a cluster that a hundred keyframes of
