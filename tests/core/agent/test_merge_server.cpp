@@ -1324,3 +1324,34 @@ TEST_CASE("Merge server with Scan Context records: the other kind is refused and
 
 }  // namespace
 }  // namespace commerge
+
+TEST_CASE("Merge server without the A+C ablation: the same A+B+C plan, no stage C over L_seq, and Plan(A+C) refused") {
+  MergeServerParams with;
+  with.cascade.stage_a = SequentialMatchParams{};
+  with.cascade.stage_a.tau_area = 100;
+  MergeServerParams without = with;
+  without.stage_ac_ablation = false;
+  MergeServer a(2, 100, with), b(2, 100, without);
+  for (const KeyframeBatch& batch : ShiftedPairBatches(40, 5)) {
+    REQUIRE(a.OnKeyframeBatch(batch).ok());
+    REQUIRE(b.OnKeyframeBatch(batch).ok());
+  }
+  REQUIRE(a.RunCascades().ok());
+  REQUIRE(b.RunCascades().ok());
+  REQUIRE(a.cascade(0, 1) != nullptr);
+  REQUIRE(a.cascade(0, 1)->stage_a.found);
+  CHECK(a.stage_ac(0, 1) != nullptr);
+  CHECK(b.stage_ac(0, 1) == nullptr);
+  auto plan_a = a.Plan(ExchangeMode::kStageABC), plan_b = b.Plan(ExchangeMode::kStageABC);
+  REQUIRE(plan_a.ok());
+  REQUIRE(plan_b.ok());
+  REQUIRE(plan_a->requests.size() == plan_b->requests.size());
+  for (std::size_t i = 0; i < plan_a->requests.size(); ++i) {
+    CHECK(plan_a->requests[i].robot_id == plan_b->requests[i].robot_id);
+    CHECK(plan_a->requests[i].keyframes == plan_b->requests[i].keyframes);
+  }
+  CHECK(a.Plan(ExchangeMode::kStageAC).ok());
+  auto refused = b.Plan(ExchangeMode::kStageAC);
+  REQUIRE_FALSE(refused.ok());
+  CHECK(refused.status().message().find("stage_ac_ablation") != std::string::npos);
+}
