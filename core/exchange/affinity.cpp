@@ -14,6 +14,7 @@
 #endif
 
 #include "core/common/float_limits.hpp"
+#include "core/common/simd4.hpp"
 #include "core/descriptor/scan_context.hpp"
 #include "core/descriptor/solid.hpp"
 
@@ -31,16 +32,10 @@ constexpr std::size_t kMr = 6;  // alpha rows per micro block (6 x 8: 12 accumul
 constexpr std::size_t kNr = 8;  // beta columns per panel (two 4-float vectors)
 constexpr std::size_t kChunkBytes = 16384;  // packed beta swept by all row blocks of a tile, L1 resident
 
-// Four floats in one SIMD register (GCC/Clang vector extension: SSE2 on x86-64, NEON on aarch64). Loads and
-// stores go through memcpy, so no alignment or aliasing assumption is made on the float buffers.
-typedef float V4 __attribute__((vector_size(16)));
-
-inline V4 Load4(const float* p) noexcept {
-  V4 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-inline void Store4(float* p, V4 v) noexcept { std::memcpy(p, &v, sizeof v); }
+// Four floats in one SIMD register (core/common/simd4.hpp).
+using V4 = V4f;
+inline V4 Load4(const float* p) noexcept { return Load4f(p); }
+inline void Store4(float* p, V4 v) noexcept { Store4f(p, v); }
 inline V4 Splat4(float x) noexcept { return V4{x, x, x, x}; }
 
 // The finishing operations, lane by lane correctly rounded (identical in every lane and position).

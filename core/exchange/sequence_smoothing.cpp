@@ -13,23 +13,17 @@
 #endif
 
 #include "core/common/float_limits.hpp"
+#include "core/common/simd4.hpp"
 
 namespace commerge {
 namespace {
 
-// Small SIMD vectors (GCC/Clang vector extensions, as in affinity.cpp); every lane operation is the correctly
-// rounded scalar one, so results equal the scalar code's bit for bit. Loads and stores go through memcpy.
-typedef float V4f __attribute__((vector_size(16)));
+// Small SIMD vectors (GCC/Clang vector extensions; V4f in core/common/simd4.hpp); every lane operation is the
+// correctly rounded scalar one, so results equal the scalar code's bit for bit. Loads and stores go through memcpy.
 typedef std::int32_t V4i __attribute__((vector_size(16)));
 typedef float V2f __attribute__((vector_size(8)));
 typedef double V2d __attribute__((vector_size(16)));
 
-inline V4f Load4f(const float* p) noexcept {
-  V4f v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-inline void Store4f(float* p, V4f v) noexcept { std::memcpy(p, &v, sizeof v); }
 inline V2d Load2d(const double* p) noexcept {
   V2d v;
   std::memcpy(&v, p, sizeof v);
