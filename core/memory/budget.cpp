@@ -89,8 +89,9 @@ MemoryConfig SizeMemoryForMission(const MemoryConfig& board, const MissionExtent
   if (mission.robots <= 0) return c;
   c.max_robots = mission.robots;
   c.max_keyframes_per_robot = std::max<std::int32_t>(1, mission.max_keyframes_per_robot);
-  c.max_points_per_raw_scan = std::max<std::int32_t>(1, mission.max_points_per_raw_scan);
-  c.max_points_per_stored_scan = std::min(board.max_points_per_stored_scan, c.max_points_per_raw_scan);
+  // Raw and stored scan capacities never shrink below the board's: the mapper's local map (the ring descriptor's
+  // input) is bounded by the raw capacity, so a smaller one would change the descriptors.
+  c.max_points_per_raw_scan = std::max(board.max_points_per_raw_scan, mission.max_points_per_raw_scan);
   const std::int64_t keyframes = c.max_keyframes_per_robot;
   const std::int64_t all_keyframes = keyframes * c.max_robots;
   c.scan_store_bytes = std::min(board.scan_store_bytes, keyframes * R::StoredScanBytes(c.max_points_per_stored_scan));

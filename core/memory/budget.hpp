@@ -65,10 +65,10 @@ struct MissionExtent {
   std::int32_t max_points_per_raw_scan = 0;  ///< points of the largest scan file
 };
 
-/// `board` (DefaultMemoryConfig) sized for `mission`: robots, keyframes and raw points as the mission needs
-/// them (more than the board's defaults when the mission is larger: the start-up check then decides); the
-/// stored scans, the scan store, the scans in flight and the merged map at most what the mission can fill,
-/// never more than `board`'s. Solver and queue sizes stay the board's.
+/// `board` (DefaultMemoryConfig) sized for `mission`: robots and keyframes as the mission needs them, raw points
+/// at least the board's and more for larger scans (the start-up check then decides); the scan store, the scans
+/// in flight and the merged map at most what the mission can fill, never more than `board`'s. Stored scans,
+/// solver and queue sizes stay the board's.
 MemoryConfig SizeMemoryForMission(const MemoryConfig& board, const MissionExtent& mission);
 /// Every field positive and below a sanity cap; the error names the field and its value.
 Status ValidateMemoryConfig(const MemoryConfig& config);

@@ -82,8 +82,8 @@ TEST_CASE("The budget of `run` follows its input: pools sized from the mission, 
   REQUIRE(ValidateMemoryConfig(c).ok());
   CHECK(c.max_robots == 5);
   CHECK(c.max_keyframes_per_robot == 400);
-  CHECK(c.max_points_per_raw_scan == 30000);
-  CHECK(c.max_points_per_stored_scan == desktop.max_points_per_stored_scan);  // 8192 < 30000
+  CHECK(c.max_points_per_raw_scan == desktop.max_points_per_raw_scan);  // never below the board's (local map)
+  CHECK(c.max_points_per_stored_scan == desktop.max_points_per_stored_scan);
   // Every keyframe's scan at the largest stored size: record and scan headers, 6 B a point, the index entry.
   CHECK(c.scan_store_bytes == 400 * (8 + 12 + 16 + 6 * std::int64_t{8192}));
   CHECK(c.max_scans_in_flight == 5 * 400);
@@ -99,19 +99,21 @@ TEST_CASE("The budget of `run` follows its input: pools sized from the mission, 
   two.robots = 2;
   MissionExtent longer = five;
   longer.max_keyframes_per_robot = 3000;
-  MissionExtent small_scans = five;
-  small_scans.max_points_per_raw_scan = 2000;
+  MissionExtent large_scans = five;
+  large_scans.max_points_per_raw_scan = 2 * desktop.max_points_per_raw_scan;
   const auto total = [&](const MissionExtent& m) {
     return MakeBudgetTable(AppKind::kRun, SizeMemoryForMission(desktop, m)).total_bytes();
   };
   CHECK(total(two) < total(five));
   CHECK(total(five) < total(longer));
-  CHECK(total(small_scans) < total(five));
+  CHECK(total(five) < total(large_scans));
   MemoryConfig board_for_five = desktop;
   board_for_five.max_robots = 5;
   CHECK(total(longer) < MakeBudgetTable(AppKind::kRun, board_for_five).total_bytes());
-  // Small scans are stored no larger than they are.
-  CHECK(SizeMemoryForMission(desktop, small_scans).max_points_per_stored_scan == 2000);
+  // Small scans keep the board's raw capacity (the mapper's local map is bounded by it).
+  MissionExtent small_scans = five;
+  small_scans.max_points_per_raw_scan = 2000;
+  CHECK(SizeMemoryForMission(desktop, small_scans).max_points_per_raw_scan == desktop.max_points_per_raw_scan);
 
   // A mission larger than the board's defaults gets what it needs (the start-up check decides whether it fits);
   // the scan store and the merged map stay at most the board's.
