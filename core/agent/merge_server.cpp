@@ -868,6 +868,11 @@ std::size_t MergeServer::BuildSubmap(int robot, Span<const std::uint32_t> keyfra
     if (union_points_.size() > kUnionPointsPerSubmap * params_.max_submap_points) {
       if (!voxel_grid_.Downsample(Span<const PointXYZI>(union_points_), v, points).ok()) points->clear();
       union_points_.assign(points->begin(), points->end());
+      // Still more than that once voxelised: at this voxel size the submap cannot fit max_submap_points (the
+      // union's voxels only grow as scans are added), so the caller will voxelise coarser. Stop adding scans, so
+      // the union, the grid and the submaps stay within their module (a last, coarsest attempt that still does
+      // not fit registers the scans taken so far).
+      if (union_points_.size() > kUnionPointsPerSubmap * params_.max_submap_points) break;
     }
   }
   if (!voxel_grid_.Downsample(Span<const PointXYZI>(union_points_), v, points).ok()) points->clear();

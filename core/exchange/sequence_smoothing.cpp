@@ -307,7 +307,7 @@ Status SequenceSmoothedTileSource::ComputeTile(std::size_t row_begin, std::size_
     for (; c + 4 <= c_hi; c += 4) {
       Store4f(h + c, Min4f(Min4f(Load4f(sl + c - 1), Load4f(sl + c)), Load4f(sl + c + 1)));
     }
-    for (; c < c_hi; ++c) h[c] = std::min(std::min(sl[c - 1], sl[c]), sl[c + 1]);
+    for (; c < c_hi; ++c) h[c] = std::min(std::min(*(sl + c - 1), sl[c]), sl[c + 1]);  // (sl + c) - 1: c may be 0
     for (c = std::max(c_hi, c_lo); c < cols; ++c) h[c] = clipped(c);
   }
   float min_value = kFloatInf;

@@ -352,7 +352,8 @@ TEST_CASE("Merge server memory: the submaps stay within their budget module howe
   config.max_keyframes_per_robot = 100;
   config.max_submap_points = 1000;
   config.max_points_per_stored_scan = 3000;
-  const BudgetEntry* budget = MakeBudgetTable(AppKind::kServer, config).Find("submaps");
+  const BudgetTable table = MakeBudgetTable(AppKind::kServer, config);
+  const BudgetEntry* budget = table.Find("submaps");
   REQUIRE(budget != nullptr);
   MergeServerParams params;
   params.max_submap_points = static_cast<std::size_t>(config.max_submap_points);
