@@ -3,10 +3,12 @@
 // chunks (decoded with the bounded decoders; malformed, foreign, stale and unknown-robot messages are counted),
 // sends transfer statuses and exchange policies, runs merge rounds (core/agent/server_link), publishes
 // merge_result_t and server_status_t, and after every round writes transforms.txt, trajectories/ and the merged
-// map of the scans it holds (platform/io/merge_outputs.hpp; the same writers as `commerge run`). With --exit-when-merged N it ends (exit 0) once
-// N robots are in the world frame after a round that saw every delivered keyframe, and every placed robot's
-// robot_status_t said "merged" (or --linger-s passed; the result is re-sent every second meanwhile); otherwise it
-// runs until SIGINT / SIGTERM. At exit it prints, per robot, a
+// map of the scans it holds (platform/io/merge_outputs.hpp; the same writers as `commerge run`), and what the
+// robots sent it: a row of exchange_rounds.tsv and exchange_bytes.png, at exit exchange_summary.tsv with the
+// paper's d_exch and t_comm (platform/io/exchange_outputs.hpp, counted by core/eval/mission_traffic.hpp).
+// With --exit-when-merged N it ends (exit 0) once N robots are in the world frame after a round that saw every
+// delivered keyframe, and every placed robot's robot_status_t said "merged" (or --linger-s passed; the result is
+// re-sent every second meanwhile); otherwise it runs until SIGINT / SIGTERM. At exit it prints, per robot, a
 // digest of the descriptors it holds (compare with the robot's own line: equal = every descriptor arrived).
 // --replay takes a mission recorded with lcm-logger and played back with lcm-logplayer: scan chunks are
 // accepted without this server's own request (the recording server made the requests).
@@ -29,6 +31,8 @@
 #include "core/common/bytes.hpp"
 #include "core/exchange/exchange_policy.hpp"
 #include "core/merge/merged_map.hpp"
+#include "core/eval/mission_traffic.hpp"
+#include "platform/io/exchange_outputs.hpp"
 #include "platform/io/merge_outputs.hpp"
 #include "platform/lcm/lcm_bus.hpp"
 #include "platform/lcm/message_codec.hpp"
@@ -49,6 +53,9 @@ struct ServerOptions {
   double round_quiet_s = 3.0;
   double request_timeout_s = 60.0;
   std::int64_t round_min_new_keyframes = 200;
+  /// What rounds ask of pairs earlier rounds answered (core/agent/pair_exchange.hpp); every_round turns it off.
+  PairExchangeParams exchange;
+  bool every_round = false;
   /// The flags `server` shares with `run` (apps/merge_flags.hpp); max_submap_points comes from the memory flags.
   MergeServerParams server;
   int exit_when_merged = 0;
@@ -72,7 +79,18 @@ class ServerProcess {
   int Run();
 
  private:
-  Status HandleMessage(const platform::BusMessage& message, std::int64_t wall);
+  /// What an accepted robot message brought: its robot (-1: none) and its bytes by kind.
+  struct Received {
+    int robot = -1;
+    TrafficKind kind = TrafficKind::kKeyframeRecords;
+    std::uint64_t resent_bytes = 0;  ///< of the message, records or chunks the server held already
+  };
+  Status HandleMessage(const platform::BusMessage& message, std::int64_t wall, Received* received);
+  void CountReceived(const platform::BusMessage& message, const Received& received);
+  /// A row of exchange_rounds.tsv and the chart, for the round just finished.
+  void WriteExchangeRound(const MergeResultMessage& result);
+  void WriteExchangeSummary();
+  double MissionSeconds() const;
   void SayIncomparablePairs();
   void Publish(const ServerOutgoing& o_msg);
   void WriteRoundFiles(const MergeResultMessage& result);
@@ -94,7 +112,11 @@ class ServerProcess {
   std::unique_ptr<MergeServer> server_;
   std::unique_ptr<ServerLink> link_;
   std::unique_ptr<platform::LcmBus> bus_;
-  std::int64_t bytes_received_ = 0, rejected_ = 0;
+  std::int64_t rejected_ = 0;
+  /// What the robots sent, by kind and over time (exchange_rounds.tsv, exchange_summary.tsv, exchange_bytes.png).
+  std::unique_ptr<MissionTraffic> traffic_;
+  std::int64_t start_us_ = 0;
+  std::vector<double> round_end_s_;  ///< the chart's marks (at most kMaxChartMarks; then every other is dropped)
   std::int64_t merged_map_high_water_ = 0;  ///< the merged_map budget module: the builder's buffers
   std::vector<std::pair<int, int>> reported_incomparable_;  ///< the last incomparable pairs said on stderr
   /// Replay: the recording server's (session, round) pairs already followed, and when the recording last spoke.
@@ -136,6 +158,8 @@ int ServerProcess::Configure() {
   link_params_.round_quiet_s = o_.round_quiet_s;
   link_params_.request_timeout_s = o_.request_timeout_s;
   link_params_.round_min_new_keyframes = static_cast<std::size_t>(std::max<std::int64_t>(1, o_.round_min_new_keyframes));
+  link_params_.exchange = o_.exchange;
+  link_params_.exchange.enabled = !o_.every_round;
   link_params_.accept_unrequested_scans = o_.replay;
   link_params_.automatic_rounds = !o_.replay;  // a replay runs its rounds where the recording has merge results
   for (const Status& st : {ValidateMergeServerParams(server_params_), ValidateServerLinkParams(link_params_)}) {
@@ -168,22 +192,35 @@ int ServerProcess::Configure() {
   return kExitOk;
 }
 
-Status ServerProcess::HandleMessage(const platform::BusMessage& message, std::int64_t wall) {
+Status ServerProcess::HandleMessage(const platform::BusMessage& message, std::int64_t wall, Received* received) {
   const Span<const std::uint8_t> bytes(message.bytes.data(), message.bytes.size());
+  const MergeServerStats before = server_->stats();
   if (message.channel == platform::kKeyframesChannel) {
     auto m = platform::DecodeKeyframeBatch(bytes);
     Status st = !m.ok() ? m.status() : CheckSigner(message, m->robot_id);
-    return st.ok() ? link_->OnKeyframeBatch(*m, wall) : st;
+    if (st.ok()) st = link_->OnKeyframeBatch(*m, wall);
+    if (!st.ok()) return st;
+    // Records of keyframes the server held already are re-sends: their share of the message's bytes.
+    const std::uint64_t records = server_->stats().records - before.records;
+    const std::uint64_t repeated = server_->stats().records_repeated - before.records_repeated;
+    *received = Received{m->robot_id, TrafficKind::kKeyframeRecords,
+                         records > 0 ? message.bytes.size() * repeated / records : 0};
+    return st;
   }
   if (message.channel == platform::kPosesChannel) {
     auto m = platform::DecodePoseUpdate(bytes);
     Status st = !m.ok() ? m.status() : CheckSigner(message, m->robot_id);
-    return st.ok() ? link_->OnPoseUpdate(*m, wall) : st;
+    if (st.ok()) st = link_->OnPoseUpdate(*m, wall);
+    if (st.ok()) *received = Received{m->robot_id, TrafficKind::kPoseUpdates, 0};
+    return st;
   }
   if (message.channel == platform::kScansChannel) {
     auto m = platform::DecodeScanChunk(bytes);
     Status st = !m.ok() ? m.status() : CheckSigner(message, m->robot_id);
-    return st.ok() ? link_->OnScanChunk(*m, wall) : st;
+    if (st.ok()) st = link_->OnScanChunk(*m, wall);
+    const bool duplicate = server_->stats().duplicate_chunks > before.duplicate_chunks;
+    if (st.ok()) *received = Received{m->robot_id, TrafficKind::kScans, duplicate ? message.bytes.size() : 0};
+    return st;
   }
   if (message.channel == platform::kMergeResultChannel) {
     auto m = platform::DecodeMergeResult(bytes);
@@ -202,6 +239,7 @@ Status ServerProcess::HandleMessage(const platform::BusMessage& message, std::in
       st = InvalidArgument("robot status of robot " + std::to_string(m->robot_id) + ", not one of --robots " +
                            std::to_string(robots_));
     }
+    if (st.ok()) *received = Received{m->robot_id, TrafficKind::kRobotStatus, 0};
     if (st.ok() && m->state == "merged" && m->session != 0 && m->session == link_->robot_session(m->robot_id)) {
       confirmed_session_[static_cast<std::size_t>(m->robot_id)] = m->session;
       link_->OnRobotLeft(m->robot_id, m->session);  // "merged" is a robot's last status: it exits
@@ -284,7 +322,92 @@ void ServerProcess::Publish(const ServerOutgoing& o_msg) {
   }
   if (st.ok()) st = bus_->Publish(channel, buffer_);
   if (!st.ok()) std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
-  if (o_msg.kind == ServerOutgoing::Kind::kMergeResult) WriteRoundFiles(o_msg.result);
+  if (o_msg.kind == ServerOutgoing::Kind::kMergeResult) {
+    WriteRoundFiles(o_msg.result);
+    WriteExchangeRound(o_msg.result);
+  }
+}
+
+double ServerProcess::MissionSeconds() const { return static_cast<double>(platform::MonotonicUs() - start_us_) * 1e-6; }
+
+void ServerProcess::CountReceived(const platform::BusMessage& message, const Received& received) {
+  const double t = MissionSeconds();
+  const std::uint64_t bytes = message.bytes.size();
+  if (received.robot < 0) {
+    traffic_->Record(-1, TrafficKind::kKeyframeRecords, bytes, t);  // not a robot's (a replayed merge result)
+    return;
+  }
+  const std::uint64_t resent = std::min(received.resent_bytes, bytes);
+  if (resent > 0) traffic_->Record(received.robot, TrafficKind::kResends, resent, t);
+  if (bytes > resent) traffic_->Record(received.robot, received.kind, bytes - resent, t);
+}
+
+void ServerProcess::WriteExchangeRound(const MergeResultMessage& result) {
+  const MergeRoundResult& round = link_->last_round();
+  platform::ExchangeRoundRow row;
+  row.round = result.round;
+  row.time_s = MissionSeconds();
+  for (std::size_t i = 0; i < result.robot_ids.size(); ++i) {
+    if (!result.in_world[i]) continue;
+    ++row.robots_placed;
+    row.placed.push_back(result.robot_ids[i]);
+  }
+  row.robots = static_cast<int>(result.robot_ids.size());
+  for (const MergePairOutcome& p : result.pairs) row.pairs_merged += p.success ? 1 : 0;
+  row.pairs_registered = round.pairs_registered;
+  row.pairs_kept = round.pairs_kept;
+  for (const PairExchangeDecision& d : round.decisions) {
+    row.scans_requested += d.scans_requested;
+    row.scans_widened += d.scans_widened;
+  }
+  for (std::size_t k = 0; k < kTrafficKinds; ++k) row.bytes[k] = traffic_->KindTotal(static_cast<TrafficKind>(k));
+  for (int r = 0; r < robots_; ++r) row.robot_bytes.push_back(traffic_->RobotTotal(r));
+  row.pairs = ExchangeDecisionsText(Span<const PairExchangeDecision>(round.decisions));
+  const std::string dir = o_.out_dir + "/";
+  Status st = platform::AppendExchangeRound(dir + "exchange_rounds.tsv", row);
+  // The chart's marks are bounded like its series: past the limit every other mark goes.
+  constexpr std::size_t kMaxChartMarks = 512;
+  if (round_end_s_.size() == kMaxChartMarks) {
+    for (std::size_t i = 0; i < kMaxChartMarks / 2; ++i) round_end_s_[i] = round_end_s_[2 * i + 1];
+    round_end_s_.resize(kMaxChartMarks / 2);
+  }
+  round_end_s_.push_back(row.time_s);
+  if (st.ok()) {
+    st = platform::WriteExchangeBytesPng(dir + "exchange_bytes.png", *traffic_, robots_,
+                                         Span<const double>(round_end_s_));
+  }
+  if (!st.ok()) std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
+}
+
+void ServerProcess::WriteExchangeSummary() {
+  platform::ExchangeSummary summary;
+  summary.rounds = link_->rounds_merged();
+  for (int r = 0; r < robots_; ++r) {
+    const RobotKeyframeDb& db = server_->robot(r);
+    std::uint32_t scans = 0;
+    for (std::size_t k = 0; k < db.size(); ++k) {
+      scans += server_->has_scan(r, static_cast<std::uint32_t>(k)) ? 1 : 0;
+      if (db.stored_points[k] > 0) summary.send_all_bytes += EncodedScanBytes(db.stored_points[k]);
+    }
+    summary.keyframes.push_back(static_cast<std::uint32_t>(db.size()));
+    summary.scans_received.push_back(scans);
+  }
+  summary.send_all_bytes += traffic_->KindTotal(TrafficKind::kKeyframeRecords);
+  const std::string dir = o_.out_dir + "/";
+  Status st = platform::WriteExchangeSummary(dir + "exchange_summary.tsv", *traffic_, summary);
+  if (st.ok()) {
+    st = platform::WriteExchangeBytesPng(dir + "exchange_bytes.png", *traffic_, robots_,
+                                         Span<const double>(round_end_s_));
+  }
+  if (!st.ok()) std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
+  const auto mb = [](std::uint64_t b) { return FormatFixed(static_cast<double>(b) / 1e6, 2) + " MB"; };
+  std::printf("server: d_exch %s (keyframe records %s, pose updates %s, scans %s, re-sends %s), robot status %s, "
+              "t_comm %.1f s; every stored scan with the records would have been %s\n",
+              mb(traffic_->ExchangedBytes()).c_str(), mb(traffic_->KindTotal(TrafficKind::kKeyframeRecords)).c_str(),
+              mb(traffic_->KindTotal(TrafficKind::kPoseUpdates)).c_str(),
+              mb(traffic_->KindTotal(TrafficKind::kScans)).c_str(), mb(traffic_->KindTotal(TrafficKind::kResends)).c_str(),
+              mb(traffic_->KindTotal(TrafficKind::kRobotStatus)).c_str(), traffic_->CommSeconds(),
+              mb(summary.send_all_bytes).c_str());
 }
 
 std::vector<ModuleMemory> ServerProcess::MemoryUse() const {
@@ -303,7 +426,7 @@ void ServerProcess::PublishStatus(std::int64_t wall) {
   status.modules = StatusModules(setup_.table, MemoryUse());
   status.round = link_->rounds_merged();
   status.state = link_->state();
-  status.bytes_received = bytes_received_;
+  status.bytes_received = static_cast<std::int64_t>(traffic_->Total());
   status.messages_rejected = rejected_ + static_cast<std::int64_t>(AuthRejected(*bus_)) +
                              static_cast<std::int64_t>(server_->stats().rejected_batches +
                                                        server_->stats().rejected_pose_updates +
@@ -316,7 +439,7 @@ void ServerProcess::PublishStatus(std::int64_t wall) {
   if (platform::EncodeServerStatus(status, &buffer_).ok()) (void)bus_->Publish(platform::kServerStatusChannel, buffer_);
   if (!o_.quiet) {
     std::fprintf(stderr, "%s: %s; %lld bytes received, %lld messages rejected\n", kTag, status.state.c_str(),
-                 static_cast<long long>(bytes_received_), static_cast<long long>(status.messages_rejected));
+                 static_cast<long long>(traffic_->Total()), static_cast<long long>(status.messages_rejected));
   }
 }
 
@@ -347,6 +470,14 @@ int ServerProcess::Run() {
                                           server_params_);
   link_ = std::make_unique<ServerLink>(session_, link_params_, server_.get());
   confirmed_session_.assign(static_cast<std::size_t>(robots_), 0);
+  MissionTrafficParams traffic_params;
+  traffic_params.max_robots = static_cast<std::size_t>(robots_);
+  traffic_ = std::make_unique<MissionTraffic>(traffic_params);
+  start_us_ = platform::MonotonicUs();
+  if (Status st = platform::StartExchangeRounds(o_.out_dir + "/exchange_rounds.tsv", robots_); !st.ok()) {
+    std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
+    return kExitFailure;
+  }
   auto bus = o_.replay ? platform::OpenLcmBus(bus_params_, {platform::kKeyframesChannel, platform::kPosesChannel,
                                                             platform::kScansChannel, platform::kMergeResultChannel})
                        : platform::OpenLcmBus(bus_params_, {platform::kKeyframesChannel, platform::kPosesChannel,
@@ -381,10 +512,11 @@ int ServerProcess::Run() {
     }
     const std::int64_t wall = platform::WallTimeUs();
     while (bus_->Take(&message)) {
-      const Status st = HandleMessage(message, wall);
+      Received received;
+      const Status st = HandleMessage(message, wall, &received);
       last_recorded_us_ = platform::MonotonicUs();
       if (st.ok()) {
-        bytes_received_ += static_cast<std::int64_t>(message.bytes.size());
+        CountReceived(message, received);
       } else {
         ++rejected_;
         last_rejection_ = message.channel + ": " + st.message();
@@ -435,7 +567,7 @@ int ServerProcess::Finish(int exit_code) {
   std::printf("server: %d merge rounds, %d of %zu robots in the world frame, %d confirmed it; %lld bytes received; "
               "%lld messages rejected%s%s\n",
               link_->rounds_merged(), InWorld(), link_->last_result().robot_ids.size(), confirmed,
-              static_cast<long long>(bytes_received_),
+              static_cast<long long>(traffic_->Total()),
               static_cast<long long>(rejected_ + static_cast<std::int64_t>(AuthRejected(*bus_))),
               last_rejection_.empty() ? "" : "; last: ", last_rejection_.c_str());
   for (int r = 0; r < robots_; ++r) {
@@ -443,6 +575,7 @@ int ServerProcess::Finish(int exit_code) {
     std::printf("server: robot %d session %lld: %s\n", r, static_cast<long long>(link_->robot_session(r)),
                 ServerDeliveryDigest(server_->robot(r)).ToText().c_str());
   }
+  WriteExchangeSummary();
   std::printf("server %s\n", AuthSummary(*bus_).c_str());
   std::printf("%s\n", PeakRssLine().c_str());
   std::fprintf(stderr, "%s", MemorySummary(setup_.table, MemoryUse(), platform::ReadRss().peak_bytes).c_str());
@@ -462,8 +595,9 @@ Command AddServerCommand(CLI::App& root) {
   auto o = std::make_shared<ServerOptions>();
   CLI::App* cmd = root.add_subcommand("server", "the merge server process on LCM: collect descriptors, request the "
                                                 "few scans the cascade selects, register, publish the merge");
-  cmd->add_option("--out", o->out_dir, "output directory (transforms.txt, trajectories/, merged_map.pcd/.ply after "
-                                       "every round)")->capture_default_str();
+  cmd->add_option("--out", o->out_dir, "output directory (transforms.txt, trajectories/, merged_map.pcd/.ply, a row of "
+                                       "exchange_rounds.tsv and exchange_bytes.png after every round; "
+                                       "exchange_summary.tsv at exit)")->capture_default_str();
   cmd->add_option("--mode", o->mode, "exchange mode: send-all, A, A+B, A+C, A+B+C")->capture_default_str();
   cmd->add_option("--lcm-url", o->lcm_url, "LCM provider URL (default: LCM_DEFAULT_URL)");
   cmd->add_option("--lidar", o->lidar, "the robots' --lidar preset (hdl-64e, vlp-16, os1-64, os1-128, os2-128, avia, "
@@ -484,6 +618,25 @@ Command AddServerCommand(CLI::App& root) {
   cmd->add_option("--request-timeout-s", o->request_timeout_s, "merge with what arrived after this [s]")
       ->capture_default_str();
   AddMergeFlags(cmd, &o->server);
+  cmd->add_flag("--every-round", o->every_round,
+                "register every pair every round, also pairs earlier rounds verified (off: a verified pair costs no "
+                "scans until its overlap's poses move, a new overlap can check it, it is rejected or a robot "
+                "restarts)");
+  cmd->add_option("--recheck-moved-m", o->exchange.moved_m,
+                  "a verified pair is registered again when a keyframe of its overlap moved more than this [m]")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
+  cmd->add_option("--recheck-moved-deg", o->exchange.moved_deg,
+                  "... or turned more than this [deg]")->check(CLI::Range(0.0, 180.0))->capture_default_str();
+  cmd->add_option("--new-overlap-m", o->exchange.new_overlap_m,
+                  "a selection this far from every place a pair was registered at is a new overlap [m] (registered "
+                  "for a pair nothing else checks, or a pair not verified yet)")
+      ->check(CLI::Range(0.0, 100000.0))
+      ->capture_default_str();
+  cmd->add_option("--max-tried-places", o->exchange.max_tried_regions,
+                  "places a pair between placed robots is registered at, at most")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
   cmd->add_option("--exit-when-merged", o->exit_when_merged, "exit 0 once this many robots are in the world frame "
                   "and the last round saw every keyframe delivered (the robots went quiet for --round-quiet-s)");
   cmd->add_option("--max-runtime-s", o->max_runtime_s, "give up (exit 1) after this long [s] (0 = never)");

@@ -615,7 +615,7 @@ int RunMode(RunJob* job, ExchangeMode mode, RunProgress* progress) {
   out.ledger = std::make_unique<ByteLedger>(job->ledger_params);
   Wire wire(out.ledger.get());
   job->server->ClearScans();
-  MergeRound round(job->server.get(), MergeRoundParams{mode, /*run_cascades=*/false});
+  MergeRound round(job->server.get(), MergeRoundParams{mode, /*run_cascades=*/false, PairExchangeParams{}});
   ProgressObserver observer(progress, mode);
   round.set_observer(&observer);
   const std::vector<std::int64_t> sessions(static_cast<std::size_t>(job->num_robots()), 1);

@@ -1,14 +1,18 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: the server's merge round, transport-free (paper Fig. "main", (d)-(g)), in one place:
 //   1. the exchange cascade for every robot pair (MergeServer::RunCascades: affinity + stage A, B, C, policy);
-//   2. the plan of one exchange mode (MergeServer::Plan: the paper's ablation modes, send-all .. A+B+C) and the
-//      scan requests for the keyframes whose scans the server does not hold yet;
-//   3. registration of every pair from the scans that arrived (MergeServer::MergePair: submaps, coarse, fine);
+//   2. the plan of one exchange mode (MergeServer::Plan: the paper's ablation modes, send-all .. A+B+C), and per
+//      pair what this round asks of it (ours, pair_exchange.hpp: a pair answered by earlier rounds keeps its
+//      result and costs no scans unless its robots' poses in the verified overlap moved, a new overlap could
+//      check a bridge, a verification failed or a robot restarted; pairs with an unplaced robot are always
+//      registered); the scan requests for the registered pairs' keyframes whose scans the server does not hold;
+//   3. registration of those pairs from the scans that arrived (MergeServer::MergePair: submaps, coarse, fine);
 //   4. widening (ours, MergeServer::WidenPlan): a pair that registration refused asks for more of stage A's scans
 //      and is registered again, at most MergeServerParams::max_widen_steps times;
-//   5. verified pairs (ours, KeepVerifiedPairs): a pair this round could not judge for missing scans keeps the
-//      registration an earlier round verified for the same robot sessions;
-//   6. the frame solver (MergeServer::SolveFrames): one T_world_map per robot, inconsistent pairs rejected.
+//   5. the pair histories: what each pair's registrations verified, where it was tried, for the robot sessions
+//      (a pair registered with selected scans missing and refused keeps the registration verified before);
+//   6. the frame solver (MergeServer::SolveFrames): one T_world_map per robot, inconsistent pairs rejected (a
+//      rejected verified registration is dropped at the next round).
 // `commerge run` (direct calls, every message LCM-encoded and counted) and `commerge server` (LCM, through
 // ServerLink) both drive this round and differ only in how requests and scans travel:
 //
@@ -17,9 +21,11 @@
 //   round.Begin(sessions, &requests);          // steps 1-2
 //   do deliver(requests);                      // the driver's business: memq, LCM, retransmission, timeouts
 //   while (!*round.Continue(&requests));       // steps 3-6; widening may ask for more scans
-//   round.result();                            // selections, registrations, frames
+//   round.result();                            // selections, decisions, registrations, frames
 //
-// The object lives across rounds (the verified pairs of step 5, the request ids); Begin starts the next round.
+// The object lives across rounds (the pair histories, the request ids); Begin starts the next round. Its first
+// round registers every pair (no robot is placed yet): a comparison of modes (`commerge run`) uses one object per
+// mode.
 #pragma once
 
 #include <cstddef>
@@ -29,35 +35,21 @@
 
 #include "core/agent/merge_server.hpp"
 #include "core/agent/messages.hpp"
+#include "core/agent/pair_exchange.hpp"
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 #include "core/merge/frame_solver.hpp"
 
 namespace commerge {
 
-/// A pair registration a round verified, with the robot sessions it holds for.
-struct VerifiedPair {
-  PairMergeResult result;
-  int round = 0;
-  std::int64_t alpha_session = 0, beta_session = 0;
-};
-
-/// Keeps what earlier rounds verified when a later round lacks the data to judge. For each of this round's
-/// `results` (round number `round`; sessions[r] = robot r's current session): a success is recorded in *verified
-/// (replacing that pair's earlier one). A pair this round did not register, with selected scans missing
-/// (alpha_missing or beta_missing > 0: a robot left, or its scans did not arrive before the driver stopped
-/// waiting), gets back the result *verified holds for the same two sessions, marked kept_from_round, its reason
-/// naming this round's cause. The frame between two robot maps does not change when they grow, so a verified
-/// transform stays valid; a restarted robot (new session, new map frame) invalidates it. A pair registered with
-/// every selected scan and refused, or with nothing selected, is left as it is.
-void KeepVerifiedPairs(int round, Span<const std::int64_t> sessions, std::vector<VerifiedPair>* verified,
-                       std::vector<PairMergeResult>* results);
-
 struct MergeRoundParams {
   ExchangeMode mode = ExchangeMode::kStageABC;
   /// Step 1 runs the cascades. false: plan from the cascades the server ran last (a comparison of exchange modes
   /// on the same data runs them once, then one round per mode).
   bool run_cascades = true;
+  /// What a round asks of pairs earlier rounds answered (pair_exchange.hpp); not in mode send-all, the baseline
+  /// that ships every stored scan every round.
+  PairExchangeParams exchange;
 };
 
 /// Called after every registration of a pair (also a widened retry), e.g. for progress lines.
@@ -74,11 +66,17 @@ struct MergeRoundResult {
   /// order (the plan's, then each widening step's), only keyframes whose scans the server did not hold;
   /// predicted_scan_bytes: of those requests.
   ExchangePlan plan;
-  /// Per pair, in plan.pairs order: the last registration (after KeepVerifiedPairs), how often its selection was
-  /// widened, and the seconds its registrations took (steady clock, every attempt).
+  /// Per plan pair, in plan.pairs order: what the round asked of it (its reason, the scans requested for it).
+  std::vector<PairExchangeDecision> decisions;
+  /// Per pair, in plan.pairs order, its result: this round's last registration, or the verified one it keeps
+  /// (kept_from_round > 0), or why it was not attempted; a pair with a second verified region has two entries,
+  /// next to each other (the frame solver gets both). How often each was widened, and the seconds its
+  /// registrations took (steady clock, every attempt).
   std::vector<PairMergeResult> pairs;
   std::vector<int> widenings;
   std::vector<double> registration_s;
+  /// Pairs registered this round, pairs that kept a verified result.
+  std::size_t pairs_registered = 0, pairs_kept = 0;
   /// Scans the widening steps asked for (not held yet); plan.selected_scans and plan.padded_scans count the
   /// plan's own by origin. On a server that held no scan before the round (each mode of `commerge run`), the three
   /// add up to the scans the round requested.
@@ -115,15 +113,39 @@ class MergeRound {
   std::uint64_t widened_selections() const noexcept { return widened_selections_; }
   /// The last finished round (round 0 = none yet).
   const MergeRoundResult& result() const noexcept { return result_; }
-  const std::vector<VerifiedPair>& verified_pairs() const noexcept { return verified_; }
-  /// Forgets what the rounds verified (e.g. before a comparison run reuses the object).
-  void ClearVerified() { verified_.clear(); }
+  /// What the rounds know of each pair (for the robots' current sessions).
+  const std::vector<PairHistory>& histories() const noexcept { return histories_; }
+  /// The history of pair (alpha, beta), alpha < beta; nullptr when there is none.
+  const PairHistory* history(int alpha, int beta) const;
 
   void set_observer(MergeRoundObserver* observer) noexcept { observer_ = observer; }
 
  private:
-  /// Registers `selections`; a pair registered before in this round is replaced (and counted as widened).
-  Status Register(const std::vector<PairSelection>& selections);
+  /// One registration of the round: a selection and the slot of current_.pairs it fills.
+  struct Job {
+    PairSelection selection;
+    std::size_t slot = 0;
+    std::size_t decision = 0;  ///< index into current_.decisions
+    /// A verified region registered again at moved poses was refused with every scan present (not for missing
+    /// scans): those poses are judged.
+    bool refused_with_scans = false;
+  };
+  /// Step 2 for one plan pair: its decision; then (AddPair) its slot(s) in current_.pairs and its job when it is
+  /// registered.
+  PairExchangeDecision DecidePair(const PairSelection& plan_pair) const;
+  void AddPair(const PairSelection& plan_pair, std::size_t decision, std::vector<Job>* jobs);
+  /// Registers `jobs` into their slots (a slot filled before in this round counts as widened); a verified region
+  /// re-registered at moved poses and refused keeps its earlier result.
+  Status Register(std::vector<Job>* jobs);
+  /// Step 5 for one job, once its result is final.
+  void RecordJob(const Job& job);
+  /// Per-pair history bookkeeping at Begin: sessions (a restart voids it), verified registrations the last
+  /// round's frame solver rejected.
+  void RefreshHistories();
+  PairHistory* MutableHistory(int alpha, int beta);
+  RobotPoses PosesOf(int robot) const;
+  /// Counts each job's requested keyframes into its decision (a scan two jobs share counts for the first).
+  void AttributeRequests(const std::vector<Job>& jobs, const std::vector<ScanRequest>& requests, bool widened);
   /// Moves `planned` into *requests and the round's plan, without the scans held, with fresh request ids.
   void Request(const std::vector<ScanRequest>& planned, std::uint64_t predicted_bytes,
                std::vector<ScanRequest>* requests);
@@ -138,9 +160,12 @@ class MergeRound {
   std::int32_t next_request_id_ = 1;
   std::vector<std::int64_t> sessions_;
   MergeRoundResult current_;                   ///< the round in progress
-  std::vector<PairSelection> pending_;         ///< to register when the requested scans arrived
+  std::vector<Job> jobs_;                      ///< every registration of the round in progress (widened ones updated)
+  std::vector<Job> pending_;                   ///< to register when the requested scans arrived
+  /// Per entry of current_.pairs: the verified region of its pair it is or becomes (-1: none).
+  std::vector<int> entry_region_;
   MergeRoundResult result_;
-  std::vector<VerifiedPair> verified_;
+  std::vector<PairHistory> histories_;
   MergeRoundObserver* observer_ = nullptr;
 };
 

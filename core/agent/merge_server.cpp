@@ -311,6 +311,7 @@ Status MergeServer::OnKeyframeBatch(const KeyframeBatch& batch) {
     }
     RobotKeyframeDb& db = robots_[static_cast<std::size_t>(batch.robot_id)];
     const std::size_t k = record->keyframe_index;
+    if (db.valid[k]) ++stats_.records_repeated;
     std::copy(record_descriptor_.begin(), record_descriptor_.end(),
               db.descriptors.begin() + static_cast<std::ptrdiff_t>(k * db.dim));
     db.valid[k] = 1;
@@ -757,6 +758,20 @@ void MergeServer::AddRequests(std::vector<std::vector<std::uint32_t>>* wanted, s
     }
     plan->requests.push_back(std::move(req));
   }
+}
+
+ExchangePlan MergeServer::RequestsFor(Span<const PairSelection> selections, std::int32_t first_request_id) const {
+  ExchangePlan plan;
+  std::vector<std::vector<std::uint32_t>> wanted(robots_.size());
+  for (const PairSelection& s : selections) {
+    for (const auto& [robot, keyframes] : {std::make_pair(s.alpha, &s.alpha_keyframes), std::make_pair(s.beta, &s.beta_keyframes)}) {
+      if (robot < 0 || robot >= max_robots()) continue;
+      auto& w = wanted[static_cast<std::size_t>(robot)];
+      w.insert(w.end(), keyframes->begin(), keyframes->end());
+    }
+  }
+  AddRequests(&wanted, first_request_id, /*skip_held=*/true, &plan);
+  return plan;
 }
 
 void AdoptSelections(Span<const PairSelection> adopted, std::vector<PairSelection>* pairs) {

@@ -224,6 +224,8 @@ void AdoptSelections(Span<const PairSelection> adopted, std::vector<PairSelectio
 
 struct MergeServerStats {
   std::uint64_t batches = 0, records = 0, pose_updates = 0, chunks = 0, scans_completed = 0;
+  /// Of `records`, those for keyframes whose record the server held already (re-announcements).
+  std::uint64_t records_repeated = 0;
   std::uint64_t rejected_batches = 0, rejected_records = 0, rejected_pose_updates = 0;
   std::uint64_t rejected_chunks = 0, duplicate_chunks = 0, corrupt_scans = 0;
   std::uint64_t chunks_over_budget = 0;
@@ -272,6 +274,11 @@ class MergeServer {
   /// does not hold, with request ids from `first_request_id` upwards. An empty plan: nothing to widen.
   Result<ExchangePlan> WidenPlan(const ExchangePlan& plan, Span<const PairMergeResult> results,
                                  std::int32_t first_request_id) const;
+
+  /// The requests for registering `selections`: one per robot with the union of its keyframes in them whose
+  /// scans the server does not hold, request ids from `first_request_id` upwards, and their predicted bytes
+  /// (ExchangePlan::requests and predicted_scan_bytes; its pairs are empty).
+  ExchangePlan RequestsFor(Span<const PairSelection> selections, std::int32_t first_request_id) const;
 
   /// Drops every received and partial scan (between modes of a comparison run).
   void ClearScans();

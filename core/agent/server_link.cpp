@@ -31,7 +31,7 @@ Status ValidateServerLinkParams(const ServerLinkParams& params) {
       return InvalidArgument(std::string(name) + " = " + std::to_string(value) + " must be finite and >= 0");
     }
   }
-  return Status::Ok();
+  return ValidatePairExchangeParams(params.exchange);
 }
 
 ServerLink::ServerLink(std::int64_t session, const ServerLinkParams& params, MergeServer* server)
@@ -39,7 +39,7 @@ ServerLink::ServerLink(std::int64_t session, const ServerLinkParams& params, Mer
       params_(params),
       params_status_(ValidateServerLinkParams(params)),
       server_(server),
-      merge_round_(server, MergeRoundParams{params.mode, /*run_cascades=*/true}) {
+      merge_round_(server, MergeRoundParams{params.mode, /*run_cascades=*/true, params.exchange}) {
   if (params_status_.ok() && session <= 0) {
     params_status_ = InvalidArgument("session id " + std::to_string(session) + " must be > 0");
   }
@@ -362,6 +362,7 @@ bool ServerLink::Settled(std::int64_t now_us) const {
 Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
   if (!params_status_.ok()) return params_status_;
   // Round bookkeeping first, so the statuses below already show a new or finished request.
+  bool round_work = false;
   if (round_active_) {
     bool complete = true;
     for (int r = 0; r < static_cast<int>(robots_.size()); ++r) {
@@ -373,6 +374,7 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
     const bool timed_out = Elapsed(round_start_us_, now_us, params_.request_timeout_s);
     if (complete || timed_out) {
       if (!complete) ++stats_.rounds_timed_out;
+      round_work = true;
       if (Status st = ContinueRound(now_us, out); !st.ok()) return st;
     }
   } else {
@@ -388,6 +390,7 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
                (fresh >= params_.round_min_new_keyframes || Elapsed(last_message_us_, now_us, params_.round_quiet_s)));
     }
     if (start) {
+      round_work = true;
       Status st = StartRound(now_us, out);
       if (!st.ok()) {
         round_active_ = false;
@@ -408,7 +411,10 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
       out->push_back(std::move(o));
       ++stats_.policies;
     }
-    if (Elapsed(state.last_status_us, now_us, params_.status_interval_s)) {
+    // After round work (seconds of registration) the robots' messages of that time still wait in the caller's
+    // queue: a status now would show their keyframes missing and make the robots send them again. The next Poll,
+    // after the caller took them, sends it.
+    if (!round_work && Elapsed(state.last_status_us, now_us, params_.status_interval_s)) {
       state.last_status_us = now_us;
       ServerOutgoing o;
       o.kind = ServerOutgoing::Kind::kTransferStatus;

@@ -50,6 +50,8 @@ struct ServerLinkParams {
   /// Start rounds by the rules above. A replaying server turns this off and starts a round (RequestRound) where
   /// the recording has the recording server's merge result, so its rounds see the same data.
   bool automatic_rounds = true;
+  /// What a round asks of pairs earlier rounds answered (core/agent/pair_exchange.hpp).
+  PairExchangeParams exchange;
 };
 
 Status ValidateServerLinkParams(const ServerLinkParams& params);
@@ -83,7 +85,9 @@ class ServerLink {
   Status OnScanChunk(const ScanChunk& chunk, std::int64_t now_us);
 
   /// Appends what is due now: transfer statuses, (repeated) scan requests, and a merge result when a round
-  /// finished. Errors come from the cascade or the registration (bad parameters); the round is then abandoned.
+  /// finished. A call that started or continued a round sends no status (the messages that arrived meanwhile are
+  /// not in it yet: the next call, after the caller handed them over, does). Errors come from the cascade or the
+  /// registration (bad parameters); the round is then abandoned.
   Status Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out);
 
   /// Starts a round at the next Poll() whatever the triggers say (when any robot has keyframes).

@@ -640,13 +640,34 @@ std::string FormatTickValue(BarValueFormat format, double v) {
   return text;
 }
 
-std::vector<LegendEntry> BarLegend(const BarChartInput& in) {
+/// One legend entry per series: its name, in its colour (RobotColour(index) when `colours` is empty).
+std::vector<LegendEntry> SeriesLegendOf(const std::vector<std::string>& names, const std::vector<Rgb>& colours) {
   std::vector<LegendEntry> legend;
-  for (std::size_t s = 0; s < in.series.size(); ++s) {
-    const Rgb colour = in.series_colours.empty() ? RobotColour(static_cast<int>(s)) : in.series_colours[s];
-    legend.push_back({colour, in.series[s]});
+  for (std::size_t s = 0; s < names.size(); ++s) {
+    legend.push_back({colours.empty() ? RobotColour(static_cast<int>(s)) : colours[s], names[s]});
   }
   return legend;
+}
+
+std::vector<LegendEntry> BarLegend(const BarChartInput& in) { return SeriesLegendOf(in.series, in.series_colours); }
+
+/// Stacked charts: at least one row (group, sample) and one series, rows x series values, no or one colour per
+/// series. `rows_word` names the rows in the message.
+Status CheckStackShape(const char* chart, const char* rows_word, std::size_t rows, std::size_t series,
+                       std::size_t values, std::size_t colours) {
+  if (rows == 0 || series == 0) {
+    return InvalidArgument(std::string(chart) + ": needs at least one " + rows_word + " and one series (got " +
+                           std::to_string(rows) + " and " + std::to_string(series) + ")");
+  }
+  if (values != rows * series) {
+    return InvalidArgument(std::string(chart) + ": " + std::to_string(values) + " values for " + std::to_string(rows) +
+                           " " + rows_word + "s x " + std::to_string(series) + " series");
+  }
+  if (colours != 0 && colours != series) {
+    return InvalidArgument(std::string(chart) + ": " + std::to_string(colours) + " colours for " +
+                           std::to_string(series) + " series");
+  }
+  return Status::Ok();
 }
 
 double GroupTotal(const BarChartInput& in, std::size_t g) {
@@ -672,18 +693,10 @@ std::vector<double> ValueTicks(const BarChartLayout& L) {
 Result<BarChartLayout> LayoutBarChart(const BarChartInput& in) {
   Status size = CheckImageSize("bar chart", in.width_px, in.height_px);
   if (!size.ok()) return size;
-  if (in.groups.empty() || in.series.empty()) {
-    return InvalidArgument("bar chart: needs at least one group and one series (got " +
-                           std::to_string(in.groups.size()) + " and " + std::to_string(in.series.size()) + ")");
-  }
-  if (in.values.size() != in.groups.size() * in.series.size()) {
-    return InvalidArgument("bar chart: " + std::to_string(in.values.size()) + " values for " +
-                           std::to_string(in.groups.size()) + " groups x " + std::to_string(in.series.size()) +
-                           " series");
-  }
-  if (!in.series_colours.empty() && in.series_colours.size() != in.series.size()) {
-    return InvalidArgument("bar chart: " + std::to_string(in.series_colours.size()) + " colours for " +
-                           std::to_string(in.series.size()) + " series");
+  if (Status shape = CheckStackShape("bar chart", "group", in.groups.size(), in.series.size(), in.values.size(),
+                                     in.series_colours.size());
+      !shape.ok()) {
+    return shape;
   }
   double min_positive = std::numeric_limits<double>::infinity(), max_total = 0.0;
   for (std::size_t i = 0; i < in.values.size(); ++i) {
@@ -777,6 +790,132 @@ Result<RgbImage> RenderBarChart(const BarChartInput& in) {
   image.FillRect(x0 - 1, y0, x0 - 1, bottom + 1, kChartInk);
   image.FillRect(x0 - 1, bottom + 1, x1, bottom + 1, kChartInk);
   image.DrawTextUp(kPad, y0 + (L.plot_height_px - TextW(in.value_label)) / 2, in.value_label, kChartInk, kTextScale);
+  DrawTitle(&image, in.title);
+  DrawLegend(&image, legend, kPad, TitleAreaH(in.title), in.width_px - 2 * kPad);
+  return image;
+}
+
+double StackedSeriesLayout::TimeAtColumn(int x) const noexcept {
+  return time_min_s + (static_cast<double>(x - plot_x_px) + 0.5) / static_cast<double>(plot_width_px) *
+                          (time_max_s - time_min_s);
+}
+
+int StackedSeriesLayout::HeightPx(double value) const noexcept {
+  const double f = value / axis_max;
+  if (!(f > 0.0)) return 0;
+  return Round(std::min(f, 1.0) * plot_height_px);
+}
+
+namespace {
+
+std::vector<LegendEntry> SeriesLegend(const StackedSeriesInput& in) {
+  return SeriesLegendOf(in.series, in.series_colours);
+}
+
+double SampleTotal(const StackedSeriesInput& in, std::size_t i) {
+  double total = 0.0;
+  for (std::size_t s = 0; s < in.series.size(); ++s) total += in.values[i * in.series.size() + s];
+  return total;
+}
+
+}  // namespace
+
+Result<StackedSeriesLayout> LayoutStackedSeries(const StackedSeriesInput& in) {
+  if (Status size = CheckImageSize("stacked series", in.width_px, in.height_px); !size.ok()) return size;
+  if (Status shape = CheckStackShape("stacked series", "sample", in.times_s.size(), in.series.size(),
+                                     in.values.size(), in.series_colours.size());
+      !shape.ok()) {
+    return shape;
+  }
+  for (std::size_t i = 0; i < in.times_s.size(); ++i) {
+    if (!std::isfinite(in.times_s[i]) || (i > 0 && in.times_s[i] < in.times_s[i - 1])) {
+      return InvalidArgument("stacked series: time " + FormatNumber(in.times_s[i], kChartDigits) + " of sample " +
+                             std::to_string(i) + " is not finite or before the sample before it");
+    }
+  }
+  for (std::size_t i = 0; i < in.values.size(); ++i) {
+    if (!std::isfinite(in.values[i]) || in.values[i] < 0.0) {
+      return InvalidArgument("stacked series: value " + FormatNumber(in.values[i], kChartDigits) + " of series '" +
+                             in.series[i % in.series.size()] + "' at sample " +
+                             std::to_string(i / in.series.size()) + " is not a finite value >= 0");
+    }
+  }
+  StackedSeriesLayout L;
+  L.image_width_px = in.width_px;
+  L.image_height_px = in.height_px;
+  L.time_min_s = std::min(0.0, in.times_s.front());
+  L.time_max_s = in.times_s.back() > L.time_min_s ? in.times_s.back() : L.time_min_s + 1.0;
+  double top = 0.0;
+  for (std::size_t i = 0; i < in.times_s.size(); ++i) top = std::max(top, SampleTotal(in, i));
+  if (!(top > 0.0)) top = 1.0;
+  const double step = NiceStepAtLeast(top / 8.0);
+  L.axis_max = std::ceil(top / step - 1e-9) * step;
+  const int legend_h = LegendH(SeriesLegend(in), in.width_px - 2 * kPad);
+  L.plot_x_px = kPad + kTextH + 8 + CharsW(9) + 4 + kTickLen + 1;
+  L.plot_y_px = TitleAreaH(in.title) + legend_h + kPad;
+  L.plot_width_px = in.width_px - L.plot_x_px - 2 * kPad - CharsW(3);
+  L.plot_height_px = in.height_px - L.plot_y_px - (2 + kTickLen + 4 + kTextH + 6 + kTextH + kPad);
+  if (L.plot_width_px < 16 || L.plot_height_px < 16) {
+    return InvalidArgument("stacked series: image " + std::to_string(in.width_px) + " x " +
+                           std::to_string(in.height_px) + " px leaves no room for the plot after the title, legend "
+                           "and labels");
+  }
+  return L;
+}
+
+Result<RgbImage> RenderStackedSeries(const StackedSeriesInput& in) {
+  auto laid = LayoutStackedSeries(in);
+  if (!laid.ok()) return laid.status();
+  const StackedSeriesLayout& L = *laid;
+  auto created = RgbImage::Create(L.image_width_px, L.image_height_px, in.background);
+  if (!created.ok()) return created.status();
+  RgbImage image = std::move(*created);
+  const int x0 = L.plot_x_px, x1 = x0 + L.plot_width_px - 1;
+  const int y0 = L.plot_y_px, bottom = y0 + L.plot_height_px - 1;
+  const double value_step = NiceStepAtLeast(L.axis_max / 8.0);
+  for (double k = 0.0; k * value_step <= L.axis_max * 1.000001; k += 1.0) {
+    const int y = bottom - L.HeightPx(k * value_step) + 1;
+    if (y <= bottom) image.FillRect(x0, y, x1, y, kGridColour);
+    image.FillRect(x0 - 1 - kTickLen, y, x0 - 2, y, kChartInk);
+    const std::string label = FormatTickValue(in.value_format, k * value_step);
+    image.DrawText(x0 - 2 - kTickLen - 4 - TextW(label), y - kTextH / 2, label, kChartInk, kTextScale);
+  }
+  const double span_s = L.time_max_s - L.time_min_s;
+  const double time_step = NiceStepAtLeast(span_s / 8.0);
+  for (double t = std::ceil(L.time_min_s / time_step) * time_step; t <= L.time_max_s * 1.000001; t += time_step) {
+    const int x = x0 + Round((t - L.time_min_s) / span_s * L.plot_width_px - 0.5);
+    image.FillRect(x, bottom + 2, x, bottom + 1 + kTickLen, kChartInk);
+    const std::string label = FormatTick(t, time_step);
+    image.DrawText(x - TextW(label) / 2, bottom + 2 + kTickLen + 4, label, kChartInk, kTextScale);
+  }
+  const std::vector<LegendEntry> legend = SeriesLegend(in);
+  const std::size_t n_series = in.series.size();
+  std::size_t i = 0;  // the last sample at or before the column's time
+  for (int x = x0; x <= x1; ++x) {
+    const double t = L.TimeAtColumn(x);
+    while (i + 1 < in.times_s.size() && in.times_s[i + 1] <= t) ++i;
+    if (in.times_s[i] > t) continue;  // before the first sample: nothing yet
+    double cum = 0.0;
+    for (std::size_t s = 0; s < n_series; ++s) {
+      const int h0 = L.HeightPx(cum);
+      cum += in.values[i * n_series + s];
+      const int h1 = L.HeightPx(cum);
+      if (h1 > h0) image.FillRect(x, bottom - h1 + 1, x, bottom - h0, legend[s].colour);
+    }
+  }
+  for (const double m : in.marks_s) {
+    if (!std::isfinite(m) || m < L.time_min_s || m > L.time_max_s) continue;
+    const int x = x0 + std::min(L.plot_width_px - 1, static_cast<int>((m - L.time_min_s) / span_s * L.plot_width_px));
+    for (int y = y0; y <= bottom; ++y) {  // dotted, over the background only: the bands stay whole
+      const Rgb c = image.At(x, y);
+      if (y % 4 < 2 && (c == in.background || c == kGridColour)) image.SetPixel(x, y, kFrameColour);
+    }
+  }
+  image.FillRect(x0 - 1, y0, x0 - 1, bottom + 1, kChartInk);
+  image.FillRect(x0 - 1, bottom + 1, x1, bottom + 1, kChartInk);
+  image.DrawTextUp(kPad, y0 + (L.plot_height_px - TextW(in.value_label)) / 2, in.value_label, kChartInk, kTextScale);
+  image.DrawText(x0 + (L.plot_width_px - TextW(in.time_label)) / 2, bottom + 2 + kTickLen + 4 + kTextH + 6,
+                 in.time_label, kChartInk, kTextScale);
   DrawTitle(&image, in.title);
   DrawLegend(&image, legend, kPad, TitleAreaH(in.title), in.width_px - 2 * kPad);
   return image;

@@ -202,4 +202,45 @@ struct BarChartLayout {
 Result<BarChartLayout> LayoutBarChart(const BarChartInput& input);
 Result<RgbImage> RenderBarChart(const BarChartInput& input);
 
+// ------------------------------------------------------------------------------------- stacked series over time
+
+/// Cumulative series over time stacked as filled bands (e.g. the bytes each robot sent): at time t every series
+/// holds the value of its last sample at or before t (a step, so a burst of scans stays a jump); before the first
+/// sample, 0. Vertical marks (e.g. the ends of merge rounds) are drawn as dotted lines above the bands.
+struct StackedSeriesInput {
+  std::vector<double> times_s;      ///< ascending, finite; at least one
+  std::vector<std::string> series;  ///< legend names, at least one
+  /// times_s.size() * series.size() finite values >= 0: values[sample * series.size() + series_index].
+  std::vector<double> values;
+  std::vector<Rgb> series_colours;  ///< empty: RobotColour(series_index); else one per series
+  std::vector<double> marks_s;      ///< finite times; those outside the time axis are not drawn
+  BarValueFormat value_format = BarValueFormat::kBytes;
+  std::string title;
+  std::string time_label;   ///< e.g. "time since the first message [s]"
+  std::string value_label;  ///< e.g. "bytes received"
+  int width_px = 900;
+  int height_px = 600;
+  Rgb background = kChartBackground;
+};
+
+struct StackedSeriesLayout {
+  int image_width_px = 0;
+  int image_height_px = 0;
+  int plot_x_px = 0;  ///< plot area: columns plot_x_px .. plot_x_px + plot_width_px - 1
+  int plot_y_px = 0;  ///< rows plot_y_px .. plot_y_px + plot_height_px - 1; bands stand on the bottom row
+  int plot_width_px = 0;
+  int plot_height_px = 0;
+  double time_min_s = 0.0;  ///< at the left edge of the plot's first column
+  double time_max_s = 1.0;  ///< at the right edge of its last column
+  double axis_max = 1.0;    ///< value at the top (the axis starts at 0)
+
+  /// The time at the centre of plot column x.
+  double TimeAtColumn(int x) const noexcept;
+  /// Band height in pixels of a (stacked) value: round(value / axis_max * plot_height_px), 0..plot_height_px.
+  int HeightPx(double value) const noexcept;
+};
+
+Result<StackedSeriesLayout> LayoutStackedSeries(const StackedSeriesInput& input);
+Result<RgbImage> RenderStackedSeries(const StackedSeriesInput& input);
+
 }  // namespace commerge::platform

@@ -38,12 +38,15 @@
 #     and every descriptor delivered, bit for bit: 100 %),
 #   - the T_world_map of every robot r >= 1 in transforms.txt is within 0.5 m / 2 deg of the truth from
 #     start_transforms.txt, inv(T_gt_start0) * T_gt_start_r,
-#   - the server wrote merged_map.pcd and .ply, readable by `commerge voxelize`, with at least 1000 points.
-# Prints one summary line with the bytes each robot sent, the share re-sent, and each robot's transform error.
+#   - the server wrote merged_map.pcd and .ply, readable by `commerge voxelize`, with at least 1000 points;
+#   - with --checker CHECK (cm_check_exchange_outputs): its exchange_rounds.tsv, exchange_summary.tsv and
+#     exchange_bytes.png read back consistent, the summary's total the bytes the server said it received.
+# Prints one summary line with the bytes each robot sent, the share re-sent, what the server received against
+# sending every stored scan and the raw scans (with --checker), and each robot's transform error.
 set -euo pipefail
 
 usage() { sed -n '3,/^set -euo/p' "$0" | sed '$d'; exit 2; }
-bin="" data="" work="" scenario="" sampler=""
+bin="" data="" work="" scenario="" sampler="" checker=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --commerge) bin=$2; shift 2 ;;
@@ -51,6 +54,7 @@ while [ $# -gt 0 ]; do
     --work) work=$2; shift 2 ;;
     --scenario) scenario=$2; shift 2 ;;
     --sampler) sampler=$2; shift 2 ;;
+    --checker) checker=$2; shift 2 ;;
     -h|--help) usage ;;
     *) echo "lcm_mission.sh: unknown argument '$1'" >&2; usage ;;
   esac
@@ -81,10 +85,11 @@ if [ "${CM_MISSION_IN_NETNS:-0}" != 1 ]; then
   fi
   export CM_MISSION_IN_NETNS=1
   exec unshare -n bash "$0" --commerge "$bin" --data "$data" --work "$work" --scenario "$scenario" \
-       ${sampler:+--sampler "$sampler"}
+       ${sampler:+--sampler "$sampler"} ${checker:+--checker "$checker"}
 fi
 
 bin=$(readlink -f "$bin")
+[ -z "$checker" ] || checker=$(readlink -f "$checker")
 rm -rf "$work"
 mkdir -p "$work"
 cd "$work"
@@ -315,6 +320,21 @@ if [ -z "$map_points" ] || [ "$map_points" -lt 1000 ]; then
   exit 1
 fi
 
+# What the server received over the mission, read back from its exchange files (cm_check_exchange_outputs, given
+# with --checker), against sending every stored scan and the raw scans (every .bin file of the dataset).
+received=$(sed -n 's/^server: .*; \([0-9]*\) bytes received;.*/\1/p' "$work/$server_log.out" | tail -n 1)
+exchange_text=""
+if [ -n "$checker" ]; then
+  check=$("$checker" "$work/server" "$n" "${received:-0}") ||
+    { echo "lcm_mission.sh: $check" >&2; exit 1; }
+  total=$(awk -F'\t' '$1 == "total_bytes" { print $2 }' "$work/server/exchange_summary.tsv")
+  send_all=$(awk -F'\t' '$1 == "send_all_bytes" { print $2 }' "$work/server/exchange_summary.tsv")
+  raw=$(find "$data" -name '*.bin' -printf '%s\n' | awk '{ s += $1 } END { printf "%.0f", s }')
+  exchange_text=$(awk -v t="$total" -v a="$send_all" -v r="$raw" 'BEGIN {
+    printf " the server received %.0f B: %.2f %% of every stored scan with the records (%.0f B), %.4f %% of the raw scans (%.0f B);",
+           t, 100 * t / a, a, 100 * t / r, r }')
+fi
+
 bytes_text=""
 for id in $ids; do
   line=$(grep "^robot $id: " "$work/${robot_log[$id]}.out")
@@ -418,4 +438,4 @@ fi
 
 dropped+=" kernel receive-buffer drops $(udp_rcvbuf_errors);"
 echo "lcm mission $scenario, $n robots: merged in ${elapsed} s; descriptors delivered 100 % (digests equal);" \
-     "${bytes_text# }$dropped ${errors_text# } server map $map_points points"
+     "${bytes_text# }$dropped${exchange_text} ${errors_text# } server map $map_points points"

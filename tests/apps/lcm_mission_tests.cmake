@@ -7,6 +7,11 @@ if(CMAKE_CROSSCOMPILING)
   return()
 endif()
 
+# Reads back the server's exchange_rounds.tsv, exchange_summary.tsv and exchange_bytes.png after each mission.
+cm_add_executable(cm_check_exchange_outputs "${CMAKE_CURRENT_SOURCE_DIR}/support/exchange_outputs_check.cpp"
+                  "${CMAKE_CURRENT_SOURCE_DIR}/support/png_reader.cpp")
+target_link_libraries(cm_check_exchange_outputs PRIVATE cm_zlib)
+
 set(CM_MISSION_DATA "${CMAKE_CURRENT_BINARY_DIR}/lcm-mission/data")
 add_test(NAME "lcm mission: generate the two-robot urban dataset"
          COMMAND $<TARGET_FILE:commerge> sim --world urban --robots 2 --overlap complete --keyframes 200 --lidar vlp16
@@ -20,7 +25,8 @@ foreach(scenario clean loss10 loss50 tbf2mbit delay2s dup-reorder robot-restart 
   add_test(NAME "${name}"
            COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/lcm_mission.sh" --commerge $<TARGET_FILE:commerge>
                    --data "${CM_MISSION_DATA}" --work "${CMAKE_CURRENT_BINARY_DIR}/lcm-mission/${scenario}"
-                   --scenario ${scenario} --sampler $<TARGET_FILE:cm_lcm_sampler>)
+                   --scenario ${scenario} --sampler $<TARGET_FILE:cm_lcm_sampler>
+                   --checker $<TARGET_FILE:cm_check_exchange_outputs>)
   set_tests_properties("${name}" PROPERTIES FIXTURES_REQUIRED lcm_mission_data LABELS heavy TIMEOUT 400
                                             SKIP_REGULAR_EXPRESSION "CM-SKIP:")
 endforeach()
@@ -38,7 +44,7 @@ set(name "lcm mission: 5 robots with 10 % loss end merged with every descriptor 
 add_test(NAME "${name}"
          COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/lcm_mission.sh" --commerge $<TARGET_FILE:commerge>
                  --data "${CM_MISSION_DATA5}" --work "${CMAKE_CURRENT_BINARY_DIR}/lcm-mission/5-robots-loss10"
-                 --scenario loss10)
+                 --scenario loss10 --checker $<TARGET_FILE:cm_check_exchange_outputs>)
 set_tests_properties("${name}" PROPERTIES FIXTURES_REQUIRED lcm_mission_data5 LABELS heavy TIMEOUT 500
                                           SKIP_REGULAR_EXPRESSION "CM-SKIP:")
 

@@ -2,8 +2,9 @@
 // The merge round (core/agent/merge_round.hpp) on a MergeServer without a network: its requests are the plan's
 // scans the server lacks; every pair is registered with its selection exactly as MergeServer::MergePair does;
 // refused pairs are widened by the brute-force rule until nothing is left; a pair verified in an earlier round is
-// kept while its scans are missing (not after a restart); and ServerLink, which drives the same round over
-// messages, emits the merge result the direct round makes.
+// kept without scans while nothing changed (not after a restart), and registered again when a loop closure moves
+// its overlap; and ServerLink, which drives the same round over messages, emits the merge result the direct
+// round makes.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -80,7 +81,7 @@ TEST_CASE("Merge round: its requests are the plan's scans the server lacks, and 
     const std::uint32_t held = plan->requests[0].keyframes.front();
     AnswerTiny(server.get(), {ScanRequest{0, 0, 0, 0, {held}}});
 
-    MergeRound round(server.get(), MergeRoundParams{mode, /*run_cascades=*/true});
+    MergeRound round(server.get(), MergeRoundParams{mode, /*run_cascades=*/true, PairExchangeParams{}});
     std::vector<ScanRequest> requests;
     REQUIRE(round.Begin(Span<const std::int64_t>(kSessions), &requests).ok());
     CHECK(round.active());
@@ -177,72 +178,125 @@ TEST_CASE("Merge round: Continue before Begin is an error") {
   CHECK_FALSE(round.Continue(&requests).ok());
 }
 
-TEST_CASE("Merge round: a pair verified in an earlier round is kept while its scans are missing, not after a restart") {
+namespace {
+
+// Robot 0's keyframe 3 and robot 1's keyframe 0 share a descriptor (stage A's only loop) and hold the two submaps
+// of a street: the cascade asks for exactly them and registration recovers the true transform. All poses start at
+// the identity.
+struct StreetRounds {
   SyntheticSubmapPair pair;
-  REQUIRE(MakeStreetSubmapPair(test::LightStreetSpec(41, test::YawOffset(70.0, 12.0, -6.0, 0.3)), &pair).ok());
-  // Robot 0's keyframe 3 and robot 1's keyframe 0 share a descriptor (stage A's only loop) and hold the two
-  // submaps: the cascade asks for exactly them and registration recovers the true transform.
-  MergeServerParams params;
-  params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
-  params.cascade.stage_a.tau_area = 1;
-  MergeServer server(2, 100, params);
-  std::mt19937 rng(3);
-  std::vector<std::array<float, kKeyframeDescriptorDim>> d4 = {RandomDescriptor(&rng), RandomDescriptor(&rng),
-                                                               RandomDescriptor(&rng), RandomDescriptor(&rng)};
-  std::vector<Eigen::Vector3d> p4(4, Eigen::Vector3d::Zero());
-  REQUIRE(server.OnKeyframeBatch(MakeBatch(0, 0, d4, p4, 0)).ok());
-  REQUIRE(server.OnKeyframeBatch(MakeBatch(1, 0, {d4[3]}, {Eigen::Vector3d::Zero()}, 0)).ok());
-  const auto deliver = [&](const std::vector<ScanRequest>& requests) {
+  std::unique_ptr<MergeServer> server;
+  std::vector<std::array<float, kKeyframeDescriptorDim>> d4;
+  std::vector<std::int64_t> sessions = {10, 20};
+  std::size_t scans_delivered = 0;
+
+  StreetRounds() {
+    REQUIRE(MakeStreetSubmapPair(test::LightStreetSpec(41, test::YawOffset(70.0, 12.0, -6.0, 0.3)), &pair).ok());
+    MergeServerParams params;
+    params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
+    params.cascade.stage_a.tau_area = 1;
+    server = std::make_unique<MergeServer>(2, 100, params);
+    std::mt19937 rng(3);
+    d4 = {RandomDescriptor(&rng), RandomDescriptor(&rng), RandomDescriptor(&rng), RandomDescriptor(&rng)};
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(0, 0, d4, std::vector<Eigen::Vector3d>(4, Eigen::Vector3d::Zero()), 0)).ok());
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(1, 0, {d4[3]}, {Eigen::Vector3d::Zero()}, 0)).ok());
+  }
+  // Answers the requests with the two submaps' scans (robot 0's keyframes 3 and later hold the target's, robot 1's
+  // the source's).
+  void Deliver(const std::vector<ScanRequest>& requests) {
     for (const ScanRequest& q : requests) {
       for (std::uint32_t k : q.keyframes) {
         const bool target = q.robot_id == 0;
-        REQUIRE(k == (target ? 3u : 0u));
+        REQUIRE(k >= (target ? 3u : 0u));
         for (const ScanChunk& c : ChunksOf(q.robot_id, k, EncodeForTest(target ? pair.target.points : pair.source.points), 1200)) {
-          REQUIRE(server.OnScanChunk(c).ok());
+          REQUIRE(server->OnScanChunk(c).ok());
         }
+        ++scans_delivered;
       }
     }
-  };
-  MergeRound round(&server, MergeRoundParams{});
-  std::vector<ScanRequest> requests;
-  std::vector<std::int64_t> sessions = {10, 20};
-  REQUIRE(round.Begin(Span<const std::int64_t>(sessions), &requests).ok());
-  deliver(requests);
-  auto done = round.Continue(&requests);
-  REQUIRE(done.ok());
-  REQUIRE(*done);
+  }
+  // One round: Begin, deliver what it asks (when `answer`), Continue until done. Returns the first requests.
+  std::vector<ScanRequest> Round(MergeRound* round, bool answer = true) {
+    std::vector<ScanRequest> first, requests;
+    REQUIRE(round->Begin(Span<const std::int64_t>(sessions), &requests).ok());
+    first = requests;
+    for (bool done = false; !done;) {
+      if (answer) Deliver(requests);
+      auto next = round->Continue(&requests);
+      REQUIRE(next.ok());
+      done = *next;
+    }
+    return first;
+  }
+  // Robot 1's keyframe 0 as a loop closure leaves it: moved by T_moved in its map frame.
+  void MoveBeta(const Eigen::Isometry3d& T_moved) {
+    PoseUpdate u;
+    u.robot_id = 1;
+    u.keyframes = {0};
+    u.T_map_sensor = {T_moved};
+    REQUIRE(server->OnPoseUpdate(u).ok());
+  }
+};
+
+std::size_t Scans(const std::vector<ScanRequest>& requests) {
+  std::size_t n = 0;
+  for (const ScanRequest& q : requests) n += q.keyframes.size();
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("Merge round: a verified pair keeps its result and asks for no scans while nothing changed, not after a restart") {
+  StreetRounds s;
+  MergeRound round(s.server.get(), MergeRoundParams{});
+  CHECK(Scans(s.Round(&round)) == 2);
   REQUIRE(round.result().pairs.size() == 1);
   REQUIRE(round.result().pairs[0].registration.success());
+  CHECK(round.result().decisions[0].reason == PairExchangeReason::kRobotNotPlaced);
+  CHECK(round.result().decisions[0].scans_requested == 2);
   CHECK(round.result().in_world(1));
-  CHECK(test::TranslationErrorM(pair.T_target_source, round.result().T_world_map(1)) < 0.2);
-  CHECK(round.verified_pairs().size() == 1);
+  CHECK(test::TranslationErrorM(s.pair.T_target_source, round.result().T_world_map(1)) < 0.2);
+  REQUIRE(round.history(0, 1) != nullptr);
+  CHECK(round.history(0, 1)->verified.size() == 1);
 
-  // Round 2: the scans are gone and nobody sends them: the round keeps round 1's registration.
-  server.ClearScans();
-  REQUIRE(round.Begin(Span<const std::int64_t>(sessions), &requests).ok());
-  CHECK(requests.size() == 2);
-  done = round.Continue(&requests);
-  REQUIRE(done.ok());
-  REQUIRE(*done);
+  // Round 2: nothing changed. The server dropped the scans, so a round that re-ran the exchange would ask for
+  // both again: this one asks for none, registers nothing and keeps round 1's registration.
+  s.server->ClearScans();
+  const std::vector<ScanRequest> asked = s.Round(&round, /*answer=*/false);
+  CHECK(asked.empty());
   const MergeRoundResult r2 = round.result();  // a copy: round 3 replaces result()
   CHECK(r2.round == 2);
+  CHECK(r2.decisions[0].reason == PairExchangeReason::kUnchanged);
+  CHECK(r2.pairs_registered == 0);
+  CHECK(r2.pairs_kept == 1);
+  CHECK(r2.registration_s[0] == 0.0);
   CHECK(r2.pairs[0].kept_from_round == 1);
   CHECK(r2.pairs[0].registration.success());
   CHECK(r2.in_world(1));
-  CHECK(r2.T_world_map(1).isApprox(round.verified_pairs()[0].result.registration.T_target_source));
+  CHECK(r2.T_world_map(1).isApprox(round.history(0, 1)->verified[0].result.registration.T_target_source));
+  // The same round with the rule off asks for both scans again.
+  {
+    MergeRoundParams every;
+    every.exchange.enabled = false;
+    StreetRounds t;
+    MergeRound plain(t.server.get(), every);
+    t.Round(&plain);
+    t.server->ClearScans();
+    CHECK(Scans(t.Round(&plain, /*answer=*/false)) == 2);
+    CHECK(plain.result().decisions[0].reason == PairExchangeReason::kEveryRound);
+    CHECK(plain.result().pairs[0].kept_from_round == 1);  // nobody sent them: the verified result stands
+  }
 
   // Round 3: robot 1 restarted (a new session, a new map frame): the old registration no longer holds.
-  sessions[1] = 21;
-  REQUIRE(round.Begin(Span<const std::int64_t>(sessions), &requests).ok());
-  done = round.Continue(&requests);
-  REQUIRE(done.ok());
-  REQUIRE(*done);
+  s.sessions[1] = 21;
+  CHECK(Scans(s.Round(&round, /*answer=*/false)) == 2);
+  CHECK(round.result().decisions[0].reason == PairExchangeReason::kRobotRestarted);
   CHECK(round.result().pairs[0].kept_from_round == 0);
   CHECK_FALSE(round.result().pairs[0].registration.success());
   CHECK_FALSE(round.result().in_world(1));
 
   // The merge result message says what the round found, robot by robot and pair by pair.
-  const MergeResultMessage m = MakeMergeResultMessage(r2, server, Span<const int>(std::vector<int>{0, 1}),
+  const MergeResultMessage m = MakeMergeResultMessage(r2, *s.server, Span<const int>(std::vector<int>{0, 1}),
                                                       Span<const std::uint32_t>(std::vector<std::uint32_t>{4, 1}), 77, 5);
   CHECK(m.server_session == 77);
   CHECK(m.utime_us == 5);
@@ -256,6 +310,192 @@ TEST_CASE("Merge round: a pair verified in an earlier round is kept while its sc
   CHECK(m.pairs[0].verdict.find("kept from round 1") != std::string::npos);
   CHECK(m.pairs[0].loops_stage_a == 1);
   CHECK(m.T_world_map[1].isApprox(r2.T_world_map(1)));
+}
+
+TEST_CASE("Merge round: new keyframes that change the cascade's selection cost a verified pair no scans") {
+  StreetRounds s;
+  MergeRound round(s.server.get(), MergeRoundParams{});
+  s.Round(&round);
+  REQUIRE(round.result().in_world(1));
+  // Both robots drive on and meet again: robot 1's keyframes 1..3 see robot 0's places 0..2, so stage A's L_seq
+  // and the plan grow to keyframes the server has no scans of.
+  REQUIRE(s.server->OnKeyframeBatch(MakeBatch(1, 1, {s.d4[0], s.d4[1], s.d4[2]},
+                                              std::vector<Eigen::Vector3d>(3, Eigen::Vector3d::Zero()), 0)).ok());
+  REQUIRE(s.server->RunCascades().ok());
+  auto plan = s.server->Plan(ExchangeMode::kStageABC);
+  REQUIRE(plan.ok());
+  std::size_t unheld = 0;
+  for (const ScanRequest& q : plan->requests) {
+    for (std::uint32_t k : q.keyframes) unheld += s.server->has_scan(q.robot_id, k) ? 0 : 1;
+  }
+  REQUIRE(unheld > 0);
+  const std::vector<ScanRequest> asked = s.Round(&round, /*answer=*/false);
+  CHECK(asked.empty());
+  CHECK(round.result().decisions[0].reason == PairExchangeReason::kUnchanged);
+  CHECK(round.result().pairs[0].kept_from_round == 1);
+  CHECK(round.result().in_world(1));
+}
+
+TEST_CASE("Merge round: a bridge registers a new overlap far from its verified one as a second region") {
+  StreetRounds s;
+  MergeRound round(s.server.get(), MergeRoundParams{});
+  s.Round(&round);
+  REQUIRE(round.result().pairs[0].registration.success());
+  // Two robots: nothing else checks the pair's transform.
+  REQUIRE(round.history(0, 1)->verified.size() == 1);
+  CHECK(round.history(0, 1)->verified[0].verdict == MeasurementVerdict::kUnverified);
+  // The robots meet again 120 m on: robot 0's keyframe 4 and robot 1's keyframe 1 see the street again, placed so
+  // that the same T relates the two maps (robot 1's pose there is T^-1 * P0 * T).
+  const Eigen::Isometry3d T = s.pair.T_target_source;
+  const Eigen::Isometry3d P0 = test::YawOffset(0.0, 120.0, 0.0, 0.0);
+  const Eigen::Isometry3d P1 = T.inverse() * P0 * T;
+  std::mt19937 rng(8);
+  const auto d5 = RandomDescriptor(&rng);
+  KeyframeBatch b0 = MakeBatch(0, 4, {d5}, {Eigen::Vector3d::Zero()}, 0);
+  KeyframeBatch b1 = MakeBatch(1, 1, {d5}, {Eigen::Vector3d::Zero()}, 0);
+  REQUIRE(s.server->OnKeyframeBatch(b0).ok());
+  REQUIRE(s.server->OnKeyframeBatch(b1).ok());
+  for (const auto& [robot, pose] : {std::make_pair(0, P0), std::make_pair(1, P1)}) {
+    PoseUpdate u;
+    u.robot_id = robot;
+    u.keyframes = {robot == 0 ? 4u : 1u};
+    u.T_map_sensor = {pose};
+    REQUIRE(s.server->OnPoseUpdate(u).ok());
+  }
+  const std::vector<ScanRequest> asked = s.Round(&round);
+  const MergeRoundResult& r2 = round.result();
+  CHECK(r2.decisions[0].reason == PairExchangeReason::kNewOverlap);
+  CHECK(r2.decisions[0].region == 1);
+  CHECK(r2.decisions[0].overlap_distance_m > 100.0);
+  CHECK(Scans(asked) == 2);  // the new place's scans; the verified ones are held
+  // Two entries for the pair, both registered right, both measurements of the frame solver, which now checks one
+  // against the other.
+  REQUIRE(r2.pairs.size() == 2);
+  CHECK(r2.pairs[0].kept_from_round == 1);
+  REQUIRE(r2.pairs[1].registration.success());
+  CHECK(r2.pairs[1].kept_from_round == 0);
+  CHECK(test::TranslationErrorM(T, r2.pairs[1].registration.T_target_source) < 0.2);
+  REQUIRE(r2.frames_ok);
+  REQUIRE(r2.frames.measurements.size() == 2);
+  CHECK(r2.frames.measurements[0].verdict == MeasurementVerdict::kAccepted);
+  CHECK(r2.frames.measurements[1].verdict == MeasurementVerdict::kAccepted);
+  REQUIRE(round.history(0, 1)->verified.size() == 2);
+  // Checked now: later rounds keep both and ask for nothing.
+  CHECK(s.Round(&round).empty());
+  CHECK(round.result().decisions[0].reason == PairExchangeReason::kUnchanged);
+  CHECK(round.result().pairs.size() == 2);
+  CHECK(round.result().pairs_kept == 1);
+  CHECK(round.result().in_world(1));
+}
+
+TEST_CASE("Merge round: a verified region the frame solver rejects is dropped at the next round, its place stays tried") {
+  StreetRounds s;
+  MergeRound round(s.server.get(), MergeRoundParams{});
+  s.Round(&round);
+  REQUIRE(round.result().pairs[0].registration.success());
+  // A second meeting 120 m on whose poses put robot 1's map 6 m off where the first one does (a map that bent
+  // between the two places): its registration succeeds but disagrees with the first by more than the frame
+  // solver's 2 m.
+  const Eigen::Isometry3d T = s.pair.T_target_source;
+  const Eigen::Isometry3d P0 = test::YawOffset(0.0, 120.0, 0.0, 0.0);
+  const Eigen::Isometry3d P1 = test::YawOffset(0.0, 6.0, 0.0, 0.0) * T.inverse() * P0 * T;
+  std::mt19937 rng(8);
+  const auto d5 = RandomDescriptor(&rng);
+  REQUIRE(s.server->OnKeyframeBatch(MakeBatch(0, 4, {d5}, {Eigen::Vector3d::Zero()}, 0)).ok());
+  REQUIRE(s.server->OnKeyframeBatch(MakeBatch(1, 1, {d5}, {Eigen::Vector3d::Zero()}, 0)).ok());
+  for (const auto& [robot, pose] : {std::make_pair(0, P0), std::make_pair(1, P1)}) {
+    PoseUpdate u;
+    u.robot_id = robot;
+    u.keyframes = {robot == 0 ? 4u : 1u};
+    u.T_map_sensor = {pose};
+    REQUIRE(s.server->OnPoseUpdate(u).ok());
+  }
+  s.Round(&round);
+  const MergeRoundResult r2 = round.result();
+  REQUIRE(r2.pairs.size() == 2);
+  REQUIRE(r2.pairs[1].registration.success());
+  REQUIRE(r2.frames.measurements.size() == 2);
+  int rejected = -1;
+  for (int i = 0; i < 2; ++i) {
+    if (r2.frames.measurements[static_cast<std::size_t>(i)].verdict == MeasurementVerdict::kRejected) rejected = i;
+  }
+  REQUIRE(rejected >= 0);  // two parallel measurements 6 m apart: one of them is rejected
+  // Round 3: the rejected region is no longer trusted; the other stays, and where the rejected one was stays
+  // tried (the cascade's selection there is nothing new).
+  s.Round(&round);
+  const PairHistory* h = round.history(0, 1);
+  REQUIRE(h != nullptr);
+  CHECK(h->verified.size() == 1);
+  CHECK(h->rejected_round == 2);
+  CHECK(h->tried.size() == 2);
+  CHECK(round.result().pairs.size() == 1);
+  CHECK(round.result().pairs[0].registration.success());
+  CHECK(round.result().in_world(1));
+}
+
+TEST_CASE("Merge round: a loop closure that moves the verified overlap beyond the bound registers the pair again") {
+  StreetRounds s;
+  MergeRound round(s.server.get(), MergeRoundParams{});
+  s.Round(&round);
+  REQUIRE(round.result().pairs[0].registration.success());
+  const Eigen::Isometry3d T_first = round.result().pairs[0].registration.T_target_source;
+
+  // A move below the bound (0.3 m): kept, no registration.
+  s.MoveBeta(test::YawOffset(0.0, 0.3, 0.0, 0.0));
+  CHECK(s.Round(&round).empty());
+  CHECK(round.result().decisions[0].reason == PairExchangeReason::kUnchanged);
+  CHECK(round.result().decisions[0].motion.max_translation_m == doctest::Approx(0.3).epsilon(1e-6));
+  CHECK(round.result().pairs_registered == 0);
+  CHECK(round.result().pairs[0].registration.T_target_source.isApprox(T_first));
+
+  // Robot 1's loop closure turns and shifts its map where the robots met: 4 deg and 2.5 m. The scans are held,
+  // so the round asks for none and registers the overlap again at the moved poses: p_0 = T p_1 with the moved
+  // map frame of robot 1 is T_first * inv(T_moved).
+  const Eigen::Isometry3d T_moved = test::YawOffset(4.0, 2.5, -1.0, 0.0);
+  s.MoveBeta(T_moved);
+  CHECK(s.Round(&round).empty());
+  CHECK(round.result().decisions[0].reason == PairExchangeReason::kPosesMoved);
+  CHECK(round.result().decisions[0].motion.max_translation_m > 2.0);
+  CHECK(round.result().pairs_registered == 1);
+  CHECK(round.result().registration_s[0] > 0.0);
+  REQUIRE(round.result().pairs[0].registration.success());
+  CHECK(round.result().pairs[0].kept_from_round == 0);
+  const Eigen::Isometry3d T_expected = s.pair.T_target_source * T_moved.inverse();
+  CHECK(test::TranslationErrorM(T_expected, round.result().T_world_map(1)) < 0.2);
+  CHECK(test::TranslationErrorM(T_first, round.result().T_world_map(1)) > 1.0);
+  CHECK(round.history(0, 1)->verified[0].region.round == round.result().round);
+
+  // Another move, on a server that no longer holds the scans: the round requests the overlap's scans, then
+  // registers it at the new poses.
+  s.server->ClearScans();
+  const Eigen::Isometry3d T_again = test::YawOffset(-3.0, -1.0, 2.0, 0.0);
+  s.MoveBeta(T_again);
+  const std::size_t before = s.scans_delivered;
+  const std::vector<ScanRequest> asked = s.Round(&round);
+  CHECK(Scans(asked) == 2);
+  CHECK(s.scans_delivered - before == 2);
+  CHECK(round.result().decisions[0].reason == PairExchangeReason::kPosesMoved);
+  CHECK(round.result().decisions[0].scans_requested == 2);
+  REQUIRE(round.result().pairs[0].registration.success());
+  CHECK(test::TranslationErrorM(s.pair.T_target_source * T_again.inverse(), round.result().T_world_map(1)) < 0.2);
+
+  // Moved again while nobody sends the scans: the registration at the moved poses cannot run, the verified
+  // result stands, and the next round asks again; answered, it registers the overlap at the moved poses.
+  s.server->ClearScans();
+  const Eigen::Isometry3d T_far = test::YawOffset(0.0, 5.0, 0.0, 0.0);
+  s.MoveBeta(T_far);
+  CHECK(Scans(s.Round(&round, /*answer=*/false)) == 2);
+  CHECK(round.result().decisions[0].reason == PairExchangeReason::kPosesMoved);
+  CHECK(round.result().pairs[0].registration.success());
+  CHECK(round.result().pairs[0].kept_from_round > 0);
+  CHECK(round.result().in_world(1));
+  CHECK(Scans(s.Round(&round)) == 2);
+  CHECK(round.result().decisions[0].reason == PairExchangeReason::kPosesMoved);
+  REQUIRE(round.result().pairs[0].registration.success());
+  CHECK(round.result().pairs[0].kept_from_round == 0);
+  CHECK(test::TranslationErrorM(s.pair.T_target_source * T_far.inverse(), round.result().T_world_map(1)) < 0.2);
+  CHECK(s.Round(&round).empty());
+  CHECK(round.result().decisions[0].reason == PairExchangeReason::kUnchanged);
 }
 
 TEST_CASE("Server link emits the merge result the direct round makes on the same data") {

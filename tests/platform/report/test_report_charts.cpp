@@ -534,5 +534,101 @@ TEST_CASE("bar chart refuses negative, non-finite and mismatched values") {
   CHECK(RenderBarChart(in).ok());  // all zero: an empty chart, not an error
 }
 
+// The colour runs of plot column x from the bottom row up: (colour, length) of each band, background left out.
+std::vector<std::pair<Rgb, int>> ColumnRuns(const RgbImage& image, const StackedSeriesLayout& L, int x) {
+  std::vector<std::pair<Rgb, int>> runs;
+  for (int y = L.plot_y_px + L.plot_height_px - 1; y >= L.plot_y_px; --y) {
+    const Rgb c = image.At(x, y);
+    if (c == kChartBackground || c == Rgb{225, 225, 225}) continue;  // background, grid lines
+    if (!runs.empty() && runs.back().first == c) {
+      ++runs.back().second;
+    } else {
+      runs.emplace_back(c, 1);
+    }
+  }
+  return runs;
+}
+
+TEST_CASE("stacked series: each column stacks every series' last sample at or before its time, so jumps stay jumps") {
+  StackedSeriesInput in;
+  in.times_s = {0.0, 10.0, 20.0, 30.0};
+  in.series = {"robot 0", "robot 1"};
+  in.values = {100.0, 0.0,     //
+               200.0, 0.0,     //
+               300.0, 1000.0,  // robot 1's scans arrive at 20 s: a jump
+               400.0, 1100.0};
+  in.marks_s = {20.0, 99.0};  // the second is outside the axis: not drawn
+  in.title = "bytes received";
+  in.time_label = "time [s]";
+  in.value_label = "bytes";
+  in.width_px = 500;
+  in.height_px = 320;
+  const auto layout = LayoutStackedSeries(in);
+  REQUIRE(layout.ok());
+  const auto image = RenderStackedSeries(in);
+  REQUIRE(image.ok());
+  const StackedSeriesLayout& L = *layout;
+  CHECK(L.time_min_s == 0.0);
+  CHECK(L.time_max_s == 30.0);
+  CHECK(L.axis_max >= 1500.0);
+  int checked = 0;
+  for (int x = L.plot_x_px; x < L.plot_x_px + L.plot_width_px; x += 7) {
+    const double t = L.TimeAtColumn(x);
+    const std::size_t i = t >= 30.0 ? 3 : t >= 20.0 ? 2 : t >= 10.0 ? 1 : 0;  // the reference step
+    const auto runs = ColumnRuns(*image, L, x);
+    CAPTURE(x);
+    CAPTURE(t);
+    const double v0 = in.values[2 * i], v1 = in.values[2 * i + 1];
+    REQUIRE(!runs.empty());
+    CHECK(runs[0].first == RobotColour(0));  // bottom to top in series order
+    CHECK(std::abs(runs[0].second - L.HeightPx(v0)) <= 1);
+    if (v1 > 0.0) {
+      REQUIRE(runs.size() == 2);
+      CHECK(runs[1].first == RobotColour(1));
+      CHECK(std::abs(runs[0].second + runs[1].second - L.HeightPx(v0 + v1)) <= 1);
+    } else {
+      CHECK(runs.size() == 1);
+    }
+    ++checked;
+  }
+  CHECK(checked > 40);  // every 7th of the plot's columns
+  // The mark: dotted grey pixels in the column of 20 s above the bands.
+  const int mark_x = L.plot_x_px + static_cast<int>(20.0 / 30.0 * L.plot_width_px);
+  int grey = 0;
+  for (int y = L.plot_y_px; y < L.plot_y_px + L.plot_height_px - L.HeightPx(1300.0); ++y) {
+    grey += image->At(mark_x, y) == Rgb{120, 120, 120} ? 1 : 0;
+  }
+  CHECK(grey > 10);
+}
+
+TEST_CASE("stacked series refuses unordered times, negative values and mismatched sizes, naming them") {
+  StackedSeriesInput in;
+  in.times_s = {0.0, 5.0};
+  in.series = {"a"};
+  in.values = {1.0, 2.0};
+  CHECK(RenderStackedSeries(in).ok());
+  in.times_s = {5.0, 1.0};
+  auto r = RenderStackedSeries(in);
+  REQUIRE_FALSE(r.ok());
+  CHECK(r.status().message().find("sample 1") != std::string::npos);
+  in.times_s = {0.0, 5.0};
+  in.values = {1.0, -1.0};
+  r = RenderStackedSeries(in);
+  REQUIRE_FALSE(r.ok());
+  CHECK(r.status().message().find("series 'a' at sample 1") != std::string::npos);
+  in.values = {1.0};
+  CHECK_FALSE(RenderStackedSeries(in).ok());
+  in.values = {1.0, 1.0};
+  in.series_colours = {Rgb{}, Rgb{}};
+  CHECK_FALSE(RenderStackedSeries(in).ok());
+  in.series_colours.clear();
+  in.times_s.clear();
+  in.values.clear();
+  CHECK_FALSE(RenderStackedSeries(in).ok());
+  in.times_s = {3.0};  // one sample, all zero: an empty chart
+  in.values = {0.0};
+  CHECK(RenderStackedSeries(in).ok());
+}
+
 }  // namespace
 }  // namespace commerge::platform

@@ -1,9 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// PNG writer and RgbImage: files decoded by an independent reader written here (chunk walk, CRC-32, zlib
-// uncompress, all five PNG filters undone), error paths, and clipping of every drawing primitive.
+// PNG writer and RgbImage: files decoded by an independent reader (tests/support/png_reader.hpp: chunk walk,
+// CRC-32, zlib uncompress, all five PNG filters undone), error paths, and clipping of every drawing primitive.
 #include <doctest/doctest.h>
-
-#include <zlib.h>
 
 #include <climits>
 #include <cmath>
@@ -21,6 +19,7 @@
 #include "core/common/float_limits.hpp"
 #include "platform/report/png_writer.hpp"
 #include "platform/report/raster_image.hpp"
+#include "tests/support/png_reader.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace commerge::platform {
@@ -36,116 +35,13 @@ bool Exists(const std::string& path) {
   return ::lstat(path.c_str(), &st) == 0;
 }
 
-std::vector<std::uint8_t> ReadBytes(const std::string& path) {
-  const std::string text = test::ReadTextFile(path);
-  return std::vector<std::uint8_t>(text.begin(), text.end());
-}
+using Decoded = test::DecodedPng;
 
-std::uint32_t BigEndian32(const std::uint8_t* p) {
-  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) | std::uint32_t{p[3]};
-}
-
-struct Chunk {
-  std::string type;
-  std::vector<std::uint8_t> data;
-};
-
-/// Walks the chunks after the signature; every length must fit and every CRC must match zlib's crc32.
-std::vector<Chunk> ParseChunks(const std::vector<std::uint8_t>& file) {
-  static const std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
-  REQUIRE(file.size() >= 8);
-  for (int i = 0; i < 8; ++i) REQUIRE(file[static_cast<std::size_t>(i)] == kSignature[i]);
-  std::vector<Chunk> chunks;
-  std::size_t at = 8;
-  while (at < file.size()) {
-    REQUIRE(file.size() - at >= 12);
-    const std::uint32_t length = BigEndian32(&file[at]);
-    REQUIRE(file.size() - at - 12 >= length);
-    Chunk chunk;
-    chunk.type.assign(reinterpret_cast<const char*>(&file[at + 4]), 4);
-    chunk.data.assign(file.begin() + static_cast<std::ptrdiff_t>(at + 8),
-                      file.begin() + static_cast<std::ptrdiff_t>(at + 8 + length));
-    const uLong crc = crc32(crc32(0L, Z_NULL, 0), &file[at + 4], static_cast<uInt>(length + 4));
-    CAPTURE(chunk.type);
-    REQUIRE(BigEndian32(&file[at + 8 + length]) == static_cast<std::uint32_t>(crc));
-    chunks.push_back(std::move(chunk));
-    at += 12 + length;
-  }
-  REQUIRE(at == file.size());
-  return chunks;
-}
-
-int PaethPredictor(int a, int b, int c) {
-  const int p = a + b - c;
-  const int pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
-  if (pa <= pb && pa <= pc) return a;
-  return pb <= pc ? b : c;
-}
-
-struct Decoded {
-  int width = 0;
-  int height = 0;
-  std::vector<std::uint8_t> rgb;
-  std::set<int> filters_used;
-  std::size_t idat_chunks = 0;
-};
-
-/// Decodes an 8-bit RGB non-interlaced PNG: IHDR first, IDATs consecutive, IEND last and empty.
+/// The file decoded by the independent reader (tests/support/png_reader.hpp); a file it refuses fails the test.
 Decoded DecodePng(const std::string& path) {
-  const std::vector<Chunk> chunks = ParseChunks(ReadBytes(path));
-  REQUIRE(chunks.size() >= 3);
-  REQUIRE(chunks.front().type == "IHDR");
-  REQUIRE(chunks.back().type == "IEND");
-  CHECK(chunks.back().data.empty());
-  const std::vector<std::uint8_t>& ihdr = chunks.front().data;
-  REQUIRE(ihdr.size() == 13);
-  Decoded out;
-  out.width = static_cast<int>(BigEndian32(&ihdr[0]));
-  out.height = static_cast<int>(BigEndian32(&ihdr[4]));
-  CHECK(ihdr[8] == 8);   // bit depth
-  CHECK(ihdr[9] == 2);   // truecolour RGB
-  CHECK(ihdr[10] == 0);  // deflate
-  CHECK(ihdr[11] == 0);  // adaptive filtering
-  CHECK(ihdr[12] == 0);  // no interlace
-  std::vector<std::uint8_t> zdata;
-  bool idat_done = false;
-  for (std::size_t i = 1; i + 1 < chunks.size(); ++i) {
-    if (chunks[i].type != "IDAT") {
-      idat_done = idat_done || out.idat_chunks > 0;
-      continue;
-    }
-    REQUIRE_FALSE(idat_done);  // IDAT chunks must be consecutive
-    ++out.idat_chunks;
-    zdata.insert(zdata.end(), chunks[i].data.begin(), chunks[i].data.end());
-  }
-  REQUIRE(out.idat_chunks > 0);
-  const std::size_t stride = static_cast<std::size_t>(out.width) * 3;
-  const std::size_t raw_size = static_cast<std::size_t>(out.height) * (stride + 1);
-  std::vector<std::uint8_t> raw(raw_size + 16);
-  uLongf raw_len = static_cast<uLongf>(raw.size());
-  REQUIRE(uncompress(raw.data(), &raw_len, zdata.data(), static_cast<uLong>(zdata.size())) == Z_OK);
-  REQUIRE(raw_len == raw_size);
-  out.rgb.resize(static_cast<std::size_t>(out.height) * stride);
-  for (std::size_t y = 0; y < static_cast<std::size_t>(out.height); ++y) {
-    const int filter = raw[y * (stride + 1)];
-    REQUIRE(filter <= 4);
-    out.filters_used.insert(filter);
-    const std::uint8_t* in = &raw[y * (stride + 1) + 1];
-    std::uint8_t* row = &out.rgb[y * stride];
-    const std::uint8_t* up = y > 0 ? row - stride : nullptr;
-    for (std::size_t i = 0; i < stride; ++i) {
-      const int a = i >= 3 ? row[i - 3] : 0;
-      const int b = up ? up[i] : 0;
-      const int c = up && i >= 3 ? up[i - 3] : 0;
-      int pred = 0;
-      if (filter == 1) pred = a;
-      if (filter == 2) pred = b;
-      if (filter == 3) pred = (a + b) >> 1;
-      if (filter == 4) pred = PaethPredictor(a, b, c);
-      row[i] = static_cast<std::uint8_t>(in[i] + pred);
-    }
-  }
-  return out;
+  Decoded d = test::DecodePngFile(path);
+  REQUIRE_MESSAGE(d.ok, d.error);
+  return d;
 }
 
 RgbImage MakeImage(int w, int h, Rgb background = kWhite) {
