@@ -169,6 +169,12 @@ void AddDescriptorFlags(CLI::App* cmd, DescriptorFlags* flags) {
                   "[m^2; paper: tau_ICP]")
       ->check(CLI::Range(1e-4, 100.0))
       ->capture_default_str();
+  cmd->add_option("--odometry-roll-pitch-sigma-deg", flags->odometry_roll_pitch_sigma_deg,
+                  "the odometry's uncertainty of a keyframe step's roll and pitch in the robot's pose graph (yaw: "
+                  "0.29 deg). LiDAR-inertial odometry (FAST-LIO2, the paper's) keeps them by gravity; without an IMU "
+                  "use 0.29 [deg]")
+      ->check(CLI::Range(1e-5, 10.0))
+      ->capture_default_str();
   cmd->add_option("--min-scan-points", flags->min_scan_points,
                   "stored keyframe scans: a scan that keeps fewer points than this at 1 m voxels (the paper's "
                   "Delta nu) is stored finer, in steps of 1/sqrt(2) down to 0.25 m, so small scenes and "

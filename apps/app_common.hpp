@@ -77,6 +77,9 @@ struct DescriptorFlags {
   /// in the recall benchmark, doubled the bytes of small scenes and let one more wrong corridor registration
   /// through (profiling/RESULTS.md "Scene-scaled voxels").
   std::size_t min_scan_points = 0;
+  /// --odometry-roll-pitch-sigma-deg: how well the odometry knows a keyframe step's roll and pitch
+  /// (RobotMapperParams::odometry_sigma_roll_pitch_rad, in degrees).
+  double odometry_roll_pitch_sigma_deg = RobotMapperParams{}.odometry_sigma_roll_pitch_rad * 180.0 / kPi;
 };
 /// The robot's stored-scan voxel parameters from the flags (RobotMapperParams::voxel).
 AdaptiveVoxelParams StoredScanVoxel(const DescriptorFlags& flags);

@@ -57,6 +57,10 @@ struct RobotOptions {
   double linger_s = 60.0;
   int exit_when_merged = 2;
   double resend_timeout_s = 2.0;
+  double batch_delay_s = RobotLinkParams{}.batch_delay_s;
+  /// robot_status_t every this many seconds, and at once when the state changes (it crosses the WiFi like the
+  /// exchange: at 1 Hz, 380 bytes a second per robot were a tenth of a 10 000-keyframe mission's bytes).
+  double status_interval_s = 10.0;
   double delay_ms = 0.0, jitter_ms = 0.0, duplicate_pct = 0.0;
   bool quiet = false;
   MemoryFlags memory;
@@ -94,6 +98,8 @@ class RobotProcess {
   /// Publishes what the link has to send while the bandwidth allows. False on a fatal error.
   bool SendOutgoing(std::int64_t now, std::int64_t wall);
   void PublishStatus(std::int64_t wall, bool done);
+  /// robot_status_t's state: "mapping", "sending scans", "waiting", "merged" (done).
+  std::string State(bool done) const;
   int Finish(bool merged);
   void PrintLiveInputSummary() const;
 
@@ -120,6 +126,7 @@ class RobotProcess {
   TokenBucket bucket_;  ///< --bandwidth-kbps
   std::int64_t bytes_sent_ = 0, bytes_resent_ = 0, publish_failures_ = 0;
   std::int64_t last_scan_us_ = -1, next_scan_us_ = 0, data_end_us_ = -1;
+  std::string last_state_;  ///< of the last robot_status_t
   std::size_t scan_ = 0;
   // The server session whose merge result placed this robot (0: none yet). Kept once set: a duplicated or late
   // copy of an earlier result must not undo it; a new server session (a restarted server) starts over.
@@ -177,6 +184,7 @@ int RobotProcess::Configure() {
   agent_params.mapper.loop.max_descriptor_distance = descriptor->tau_intra;
   agent_params.mapper.loop.window_keyframes = o_.descriptor.tau_window_keyframes;
   agent_params.mapper.loop.max_icp_mean_squared_residual_m2 = o_.descriptor.tau_icp_m2;
+  agent_params.mapper.odometry_sigma_roll_pitch_rad = o_.descriptor.odometry_roll_pitch_sigma_deg * kPi / 180.0;
   agent_params.mapper.voxel = StoredScanVoxel(o_.descriptor);
   agent_params.max_records_per_batch =
       o_.records_per_batch > 0 ? o_.records_per_batch
@@ -184,6 +192,7 @@ int RobotProcess::Configure() {
   agent_params.max_poses_per_update = o_.poses_per_update;
   RobotLinkParams link_params;
   link_params.resend_timeout_s = o_.resend_timeout_s;
+  link_params.batch_delay_s = o_.batch_delay_s;
   for (const Status& st : {ValidateRobotAgentParams(agent_params), ValidateRobotLinkParams(link_params)}) {
     if (!st.ok()) {
       std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
@@ -277,6 +286,7 @@ bool RobotProcess::FinishInput(std::int64_t now) {
     return false;
   }
   data_end_us_ = now;
+  link_->set_flush(true);  // nothing more will come to fill a batch
   return true;
 }
 
@@ -417,6 +427,10 @@ bool RobotProcess::SendOutgoing(std::int64_t now, std::int64_t wall) {
   return true;
 }
 
+std::string RobotProcess::State(bool done) const {
+  return done ? "merged" : data_end_us_ < 0 ? "mapping" : link_->queued_chunks() > 0 ? "sending scans" : "waiting";
+}
+
 void RobotProcess::PublishStatus(std::int64_t wall, bool done) {
   RobotStatus status;
   status.utime_us = wall;
@@ -434,7 +448,7 @@ void RobotProcess::PublishStatus(std::int64_t wall, bool done) {
   status.bytes_sent = bytes_sent_;
   status.bytes_resent = bytes_resent_;
   status.request_id = link_->active_request();
-  status.state = done ? "merged" : data_end_us_ < 0 ? "mapping" : link_->queued_chunks() > 0 ? "sending scans" : "waiting";
+  status.state = State(done);
   // The server lingers until every placed robot said "merged": the last status goes out three times, so one
   // lost datagram does not keep the server waiting for --linger-s.
   if (platform::EncodeRobotStatus(status, &buffer_).ok()) {
@@ -470,8 +484,9 @@ int RobotProcess::Run() {
                            agent_->queued_resends() == 0 && agent_->queued_poses() == 0 && link_->queued_chunks() == 0;
     merged = merged_session_ != 0 && merged_session_ == link_->server_session();
     const bool done = merged && all_acked;
-    if (now >= next_status_us || done) {
-      next_status_us = now + 1000000;
+    if (now >= next_status_us || done || State(done) != last_state_) {
+      next_status_us = now + static_cast<std::int64_t>(o_.status_interval_s * 1e6);
+      last_state_ = State(done);
       PublishStatus(wall, done);
     }
     if (done) break;
@@ -566,6 +581,14 @@ Command AddRobotCommand(CLI::App& root) {
       ->check(CLI::Range(0.0, 1e7))
       ->capture_default_str();
   cmd->add_option("--resend-timeout-s", o->resend_timeout_s, "unacknowledged data is sent again after this [s]")->capture_default_str();
+  cmd->add_option("--batch-delay-s", o->batch_delay_s,
+                  "new keyframes wait up to this long to share a keyframe batch (a full batch goes at once) [s]")
+      ->check(CLI::Range(0.0, 60.0))
+      ->capture_default_str();
+  cmd->add_option("--status-interval-s", o->status_interval_s,
+                  "publish robot_status_t this often, and when the state changes [s]")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
   cmd->add_option("--linger-s", o->linger_s, "after the last scan, wait this long for the merge [s]")->capture_default_str();
   cmd->add_option("--exit-when-merged", o->exit_when_merged, "end once this many robots, this one among them, are in "
                   "the world frame (0 = run until SIGINT)")->check(CLI::Range(0, 64))->capture_default_str();

@@ -265,6 +265,7 @@ int CreateRobots(RunJob* job) {
     agent_params.mapper.loop.max_descriptor_distance = job->tau_intra;
     agent_params.mapper.loop.window_keyframes = job->options.descriptor.tau_window_keyframes;
     agent_params.mapper.loop.max_icp_mean_squared_residual_m2 = job->options.descriptor.tau_icp_m2;
+    agent_params.mapper.odometry_sigma_roll_pitch_rad = job->options.descriptor.odometry_roll_pitch_sigma_deg * kPi / 180.0;
     agent_params.mapper.voxel = StoredScanVoxel(job->options.descriptor);
     r.agent = std::make_unique<RobotAgent>(ri, agent_params, capacity, r.descriptor.get(), r.store.get());
   }

@@ -24,8 +24,9 @@ Status ValidateRobotAgentParams(const RobotAgentParams& params) {
                            " is outside 1.." + std::to_string(kMaxScanChunkPayloadBytes));
   }
   if (!(params.pose_update_min_translation_m >= 0.0) || !(params.pose_update_min_rotation_deg >= 0.0) ||
+      !(params.scan_pose_min_translation_m >= 0.0) || !(params.scan_pose_min_rotation_deg >= 0.0) ||
       !(params.request_pose_min_translation_m >= 0.0) || !(params.request_pose_min_rotation_deg >= 0.0)) {
-    return InvalidArgument("pose_update_min_* and request_pose_min_* must be >= 0");
+    return InvalidArgument("pose_update_min_*, scan_pose_min_* and request_pose_min_* must be >= 0");
   }
   return ValidateRobotMapperParams(params.mapper);
 }
@@ -51,6 +52,7 @@ RobotAgent::RobotAgent(int robot_id, const RobotAgentParams& params, const Robot
     }
   }
   pose_dirty_.assign(capacity.max_keyframes, 0);
+  scan_requested_.assign(capacity.max_keyframes, 0);
   resend_.assign(capacity.max_keyframes, 0);
   resend_from_ = resend_.size();
   last_sent_us_.assign(capacity.max_keyframes, -1);
@@ -112,9 +114,14 @@ void RobotAgent::QueuePoses(Span<const std::uint32_t> keyframes) {
     // Keyframes not yet sent go out with their current pose anyway.
     if (k >= sent_upto_ || k >= pose_dirty_.size() || pose_dirty_[k]) continue;
     // Keyframes without a valid descriptor are queued when passed; the others only when they moved enough.
-    if (!MovedSinceSent(k, params_.pose_update_min_translation_m, params_.pose_update_min_rotation_deg)) continue;
+    if (!StreamPoseStale(k)) continue;
     MarkPoseDirty(k);
   }
+}
+
+bool RobotAgent::StreamPoseStale(std::size_t k) const {
+  return scan_requested_[k] ? MovedSinceSent(k, params_.scan_pose_min_translation_m, params_.scan_pose_min_rotation_deg)
+                            : MovedSinceSent(k, params_.pose_update_min_translation_m, params_.pose_update_min_rotation_deg);
 }
 
 Result<KeyframeStep> RobotAgent::AddScan(Span<const PointXYZI> raw_scan, const Eigen::Isometry3d& T_odom_sensor) {
@@ -140,7 +147,8 @@ std::array<std::int64_t, RobotAgent::kMemoryModules> RobotAgent::MeasureMemory()
                                  graph.num_edges() * sizeof(PoseGraphEdge) + graph.workspace_bytes();
   const std::size_t scan_store = store_ != nullptr ? store_->stats().used_bytes : 0;
   const std::size_t outbox =
-      held(pose_dirty_) + held(resend_) + held(last_sent_us_) + held(sent_pose_) + held(encoded_);
+      held(pose_dirty_) + held(scan_requested_) + held(resend_) + held(last_sent_us_) + held(sent_pose_) +
+      held(encoded_);
   return {static_cast<std::int64_t>(descriptor_db), static_cast<std::int64_t>(pose_graph),
           static_cast<std::int64_t>(scan_store), static_cast<std::int64_t>(mapper_.scan_workspace_bytes()),
           static_cast<std::int64_t>(mapper_.loop_closure_workspace_bytes()), static_cast<std::int64_t>(outbox)};
@@ -167,10 +175,7 @@ Status RobotAgent::Finish() {
   NoteMemory();
   // Poses that crept away in steps below the threshold: the server ends within it of the final poses.
   for (std::size_t k = 0; k < sent_upto_; ++k) {
-    if (!pose_dirty_[k] &&
-        MovedSinceSent(k, params_.pose_update_min_translation_m, params_.pose_update_min_rotation_deg)) {
-      MarkPoseDirty(k);
-    }
+    if (!pose_dirty_[k] && StreamPoseStale(k)) MarkPoseDirty(k);
   }
   return Status::Ok();
 }
@@ -275,6 +280,7 @@ bool RobotAgent::TakeRequestPoses(const ScanRequest& request, std::int64_t utime
   poses->no_descriptor.clear();
   for (std::uint32_t k : request.keyframes) {
     if (k >= sent_upto_ || poses->keyframes.size() >= kMaxPosesPerUpdate) continue;
+    if (remember_poses) scan_requested_[k] = 1;
     if (!MovedSinceSent(k, params_.request_pose_min_translation_m, params_.request_pose_min_rotation_deg)) continue;
     poses->keyframes.push_back(k);
     poses->T_map_sensor.push_back(mapper_.pose(k));

@@ -28,10 +28,16 @@ struct RobotAgentParams {
   /// Payload bytes per scan chunk (1..kMaxScanChunkPayloadBytes): a chunk stays inside one UDP datagram.
   std::size_t chunk_payload_bytes = kMaxScanChunkPayloadBytes;
   /// A keyframe the optimisation moved is streamed again only when its pose differs from the one the server
-  /// has by more than this. The server's positions feed stage C (tau_con = 5 m), which this error cannot
-  /// change; loop closures move every pose a little, and streaming each move would cost more than the scans.
-  double pose_update_min_translation_m = 0.5;
-  double pose_update_min_rotation_deg = 1.0;
+  /// has by more than this. The server's positions of keyframes whose scans it does not hold feed the cascade's
+  /// geometry (stage C's tau_con 5 m, the place checks' 8 m, the descriptor agreement's 3 m), which this error
+  /// does not change; loop closures move every pose a little, and at 0.5 m / 1 deg the moves of a 10 000-keyframe
+  /// patrol cost more than its scans.
+  double pose_update_min_translation_m = 1.0;
+  double pose_update_min_rotation_deg = 2.0;
+  /// The same for keyframes whose scans the server requested: it places those scans (submaps, the merged map)
+  /// and registers its verified overlaps again when they move (core/agent/pair_exchange.hpp).
+  double scan_pose_min_translation_m = 0.1;
+  double scan_pose_min_rotation_deg = 0.2;
   /// The scans the server requests are preceded by a pose update of those keyframes whose pose differs from
   /// the server's by more than this: the submaps are built with current poses.
   double request_pose_min_translation_m = 0.01;
@@ -104,6 +110,7 @@ class RobotAgent {
                                    PoseUpdate* poses, bool remember_poses = true);
 
   int robot_id() const noexcept { return robot_id_; }
+  const RobotAgentParams& params() const noexcept { return params_; }
   const RobotMapper& mapper() const noexcept { return mapper_; }
   const ScanStore& store() const noexcept { return *store_; }
   /// Keyframes already put into batches (or queued as poses).
@@ -132,6 +139,8 @@ class RobotAgent {
   Status AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBatch* batch);
   void RememberSent(std::size_t keyframe);
   bool MovedSinceSent(std::size_t keyframe, double min_translation_m, double min_rotation_deg) const;
+  /// MovedSinceSent with the stream's thresholds for this keyframe (pose_update_min_... or scan_pose_min_...).
+  bool StreamPoseStale(std::size_t keyframe) const;
 
   int robot_id_;
   KeyframeRecordKind record_kind_ = KeyframeRecordKind::kUnit40;  ///< of the descriptor given at construction
@@ -148,6 +157,7 @@ class RobotAgent {
   std::vector<std::int64_t> last_sent_us_;
   std::int64_t encoded_keyframe_ = -1;    ///< the keyframe whose scan encoded_ holds (MakeScanChunk)
   std::vector<std::uint8_t> pose_dirty_;  ///< per keyframe (capacity max_keyframes)
+  std::vector<std::uint8_t> scan_requested_;  ///< per keyframe: the server requested its scan
   /// The pose the server has of each sent keyframe: translation [m] and quaternion (w, x, y, z).
   std::vector<std::array<float, 7>> sent_pose_;
   std::size_t dirty_count_ = 0;

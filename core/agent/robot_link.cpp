@@ -15,6 +15,9 @@ Status ValidateRobotLinkParams(const RobotLinkParams& params) {
   if (!(params.resend_timeout_s > 0.0) || !std::isfinite(params.resend_timeout_s)) {
     return InvalidArgument("resend_timeout_s = " + std::to_string(params.resend_timeout_s) + " must be > 0");
   }
+  if (!(params.batch_delay_s >= 0.0) || !std::isfinite(params.batch_delay_s)) {
+    return InvalidArgument("batch_delay_s = " + std::to_string(params.batch_delay_s) + " must be finite and >= 0");
+  }
   if (params.max_pose_updates_in_flight < 1 || params.max_pose_updates_in_flight > 4096) {
     return InvalidArgument("max_pose_updates_in_flight = " + std::to_string(params.max_pose_updates_in_flight) +
                            " is outside 1..4096");
@@ -178,6 +181,7 @@ Status RobotLink::OnTransferStatus(const TransferStatus& status, std::int64_t no
   }
   if (status.server_session > server_session_) SeeServerSession(status.server_session);
   ++stats_.statuses;
+  if (status.robot_session == session_) last_status_us_ = now_us;
   ApplyKeyframeAcks(status, now_us);
   ApplyPoseAcks(status, now_us);
   ApplyChunkAcks(status, now_us);
@@ -195,13 +199,37 @@ Result<bool> RobotLink::Next(std::int64_t now_us, RobotOutgoing* out) {
       return true;
     }
   }
+  // No status for three resend timeouts while keyframes wait for acknowledgement: announce one again, so a server
+  // that never heard of this robot (every message lost) learns of it and starts sending statuses.
+  const std::size_t sent = agent_->keyframes_sent();
+  const double silence_us = 3.0 * params_.resend_timeout_s * 1e6;
+  if (sent > stats_.keyframes_acked && agent_->queued_resends() == 0 &&
+      (last_status_us_ < 0 || static_cast<double>(now_us - last_status_us_) >= silence_us)) {
+    const std::size_t k = std::min<std::size_t>(stats_.keyframes_acked, sent - 1);
+    if (static_cast<double>(now_us - agent_->last_sent_us(k)) >= silence_us) {
+      agent_->RequeueKeyframe(k);
+      ++stats_.keyframes_requeued;
+    }
+  }
   const bool resends = agent_->queued_resends() > 0;
-  auto batch = agent_->TakeKeyframeBatch(now_us, &out->batch);
-  if (!batch.ok()) return batch.status();
-  if (*batch) {
-    out->kind = RobotOutgoing::Kind::kKeyframeBatch;
-    out->resend = resends;
-    return true;
+  const std::size_t unsent = agent_->unsent_keyframes();
+  if (unsent == 0) {
+    unsent_since_us_ = -1;
+  } else if (unsent_since_us_ < 0) {
+    unsent_since_us_ = now_us;
+  }
+  const bool batch_due = resends || flush_ || unsent >= agent_->params().max_records_per_batch ||
+                         (unsent > 0 && static_cast<double>(now_us - unsent_since_us_) >= params_.batch_delay_s * 1e6);
+  if (batch_due) {
+    auto batch = agent_->TakeKeyframeBatch(now_us, &out->batch);
+    if (!batch.ok()) return batch.status();
+    // What is left waits for its own batch (a full one goes at once).
+    unsent_since_us_ = agent_->unsent_keyframes() == 0 ? -1 : now_us;
+    if (*batch) {
+      out->kind = RobotOutgoing::Kind::kKeyframeBatch;
+      out->resend = resends;
+      return true;
+    }
   }
   if (in_flight_.size() < params_.max_pose_updates_in_flight && agent_->TakePoseUpdate(now_us, &out->poses)) {
     out->kind = RobotOutgoing::Kind::kPoseUpdate;

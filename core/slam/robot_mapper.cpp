@@ -15,8 +15,10 @@ Status ValidateRobotMapperParams(const RobotMapperParams& p) {
   if (Status s = ValidateKeyframerParams(p.keyframer); !s.ok()) return s;
   if (Status s = ValidateLoopDetectorParams(p.loop); !s.ok()) return s;
   if (Status s = ValidateAdaptiveVoxelParams(p.voxel); !s.ok()) return Status(s.code(), "robot mapper: " + s.message());
-  if (!(p.odometry_sigma_translation_m > 0.0) || !(p.odometry_sigma_rotation_rad > 0.0)) {
-    return InvalidArgument("robot mapper: odometry_sigma_translation_m and odometry_sigma_rotation_rad must be > 0");
+  if (!(p.odometry_sigma_translation_m > 0.0) || !(p.odometry_sigma_rotation_rad > 0.0) ||
+      !(p.odometry_sigma_roll_pitch_rad > 0.0)) {
+    return InvalidArgument("robot mapper: odometry_sigma_translation_m, odometry_sigma_rotation_rad and "
+                           "odometry_sigma_roll_pitch_rad must be > 0");
   }
   const DescriptorInputParams& d = p.descriptor_input;
   if (!(d.local_map_window_m >= 0.0 && d.local_map_window_m <= 50.0)) {
@@ -235,7 +237,8 @@ Result<KeyframeStep> RobotMapper::AddScan(Span<const PointXYZI> raw_scan, const 
     odom.information.setZero();
     const double wt = 1.0 / (params_.odometry_sigma_translation_m * params_.odometry_sigma_translation_m);
     const double wr = 1.0 / (params_.odometry_sigma_rotation_rad * params_.odometry_sigma_rotation_rad);
-    odom.information.diagonal() << wt, wt, wt, wr, wr, wr;
+    const double wrp = 1.0 / (params_.odometry_sigma_roll_pitch_rad * params_.odometry_sigma_roll_pitch_rad);
+    odom.information.diagonal() << wt, wt, wt, wrp, wrp, wr;
     odom.kind = EdgeKind::kOdometry;
     if (Status s = graph_.AddNode(graph_.pose(odom.from) * odom.T_from_to); !s.ok()) return s;
     T_odom_keyframes_.push_back(T_odom_sensor);

@@ -147,10 +147,10 @@ TEST_CASE("Robot agent memory: the robot budget modules, each counted from its o
   }
   CHECK(Module(use, "scan_store").used_bytes == records);
   CHECK(Module(use, "scan_store").high_water_bytes == records);
-  // outbox: the per-keyframe send bookkeeping (flags, times, poses) for max_keyframes, and the chunk buffer
-  // reserved for the largest stored scan.
+  // outbox: the per-keyframe send bookkeeping (flags: pose queued, record queued, scan requested; times; poses)
+  // for max_keyframes, and the chunk buffer reserved for the largest stored scan.
   const std::int64_t bookkeeping = static_cast<std::int64_t>(
-      rig.capacity.max_keyframes * (2 * sizeof(std::uint8_t) + sizeof(std::int64_t) + 7 * sizeof(float)));
+      rig.capacity.max_keyframes * (3 * sizeof(std::uint8_t) + sizeof(std::int64_t) + 7 * sizeof(float)));
   CHECK(Module(use, "outbox").used_bytes ==
         bookkeeping + static_cast<std::int64_t>(EncodedScanBytes(rig.capacity.max_points_per_stored_scan)));
   // scan_workspace: at least the voxelised scan and the encoded scan reserved for the largest stored scan, and
