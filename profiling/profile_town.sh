@@ -36,12 +36,22 @@
 #                                  every goal met
 #   --max-runtime-s S              the server gives up after S seconds (default 300 + 0.05 N), a robot
 #                                  60 + 0.02 N s after its last scan; both still print their memory summary (exit 1)
+#   --bytes-budget-mb B            with --check, also fail unless the server received at most the keyframe
+#                                  records (92 B each) plus B MB (decimal)
+#   --every-round                  the server registers every pair every round (commerge server --every-round):
+#                                  the exchange before rounds knew what they had verified
+# Then the exchange: what the server received by kind (its exchange_summary.tsv), against the keyframe records,
+# sending every stored scan and the raw scans (the dataset's .bin files); d_exch and t_comm (the paper's eqs.
+# exchmetric, commmetric); the round at which each robot was first placed (exchange_rounds.tsv); each robot's final
+# transform error against the truth (inv(T_gt_start0) T_gt_start_r from start_transforms.txt: translation, and the
+# angle of the rotation error). The server's exchange_bytes.png is the bytes per robot over time.
 # Exit status: 0 when every process exited 0 (and, with --check, every check passed); 1 otherwise; 2 usage.
 # Prints "CM-SKIP: ..." and exits 0 when no private network namespace can be created.
 set -euo pipefail
 
 usage() { sed -n '3,/^set -euo/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; exit 2; }
 bin="" work="" keyframes=10000 robots=3 board=jetson-nano data="" keep=0 check=0 max_runtime_s="" overlap=complete
+bytes_budget_mb="" every_round=()
 args=("$@")
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -56,6 +66,8 @@ while [ $# -gt 0 ]; do
     --keep) keep=1; shift ;;
     --check) check=1; shift ;;
     --max-runtime-s) max_runtime_s=$2; shift 2 ;;
+    --bytes-budget-mb) bytes_budget_mb=$2; shift 2 ;;
+    --every-round) every_round=(--every-round); shift ;;
     -h|--help) usage ;;
     *) echo "profile_town.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
@@ -155,7 +167,7 @@ vm() {  # $1 = pid, $2 = field (VmRSS, VmHWM) -> kB or -1
 log "mission: server + $robots robots on the $board profile (--max-keyframes $keyframes), tau_area $tau_area"
 mission_start=$SECONDS
 start_proc server server --out "$work/server" "${sizing[@]}" --exit-when-merged "$robots" --tau-area "$tau_area" \
-    --round-quiet-s 3 --max-runtime-s "$max_runtime_s" --linger-s 5
+    --round-quiet-s 3 --max-runtime-s "$max_runtime_s" --linger-s 5 "${every_round[@]}"
 sleep 0.5
 for ((r = 0; r < robots; r++)); do
   start_proc "robot$r" robot --id "$r" --data "$data/robot_$r" "${sizing[@]}" --lidar vlp-16 \
@@ -207,6 +219,67 @@ for name in "${names[@]}"; do
   fi
 done
 log "mission: done in $mission_s s"
+
+# ---- The exchange ------------------------------------------------------------------------------------------
+summary_value() { awk -F'\t' -v k="$1" '$1 == k { print $2 }' "$work/server/exchange_summary.tsv" 2>/dev/null; }
+keyframe_record_bytes() {  # 92 B per keyframe the server holds
+  local n=0 r k
+  for ((r = 0; r < robots; r++)); do k=$(summary_value "robot${r}_keyframes"); n=$((n + ${k:-0})); done
+  echo $((n * 92))
+}
+# Robot r's final T_world_map against inv(T_gt_start0) * T_gt_start_r: "<translation m> <rotation deg>" or
+# "unmerged".
+transform_error() {
+  awk -v id="$1" '
+    NR == FNR { if (NF == 12) { n++; for (i = 1; i <= 12; i++) s[n, i] = $i }; next }
+    $1 == "robot" && $2 == id && $3 == "merged" { for (i = 1; i <= 12; i++) e[i] = $(i + 3); found = 1 }
+    END {
+      if (!found) { print "unmerged"; exit }
+      for (r = 0; r < 3; r++) for (c = 0; c < 4; c++) { a[r, c] = s[1, 4 * r + c + 1]; b[r, c] = s[id + 1, 4 * r + c + 1] }
+      for (r = 0; r < 3; r++) {  # T = inv(a) * b
+        for (c = 0; c < 3; c++) { R[r, c] = 0; for (k = 0; k < 3; k++) R[r, c] += a[k, r] * b[k, c] }
+        t[r] = 0; for (k = 0; k < 3; k++) t[r] += a[k, r] * (b[k, 3] - a[k, 3])
+      }
+      for (r = 0; r < 3; r++) for (c = 0; c < 4; c++) E[r, c] = e[4 * r + c + 1]
+      tr = 0; for (r = 0; r < 3; r++) for (k = 0; k < 3; k++) tr += R[k, r] * E[k, r]  # trace(R^T E)
+      ca = (tr - 1) / 2; if (ca > 1) ca = 1; if (ca < -1) ca = -1
+      dx = E[0, 3] - t[0]; dy = E[1, 3] - t[1]; dz = E[2, 3] - t[2]
+      printf "%.3f %.2f\n", sqrt(dx * dx + dy * dy + dz * dz), atan2(sqrt(1 - ca * ca), ca) * 180 / 3.141592653589793
+    }' "$data/start_transforms.txt" "$work/server/transforms.txt"
+}
+exchange_table() {
+  [ -f "$work/server/exchange_summary.tsv" ] || { echo; echo "exchange: the server wrote no exchange_summary.tsv"; return; }
+  local total records send_all raw
+  total=$(summary_value total_bytes)
+  records=$(keyframe_record_bytes)
+  send_all=$(summary_value send_all_bytes)
+  raw=$(find "$data" -name '*.bin' -printf '%s\n' | awk '{ s += $1 } END { printf "%.0f", s }')
+  echo
+  echo "Exchange (bytes the server received; decimal MB):"
+  printf '  %-34s %14s %10s\n' what bytes MB
+  row() { printf '  %-34s %14s %10s\n' "$1" "$2" "$(awk -v b="$2" 'BEGIN { printf "%.2f", b / 1e6 }')"; }
+  row "keyframe records (in batches)" "$(summary_value keyframe_records_bytes)"
+  row "pose updates" "$(summary_value pose_updates_bytes)"
+  row "scans" "$(summary_value scans_bytes)"
+  row "re-sends" "$(summary_value resends_bytes)"
+  row "robot status" "$(summary_value robot_status_bytes)"
+  row "total received" "$total"
+  row "d_exch (eq. exchmetric)" "$(summary_value d_exch_bytes)"
+  row "the keyframe records alone (92 B)" "$records"
+  row "every stored scan + the records" "$send_all"
+  row "the raw scans (.bin files)" "$raw"
+  awk -v t="$total" -v r="$records" -v a="$send_all" -v w="$raw" -v c="$(summary_value t_comm_s)" 'BEGIN {
+    printf "  total - records: %.2f MB; %.2f %% less than every stored scan, %.4f %% of the raw scans; t_comm %s s\n",
+           (t - r) / 1e6, 100 * (1 - t / a), 100 * t / w, c }'
+  echo "  placed (round first in the world frame) and final transform against the truth:"
+  local r first err
+  for ((r = 1; r < robots; r++)); do
+    first=$(awk -F'\t' -v id="$r" 'NR > 1 { n = split($(NF - 1), p, ","); for (i = 1; i <= n; i++) if (p[i] == id) { print $1; exit } }' \
+            "$work/server/exchange_rounds.tsv")
+    err=$(transform_error "$r")
+    printf '    robot %d: round %s; %s\n' "$r" "${first:-never}" "$( [ "$err" = unmerged ] && echo unmerged || awk -v e="$err" 'BEGIN { split(e, v, " "); printf "%s m, %s deg", v[1], v[2] }')"
+  done
+}
 
 # ---- The table ---------------------------------------------------------------------------------------------
 budget_total() {  # $1 = robot|server, $2 = board -> bytes (from `commerge budget`'s total line)
@@ -271,6 +344,17 @@ fail_check() { checks_failed=1; echo "CHECK FAILED: $*"; }
   merged=$(grep -h "^server: [0-9]* merge rounds" "$work/server.out" 2>/dev/null || true)
   echo
   echo "${merged:-server: no final line (it did not finish)}"
+  exchange_table
 } | tee "$work/summary.txt"
+# The block above runs in a pipeline's subshell: its failed checks reach here through the summary's lines.
+if grep -q '^CHECK FAILED' "$work/summary.txt"; then checks_failed=1; fi
+if [ "$check" = 1 ] && [ -n "$bytes_budget_mb" ]; then
+  total=$(summary_value total_bytes)
+  records=$(keyframe_record_bytes)
+  if [ -z "$total" ] || ! awk -v t="$total" -v r="$records" -v b="$bytes_budget_mb" 'BEGIN { exit !(t <= r + b * 1e6) }'; then
+    echo "CHECK FAILED: the server received ${total:-?} B, more than the keyframe records ($records B) + $bytes_budget_mb MB"
+    checks_failed=1
+  fi
+fi
 [ "$checks_failed" = 0 ] || rc=1
 exit "$rc"
