@@ -236,6 +236,21 @@ struct StreetRounds {
     u.T_map_sensor = {T_moved};
     REQUIRE(server->OnPoseUpdate(u).ok());
   }
+  // The robots meet again: robot 0's keyframe 4 (at P0) and robot 1's keyframe 1 (at P1) get one descriptor, so
+  // stage A pairs them, and the submaps' scans (Deliver).
+  void MeetAgain(const Eigen::Isometry3d& P0, const Eigen::Isometry3d& P1) {
+    std::mt19937 rng(8);
+    const auto d5 = RandomDescriptor(&rng);
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(0, 4, {d5}, {Eigen::Vector3d::Zero()}, 0)).ok());
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(1, 1, {d5}, {Eigen::Vector3d::Zero()}, 0)).ok());
+    for (const auto& [robot, pose] : {std::make_pair(0, P0), std::make_pair(1, P1)}) {
+      PoseUpdate u;
+      u.robot_id = robot;
+      u.keyframes = {robot == 0 ? 4u : 1u};
+      u.T_map_sensor = {pose};
+      REQUIRE(server->OnPoseUpdate(u).ok());
+    }
+  }
 };
 
 std::size_t Scans(const std::vector<ScanRequest>& requests) {
@@ -349,19 +364,7 @@ TEST_CASE("Merge round: a bridge registers a new overlap far from its verified o
   const Eigen::Isometry3d T = s.pair.T_target_source;
   const Eigen::Isometry3d P0 = test::YawOffset(0.0, 120.0, 0.0, 0.0);
   const Eigen::Isometry3d P1 = T.inverse() * P0 * T;
-  std::mt19937 rng(8);
-  const auto d5 = RandomDescriptor(&rng);
-  KeyframeBatch b0 = MakeBatch(0, 4, {d5}, {Eigen::Vector3d::Zero()}, 0);
-  KeyframeBatch b1 = MakeBatch(1, 1, {d5}, {Eigen::Vector3d::Zero()}, 0);
-  REQUIRE(s.server->OnKeyframeBatch(b0).ok());
-  REQUIRE(s.server->OnKeyframeBatch(b1).ok());
-  for (const auto& [robot, pose] : {std::make_pair(0, P0), std::make_pair(1, P1)}) {
-    PoseUpdate u;
-    u.robot_id = robot;
-    u.keyframes = {robot == 0 ? 4u : 1u};
-    u.T_map_sensor = {pose};
-    REQUIRE(s.server->OnPoseUpdate(u).ok());
-  }
+  s.MeetAgain(P0, P1);
   const std::vector<ScanRequest> asked = s.Round(&round);
   const MergeRoundResult& r2 = round.result();
   CHECK(r2.decisions[0].reason == PairExchangeReason::kNewOverlap);
@@ -399,17 +402,7 @@ TEST_CASE("Merge round: a verified region the frame solver rejects is dropped at
   const Eigen::Isometry3d T = s.pair.T_target_source;
   const Eigen::Isometry3d P0 = test::YawOffset(0.0, 120.0, 0.0, 0.0);
   const Eigen::Isometry3d P1 = test::YawOffset(0.0, 6.0, 0.0, 0.0) * T.inverse() * P0 * T;
-  std::mt19937 rng(8);
-  const auto d5 = RandomDescriptor(&rng);
-  REQUIRE(s.server->OnKeyframeBatch(MakeBatch(0, 4, {d5}, {Eigen::Vector3d::Zero()}, 0)).ok());
-  REQUIRE(s.server->OnKeyframeBatch(MakeBatch(1, 1, {d5}, {Eigen::Vector3d::Zero()}, 0)).ok());
-  for (const auto& [robot, pose] : {std::make_pair(0, P0), std::make_pair(1, P1)}) {
-    PoseUpdate u;
-    u.robot_id = robot;
-    u.keyframes = {robot == 0 ? 4u : 1u};
-    u.T_map_sensor = {pose};
-    REQUIRE(s.server->OnPoseUpdate(u).ok());
-  }
+  s.MeetAgain(P0, P1);
   s.Round(&round);
   const MergeRoundResult r2 = round.result();
   REQUIRE(r2.pairs.size() == 2);
