@@ -120,10 +120,11 @@ class ServerProcess {
   std::int64_t merged_map_high_water_ = 0;  ///< the merged_map budget module: the builder's buffers
   std::vector<std::pair<int, int>> reported_incomparable_;  ///< the last incomparable pairs said on stderr
   /// Replay: the recording server's (session, round) results and (session, request id) requests already followed,
-  /// whether a recorded round began (a request) and has no result yet, and when the recording last spoke.
+  /// the recording server session whose round began (a request) and has no result yet (0: none), and when the
+  /// recording last spoke.
   std::set<std::pair<std::int64_t, std::int32_t>> recorded_rounds_;
   std::set<std::pair<std::int64_t, std::int32_t>> recorded_requests_;
-  bool recorded_round_open_ = false;
+  std::int64_t recorded_open_session_ = 0;
   std::int64_t last_recorded_us_ = 0;
   std::string last_rejection_;
   std::vector<std::int64_t> confirmed_session_;  ///< per robot: the session whose status said "merged"
@@ -230,10 +231,11 @@ Status ServerProcess::HandleMessage(const platform::BusMessage& message, std::in
     if (!m.ok()) return m.status();
     Status st = CheckSigner(message, platform::kAuthServerSender);
     if (st.ok() && m->server_session != session_ && recorded_requests_.size() < 100000 &&
-        recorded_requests_.insert({m->server_session, m->request_id}).second && !recorded_round_open_) {
+        recorded_requests_.insert({m->server_session, m->request_id}).second &&
+        recorded_open_session_ != m->server_session) {
       // The recording server sent a round's first request right after it began the round: begin one here, on
       // the keyframes logged up to its start. Its later requests (other robots, widening) belong to that round.
-      recorded_round_open_ = true;
+      recorded_open_session_ = m->server_session;
       link_->RequestRound();
     }
     return st;
@@ -245,8 +247,8 @@ Status ServerProcess::HandleMessage(const platform::BusMessage& message, std::in
     if (st.ok() && m->server_session != session_ && recorded_rounds_.size() < 100000 &&
         recorded_rounds_.insert({m->server_session, m->round}).second) {
       // A recorded round that requested no scans shows only by its result: merge on the data logged up to it.
-      if (!recorded_round_open_) link_->RequestRound();
-      recorded_round_open_ = false;
+      if (recorded_open_session_ != m->server_session) link_->RequestRound();
+      recorded_open_session_ = 0;
     }
     return st;
   }
