@@ -10,11 +10,15 @@
 // delivered keyframe, and every placed robot's robot_status_t said "merged" (or --linger-s passed; the result is
 // re-sent every second meanwhile); otherwise it runs until SIGINT / SIGTERM. At exit it prints, per robot, a
 // digest of the descriptors it holds (compare with the robot's own line: equal = every descriptor arrived).
-// --replay takes a mission recorded with lcm-logger and played back with lcm-logplayer: scan chunks are
-// accepted without this server's own request (the recording server made the requests).
+// --replay takes a mission recorded with `commerge record` and played back with lcm-logplayer: the robots'
+// messages wait in a queue, and at each recorded round step (merge_round_t) the round gets exactly the messages
+// the recording server had taken by then, runs the same step and is checked against it (core/agent/round_replay).
+// A log without round steps replays as before: rounds begin at the recording's first scan request of a round,
+// and scan chunks are accepted without this server's own request.
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <deque>
 #include <filesystem>
 #include <memory>
 #include <set>
@@ -26,6 +30,7 @@
 #include "apps/commands.hpp"
 #include "apps/merge_flags.hpp"
 #include "core/agent/delivery_digest.hpp"
+#include "core/agent/round_replay.hpp"
 #include "core/agent/server_link.hpp"
 #include "core/cloud/scan_codec.hpp"
 #include "core/common/bytes.hpp"
@@ -36,12 +41,16 @@
 #include "platform/io/merge_outputs.hpp"
 #include "platform/lcm/lcm_bus.hpp"
 #include "platform/lcm/message_codec.hpp"
+#include "platform/lcm/round_codec.hpp"
 #include "platform/lcm/status_codec.hpp"
 #include "platform/memory/peak_rss.hpp"
 
 namespace commerge::app {
 
 namespace {
+
+/// Replay: a recorded result and this replay's agree when every T_world_map entry is within this.
+constexpr double kReplayResultTolerance = 1e-3;
 
 struct ServerOptions {
   std::string out_dir = "commerge-server-out";
@@ -84,7 +93,25 @@ class ServerProcess {
     int robot = -1;
     TrafficKind kind = TrafficKind::kKeyframeRecords;
     std::uint64_t resent_bytes = 0;  ///< of the message, records or chunks the server held already
+    bool queued = false;             ///< a replayed robot message kept for the round step that takes it
   };
+  /// How a replay starts its rounds: at the recorded round steps (exact), or at the recording's scan requests
+  /// and merge results (a log without round steps); undecided until the log shows one of them.
+  enum class ReplayMode : std::uint8_t { kUndecided, kSteps, kRequests };
+  struct QueuedMessage {
+    platform::BusMessage message;
+    QueuedRobotMessage ref;
+  };
+  /// Replay: keeps a robot message for the round step that takes it (true), or leaves it to HandleMessage.
+  bool QueueReplayed(const platform::BusMessage& message);
+  /// Replay: hands the link the queued messages in `due` (indices, ascending), or every one (`all`).
+  void ApplyQueued(const std::vector<std::size_t>& due, bool all, std::int64_t wall);
+  /// Replay: hands one robot message to the link now (and counts it, or its rejection).
+  void HandleQueued(const platform::BusMessage& message, std::int64_t wall);
+  void OnRecordedStep(const RoundStep& step, std::int64_t wall);
+  void OnRecordedResult(const MergeResultMessage& result);
+  void SwitchToRequestReplay(const char* what);
+  Status HandleRecorded(const platform::BusMessage& message, std::int64_t wall);
   Status HandleMessage(const platform::BusMessage& message, std::int64_t wall, Received* received);
   void CountReceived(const platform::BusMessage& message, const Received& received);
   /// A row of exchange_rounds.tsv and the chart, for the round just finished.
@@ -126,6 +153,13 @@ class ServerProcess {
   std::set<std::pair<std::int64_t, std::int32_t>> recorded_requests_;
   std::int64_t recorded_open_session_ = 0;
   std::int64_t last_recorded_us_ = 0;
+  ReplayMode replay_mode_ = ReplayMode::kUndecided;
+  std::deque<QueuedMessage> replay_queue_;
+  std::size_t replay_queue_bytes_ = 0;
+  std::int64_t followed_session_ = 0;  ///< the recording server session whose steps are followed exactly
+  std::int64_t steps_followed_ = 0, step_mismatches_ = 0, results_compared_ = 0, result_mismatches_ = 0;
+  std::int64_t replay_overflow_ = 0;   ///< messages handed over early because the queue was full
+  double largest_result_difference_ = 0.0;
   std::string last_rejection_;
   std::vector<std::int64_t> confirmed_session_;  ///< per robot: the session whose status said "merged"
   std::vector<std::uint8_t> buffer_;
@@ -164,8 +198,10 @@ int ServerProcess::Configure() {
   link_params_.round_min_new_keyframes = static_cast<std::size_t>(std::max<std::int64_t>(1, o_.round_min_new_keyframes));
   link_params_.exchange = o_.exchange;
   link_params_.exchange.enabled = !o_.every_round;
-  link_params_.accept_unrequested_scans = o_.replay;
-  link_params_.automatic_rounds = !o_.replay;  // a replay runs its rounds where the recording has merge results
+  // A replay runs its rounds at the recorded round steps; a log without them switches to the recorded requests
+  // (SwitchToRequestReplay).
+  link_params_.automatic_rounds = !o_.replay;
+  link_params_.follow_recorded_steps = o_.replay;
   for (const Status& st : {ValidateMergeServerParams(server_params_), ValidateServerLinkParams(link_params_)}) {
     if (!st.ok()) {
       std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
@@ -197,6 +233,14 @@ int ServerProcess::Configure() {
 }
 
 Status ServerProcess::HandleMessage(const platform::BusMessage& message, std::int64_t wall, Received* received) {
+  if (o_.replay && replay_mode_ != ReplayMode::kRequests && QueueReplayed(message)) {
+    received->queued = true;
+    return Status::Ok();
+  }
+  if (message.channel == platform::kPolicyChannel || message.channel == platform::kMergeResultChannel ||
+      message.channel == platform::kRoundChannel) {
+    return HandleRecorded(message, wall);
+  }
   const Span<const std::uint8_t> bytes(message.bytes.data(), message.bytes.size());
   const MergeServerStats before = server_->stats();
   if (message.channel == platform::kKeyframesChannel) {
@@ -226,32 +270,6 @@ Status ServerProcess::HandleMessage(const platform::BusMessage& message, std::in
     if (st.ok()) *received = Received{m->robot_id, TrafficKind::kScans, duplicate ? message.bytes.size() : 0};
     return st;
   }
-  if (message.channel == platform::kPolicyChannel) {
-    auto m = platform::DecodeScanRequest(bytes);
-    if (!m.ok()) return m.status();
-    Status st = CheckSigner(message, platform::kAuthServerSender);
-    if (st.ok() && m->server_session != session_ && recorded_requests_.size() < 100000 &&
-        recorded_requests_.insert({m->server_session, m->request_id}).second &&
-        recorded_open_session_ != m->server_session) {
-      // The recording server sent a round's first request right after it began the round: begin one here, on
-      // the keyframes logged up to its start. Its later requests (other robots, widening) belong to that round.
-      recorded_open_session_ = m->server_session;
-      link_->RequestRound();
-    }
-    return st;
-  }
-  if (message.channel == platform::kMergeResultChannel) {
-    auto m = platform::DecodeMergeResult(bytes);
-    if (!m.ok()) return m.status();
-    Status st = CheckSigner(message, platform::kAuthServerSender);
-    if (st.ok() && m->server_session != session_ && recorded_rounds_.size() < 100000 &&
-        recorded_rounds_.insert({m->server_session, m->round}).second) {
-      // A recorded round that requested no scans shows only by its result: merge on the data logged up to it.
-      if (recorded_open_session_ != m->server_session) link_->RequestRound();
-      recorded_open_session_ = 0;
-    }
-    return st;
-  }
   if (message.channel == platform::kRobotStatusChannel) {
     auto m = platform::DecodeRobotStatus(bytes);
     Status st = !m.ok() ? m.status() : CheckSigner(message, m->robot_id);
@@ -267,6 +285,178 @@ Status ServerProcess::HandleMessage(const platform::BusMessage& message, std::in
     return st;
   }
   return Status::Ok();
+}
+
+// A recorded server message (replay): a round step, a scan request or a merge result of the recording server.
+Status ServerProcess::HandleRecorded(const platform::BusMessage& message, std::int64_t wall) {
+  const Span<const std::uint8_t> bytes(message.bytes.data(), message.bytes.size());
+  if (message.channel == platform::kRoundChannel) {
+    auto m = platform::DecodeRoundStep(bytes);
+    if (!m.ok()) return m.status();
+    Status st = CheckSigner(message, platform::kAuthServerSender);
+    if (st.ok() && m->server_session != session_) OnRecordedStep(*m, wall);
+    return st;
+  }
+  if (message.channel == platform::kPolicyChannel) {
+    auto m = platform::DecodeScanRequest(bytes);
+    if (!m.ok()) return m.status();
+    Status st = CheckSigner(message, platform::kAuthServerSender);
+    if (!st.ok() || m->server_session == session_) return st;
+    if (replay_mode_ == ReplayMode::kUndecided) SwitchToRequestReplay("a scan request");
+    if (replay_mode_ == ReplayMode::kRequests && recorded_requests_.size() < 100000 &&
+        recorded_requests_.insert({m->server_session, m->request_id}).second &&
+        recorded_open_session_ != m->server_session) {
+      // The recording server sent a round's first request right after it began the round: begin one here, on
+      // the keyframes logged up to its start. Its later requests (other robots, widening) belong to that round.
+      recorded_open_session_ = m->server_session;
+      link_->RequestRound();
+    }
+    return st;
+  }
+  auto m = platform::DecodeMergeResult(bytes);
+  if (!m.ok()) return m.status();
+  Status st = CheckSigner(message, platform::kAuthServerSender);
+  if (!st.ok() || m->server_session == session_) return st;
+  if (replay_mode_ == ReplayMode::kUndecided) SwitchToRequestReplay("a merge result");
+  if (recorded_rounds_.size() < 100000 && recorded_rounds_.insert({m->server_session, m->round}).second) {
+    if (replay_mode_ == ReplayMode::kSteps) {
+      OnRecordedResult(*m);
+    } else {
+      // A recorded round that requested no scans shows only by its result: merge on the data logged up to it.
+      if (recorded_open_session_ != m->server_session) link_->RequestRound();
+      recorded_open_session_ = 0;
+    }
+  }
+  return st;
+}
+
+bool ServerProcess::QueueReplayed(const platform::BusMessage& message) {
+  QueuedRobotMessage ref;
+  const Span<const std::uint8_t> bytes(message.bytes.data(), message.bytes.size());
+  if (message.channel == platform::kKeyframesChannel) {
+    auto m = platform::DecodeKeyframeBatch(bytes);
+    if (!m.ok()) return false;
+    ref = {m->robot_id, RobotMessageKind::kKeyframeBatch};
+  } else if (message.channel == platform::kPosesChannel) {
+    auto m = platform::DecodePoseUpdate(bytes);
+    if (!m.ok()) return false;
+    ref = {m->robot_id, RobotMessageKind::kPoseUpdate};
+  } else if (message.channel == platform::kScansChannel) {
+    auto m = platform::DecodeScanChunk(bytes);
+    if (!m.ok()) return false;
+    ref = {m->robot_id, RobotMessageKind::kScanChunk};
+  } else {
+    return false;
+  }
+  // Only what reaches the link (and counts there): refused messages are handled, and counted, at once.
+  if (ref.robot_id < 0 || ref.robot_id >= robots_ || !CheckSigner(message, ref.robot_id).ok()) return false;
+  replay_queue_bytes_ += message.bytes.size();
+  replay_queue_.push_back(QueuedMessage{message, ref});
+  // Bounded by the inbox budget (--queue-mb): beyond it the oldest goes to the link now. The step that should
+  // have taken it later differs, and says so.
+  while (replay_queue_bytes_ > static_cast<std::size_t>(setup_.config.message_queue_bytes) && replay_queue_.size() > 1) {
+    if (replay_overflow_++ == 0) {
+      std::fprintf(stderr, "%s: replay: more than --queue-mb %lld MiB of robot messages wait for a recorded round "
+                           "step; the oldest are handed over early (this replay may differ from the recording)\n",
+                   kTag, static_cast<long long>(setup_.config.message_queue_bytes >> 20));
+    }
+    QueuedMessage oldest = std::move(replay_queue_.front());
+    replay_queue_.pop_front();
+    replay_queue_bytes_ -= oldest.message.bytes.size();
+    HandleQueued(oldest.message, platform::WallTimeUs());
+  }
+  return true;
+}
+
+void ServerProcess::HandleQueued(const platform::BusMessage& message, std::int64_t wall) {
+  Received received;
+  const ReplayMode mode = replay_mode_;
+  replay_mode_ = ReplayMode::kRequests;  // handled now, not queued again
+  const Status st = HandleMessage(message, wall, &received);
+  replay_mode_ = mode;
+  if (st.ok()) {
+    CountReceived(message, received);
+  } else {
+    ++rejected_;
+    last_rejection_ = message.channel + ": " + st.message();
+    if (last_rejection_.size() > kMaxStatusTextBytes) last_rejection_.resize(kMaxStatusTextBytes);
+  }
+}
+
+void ServerProcess::ApplyQueued(const std::vector<std::size_t>& due, bool all, std::int64_t wall) {
+  std::deque<QueuedMessage> kept;
+  std::size_t next = 0;
+  for (std::size_t i = 0; i < replay_queue_.size(); ++i) {
+    const bool take = all || (next < due.size() && due[next] == i);
+    if (!take) {
+      kept.push_back(std::move(replay_queue_[i]));
+      continue;
+    }
+    if (!all) ++next;
+    replay_queue_bytes_ -= replay_queue_[i].message.bytes.size();
+    HandleQueued(replay_queue_[i].message, wall);
+  }
+  replay_queue_ = std::move(kept);
+}
+
+void ServerProcess::SwitchToRequestReplay(const char* what) {
+  std::fprintf(stderr, "%s: replay: warning: the log shows %s before any round step (merge_round_t): a recording "
+                       "from before round steps; rounds begin at the recording's first scan request of a round and "
+                       "see the data logged up to there, so this replay can differ from the recording\n",
+               kTag, what);
+  replay_mode_ = ReplayMode::kRequests;
+  ApplyQueued({}, true, platform::WallTimeUs());
+  link_->FollowRecordedRequests();
+}
+
+void ServerProcess::OnRecordedStep(const RoundStep& step, std::int64_t wall) {
+  if (replay_mode_ == ReplayMode::kRequests) return;
+  replay_mode_ = ReplayMode::kSteps;
+  if (followed_session_ == 0) followed_session_ = step.server_session;
+  if (step.server_session != followed_session_) {
+    // A recording server that restarted counted the robots' messages from its own start: not comparable.
+    std::fprintf(stderr, "%s: replay: warning: round %d step %d comes from recording server session %lld, not "
+                         "%lld (it restarted): its rounds replay on every message logged up to here\n",
+                 kTag, step.round, step.step, static_cast<long long>(step.server_session),
+                 static_cast<long long>(followed_session_));
+    followed_session_ = step.server_session;
+    ApplyQueued({}, true, wall);
+  } else {
+    const std::vector<RoundRobotInput> taken = link_->TakenInputs();
+    std::vector<QueuedRobotMessage> refs;
+    refs.reserve(replay_queue_.size());
+    for (const QueuedMessage& q : replay_queue_) refs.push_back(q.ref);
+    ApplyQueued(MessagesDue(Span<const QueuedRobotMessage>(refs), Span<const RoundRobotInput>(step.robots),
+                            Span<const RoundRobotInput>(taken)),
+                false, wall);
+  }
+  std::vector<ServerOutgoing> out;
+  const Status st = link_->FollowStep(step, wall, &out);
+  ++steps_followed_;
+  if (!st.ok()) {
+    ++step_mismatches_;
+    std::fprintf(stderr, "%s: replay: MISMATCH: %s\n", kTag, st.message().c_str());
+  }
+  for (const ServerOutgoing& o_msg : out) Publish(o_msg);
+}
+
+// The recorded result of a round this replay followed: the same robots placed, the same T_world_map.
+void ServerProcess::OnRecordedResult(const MergeResultMessage& result) {
+  if (result.server_session != followed_session_) return;
+  const MergeResultMessage& mine = link_->last_result();
+  ++results_compared_;
+  double largest = 0.0;
+  bool same = mine.round == result.round && mine.robot_ids == result.robot_ids && mine.in_world == result.in_world;
+  for (std::size_t i = 0; same && i < result.T_world_map.size(); ++i) {
+    largest = std::max(largest, (mine.T_world_map[i].matrix() - result.T_world_map[i].matrix()).cwiseAbs().maxCoeff());
+  }
+  largest_result_difference_ = std::max(largest_result_difference_, largest);
+  if (same && largest <= kReplayResultTolerance) return;
+  ++result_mismatches_;
+  std::fprintf(stderr, "%s: replay: MISMATCH: recorded round %d: %s\n", kTag, result.round,
+               same ? ("T_world_map differs by " + std::to_string(largest) + " (largest entry)").c_str()
+                    : ("this replay's round " + std::to_string(mine.round) +
+                       " placed other robots or has other robots").c_str());
 }
 
 // Said once per change: a robot started with another --lidar / --solid-min-z-m than the others.
@@ -338,6 +528,10 @@ void ServerProcess::Publish(const ServerOutgoing& o_msg) {
     case ServerOutgoing::Kind::kMergeResult:
       st = platform::EncodeMergeResult(o_msg.result, &buffer_);
       channel = platform::kMergeResultChannel;
+      break;
+    case ServerOutgoing::Kind::kRoundStep:
+      st = platform::EncodeRoundStep(o_msg.step, &buffer_);
+      channel = platform::kRoundChannel;
       break;
   }
   if (st.ok()) st = bus_->Publish(channel, buffer_);
@@ -500,7 +694,7 @@ int ServerProcess::Run() {
   }
   auto bus = o_.replay ? platform::OpenLcmBus(bus_params_, {platform::kKeyframesChannel, platform::kPosesChannel,
                                                             platform::kScansChannel, platform::kMergeResultChannel,
-                                                            platform::kPolicyChannel})
+                                                            platform::kPolicyChannel, platform::kRoundChannel})
                        : platform::OpenLcmBus(bus_params_, {platform::kKeyframesChannel, platform::kPosesChannel,
                                                             platform::kScansChannel, platform::kRobotStatusChannel});
   if (!bus.ok()) {
@@ -513,7 +707,7 @@ int ServerProcess::Run() {
     std::fprintf(stderr, "%s: session %lld, robots 0..%d, mode %s, %s, writing to %s%s\n", kTag,
                  static_cast<long long>(session_), robots_ - 1, ExchangeModeName(mode_),
                  CascadeSettingsText(server_params_).c_str(), o_.out_dir.c_str(),
-                 o_.replay ? " (replay: recorded scan chunks accepted without a request)" : "");
+                 o_.replay ? " (replay: rounds run at the recorded round steps)" : "");
   }
   if (!o_.quiet || !bus_params_.authenticate) {
     std::fprintf(stderr, "%s: %s\n", kTag, AuthDescription(o_.auth, bus_params_).c_str());
@@ -536,6 +730,7 @@ int ServerProcess::Run() {
       Received received;
       const Status st = HandleMessage(message, wall, &received);
       last_recorded_us_ = platform::MonotonicUs();
+      if (st.ok() && received.queued) continue;  // counted when a recorded round step takes it
       if (st.ok()) {
         CountReceived(message, received);
       } else {
@@ -580,6 +775,24 @@ int ServerProcess::Run() {
 
 // The exit summary: rounds, robots placed and confirmed, delivery digests per robot, authentication, memory.
 int ServerProcess::Finish(int exit_code) {
+  if (o_.replay) {
+    // What no recorded step took still belongs to the robots' data (the digests below).
+    const std::size_t unused = replay_queue_.size();
+    ApplyQueued({}, true, platform::WallTimeUs());
+    if (replay_mode_ == ReplayMode::kSteps) {
+      std::printf("server: replay followed %lld round steps of recording server session %lld: %lld differed; %lld "
+                  "recorded merge results compared, %lld differed (largest T_world_map difference %.6f); %zu robot "
+                  "messages after the last step, %lld handed over early\n",
+                  static_cast<long long>(steps_followed_), static_cast<long long>(followed_session_),
+                  static_cast<long long>(step_mismatches_), static_cast<long long>(results_compared_),
+                  static_cast<long long>(result_mismatches_), largest_result_difference_, unused,
+                  static_cast<long long>(replay_overflow_));
+      if (step_mismatches_ + result_mismatches_ > 0) exit_code = kExitFailure;
+    } else {
+      std::printf("server: replay without round steps: rounds began at the recorded scan requests (may differ "
+                  "from the recording)\n");
+    }
+  }
   int confirmed = 0;
   for (int r = 0; r < robots_; ++r) {
     confirmed += confirmed_session_[static_cast<std::size_t>(r)] != 0 &&
@@ -664,8 +877,10 @@ Command AddServerCommand(CLI::App& root) {
   cmd->add_option("--linger-s", o->linger_s, "after --exit-when-merged is met, keep answering and re-send the "
                                            "result every second until every placed robot reported \"merged\", at "
                                            "most this long [s]")->check(CLI::Range(0.0, 3600.0))->capture_default_str();
-  cmd->add_flag("--replay", o->replay, "serve a recorded mission played back with lcm-logplayer: accept recorded scan "
-                                       "chunks that answer the recording server's requests");
+  cmd->add_flag("--replay", o->replay, "serve a mission recorded with `commerge record` and played back with "
+                                       "lcm-logplayer: every recorded round step runs again on exactly the robots' "
+                                       "messages the recording server had taken, and is checked against it (exit 1 "
+                                       "on a difference)");
   cmd->add_flag("--quiet", o->quiet, "no progress lines on stderr");
   AddAuthFlags(cmd, &o->auth);
   AddFaultFlags(cmd, &o->delay_ms, &o->jitter_ms, &o->duplicate_pct);

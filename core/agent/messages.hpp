@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: the robot <-> server messages as plain structs (the agents' input and output). platform/lcm encodes
 // them as the LCM types of lcmtypes/ (keyframe_batch_t, pose_update_t, exchange_policy_t, scan_chunk_t,
-// transfer_status_t, merge_result_t, robot_status_t, server_status_t), field for field; the limits below are the
-// types' MAX_... constants, enforced on both sides.
+// transfer_status_t, merge_result_t, merge_round_t, robot_status_t, server_status_t), field for field; the
+// limits below are the types' MAX_... constants, enforced on both sides.
 //
 // Sessions: a robot process picks a session id when it starts (its start time in microseconds), and so does the
 // server. A keyframe database belongs to one robot session; a newer session of the same robot id (the robot
@@ -186,6 +186,41 @@ struct MergeResultMessage {
   std::vector<Eigen::Isometry3d> T_world_map;  ///< per robot (identity when not in_world)
   std::vector<std::uint32_t> keyframes;   ///< per robot: its keyframes at the server when the round started
   std::vector<MergePairOutcome> pairs;
+};
+
+/// merge_round_t limits: scan requests of one round step, and their keyframes together.
+inline constexpr std::size_t kMaxRoundRequests = 64;
+inline constexpr std::size_t kMaxRoundKeyframes = 1u << 20;
+
+/// What the server had taken of one robot when a round step ran: messages of this robot id handed to it, by
+/// kind, over every session (merge_round_t).
+struct RoundRobotInput {
+  int robot_id = 0;
+  std::int64_t session = 0;           ///< the robot's current session (0: none yet)
+  std::uint32_t keyframe_batches = 0;
+  std::uint32_t pose_updates = 0;
+  std::uint32_t scan_chunks = 0;      ///< also chunks refused as stale
+  /// FNV-1a over what identifies each of those messages, in the order taken (a batch's and a pose update's
+  /// session and sequence, a chunk's request, keyframe and chunk index): equal counts of other messages differ.
+  std::uint32_t digest = 2166136261u;
+  bool left = false;                  ///< its status said "merged": asked for nothing more
+  bool operator==(const RoundRobotInput& o) const {
+    return robot_id == o.robot_id && session == o.session && keyframe_batches == o.keyframe_batches &&
+           pose_updates == o.pose_updates && scan_chunks == o.scan_chunks && digest == o.digest && left == o.left;
+  }
+};
+
+/// One step of a merge round (server -> everyone): step 0 began the round, step k >= 1 continued it. The data
+/// it used (per robot, ascending by id) and the requests it sent, so a replay can cut its data exactly there
+/// and check that it asks for the same scans.
+struct RoundStep {
+  std::int64_t utime_us = 0;
+  std::int64_t server_session = 0;
+  std::int32_t round = 0;             ///< 1, 2, ... per server session
+  std::int32_t step = 0;
+  bool finished = false;              ///< the round ended in this step
+  std::vector<RoundRobotInput> robots;
+  std::vector<ScanRequest> requests;  ///< robot_id, request_id and keyframes of each (utime, session unused)
 };
 
 /// Memory of one budget module (robot_status_t / server_status_t).

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <utility>
 
 namespace commerge {
@@ -45,6 +46,8 @@ ServerLink::ServerLink(std::int64_t session, const ServerLinkParams& params, Mer
   }
   robots_.resize(static_cast<std::size_t>(std::max(0, server->max_robots())));
   for (RobotState& r : robots_) r.request.request_id = -1;
+  taken_.resize(robots_.size());
+  for (std::size_t r = 0; r < taken_.size(); ++r) taken_[r].robot_id = static_cast<int>(r);
   last_result_.server_session = session;
 }
 
@@ -114,8 +117,38 @@ Status ServerLink::CheckSession(int robot_id, std::int64_t session, const char* 
   return Status::Ok();
 }
 
+void ServerLink::CountTaken(int robot_id, RobotMessageKind kind, std::initializer_list<std::int64_t> ids) {
+  if (robot_id < 0 || robot_id >= static_cast<int>(taken_.size())) return;
+  RoundRobotInput& t = taken_[static_cast<std::size_t>(robot_id)];
+  const auto mix = [&t](std::uint64_t value) {  // FNV-1a, byte by byte
+    for (int b = 0; b < 8; ++b, value >>= 8) t.digest = (t.digest ^ static_cast<std::uint32_t>(value & 0xffu)) * 16777619u;
+  };
+  mix(static_cast<std::uint64_t>(kind));
+  for (std::int64_t id : ids) mix(static_cast<std::uint64_t>(id));
+  switch (kind) {
+    case RobotMessageKind::kKeyframeBatch: ++t.keyframe_batches; break;
+    case RobotMessageKind::kPoseUpdate: ++t.pose_updates; break;
+    case RobotMessageKind::kScanChunk: ++t.scan_chunks; break;
+  }
+}
+
+std::vector<RoundRobotInput> ServerLink::TakenInputs() const {
+  std::vector<RoundRobotInput> inputs = taken_;
+  for (std::size_t r = 0; r < inputs.size(); ++r) {
+    inputs[r].session = robots_[r].session;
+    inputs[r].left = robot_left(static_cast<int>(r));
+  }
+  return inputs;
+}
+
+void ServerLink::FollowRecordedRequests() noexcept {
+  params_.follow_recorded_steps = false;
+  params_.accept_unrequested_scans = true;
+}
+
 Status ServerLink::OnKeyframeBatch(const KeyframeBatch& batch, std::int64_t now_us) {
   if (!params_status_.ok()) return params_status_;
+  CountTaken(batch.robot_id, RobotMessageKind::kKeyframeBatch, {batch.session, batch.sequence});
   if (batch.robot_id >= 0 && batch.robot_id < static_cast<int>(robots_.size()) && batch.session > 0 &&
       batch.session > robot_session(batch.robot_id) && !server_->CheckKeyframeBatch(batch).ok()) {
     // Validate before a new session resets anything: a batch without one usable record must not wipe a robot's
@@ -129,6 +162,7 @@ Status ServerLink::OnKeyframeBatch(const KeyframeBatch& batch, std::int64_t now_
 
 Status ServerLink::OnPoseUpdate(const PoseUpdate& update, std::int64_t now_us) {
   if (!params_status_.ok()) return params_status_;
+  CountTaken(update.robot_id, RobotMessageKind::kPoseUpdate, {update.session, update.sequence});
   if (update.robot_id >= 0 && update.robot_id < static_cast<int>(robots_.size()) && update.session > 0 &&
       update.session > robot_session(update.robot_id) && !server_->CheckPoseUpdate(update).ok()) {
     return server_->OnPoseUpdate(update);  // refused and counted there, before a new session resets anything
@@ -146,6 +180,7 @@ Status ServerLink::OnPoseUpdate(const PoseUpdate& update, std::int64_t now_us) {
 
 Status ServerLink::OnScanChunk(const ScanChunk& chunk, std::int64_t now_us) {
   if (!params_status_.ok()) return params_status_;
+  CountTaken(chunk.robot_id, RobotMessageKind::kScanChunk, {chunk.request_id, chunk.keyframe, chunk.chunk_index});
   if (chunk.robot_id < 0 || chunk.robot_id >= static_cast<int>(robots_.size())) return server_->OnScanChunk(chunk);
   const RobotState& r = robots_[static_cast<std::size_t>(chunk.robot_id)];
   if (params_.accept_unrequested_scans && r.session != 0) {
@@ -267,6 +302,7 @@ std::size_t ServerLink::DeliveredKeyframes(int only_robot) const {
 }
 
 Status ServerLink::StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
+  const std::size_t first = out->size();
   ++stats_.rounds_started;
   round_requested_ = false;
   last_round_us_ = now_us;
@@ -280,9 +316,63 @@ Status ServerLink::StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* 
   if (Status st = merge_round_.Begin(Span<const std::int64_t>(sessions), &round_requests_); !st.ok()) return st;
   round_active_ = true;
   round_start_us_ = now_us;
+  round_step_ = 0;
   // A round whose scans are all held (or whose robots all left) continues at the next Poll.
   SendRequests(round_requests_, now_us, out);
+  EmitStep(round_ + 1, 0, false, first, now_us, out);
   return Status::Ok();
+}
+
+void ServerLink::EmitStep(int round, int step, bool finished, std::size_t first, std::int64_t now_us,
+                          std::vector<ServerOutgoing>* out) const {
+  ServerOutgoing o;
+  o.kind = ServerOutgoing::Kind::kRoundStep;
+  o.step.utime_us = now_us;
+  o.step.server_session = session_;
+  o.step.round = round;
+  o.step.step = step;
+  o.step.finished = finished;
+  o.step.robots = TakenInputs();
+  for (std::size_t i = first; i < out->size(); ++i) {
+    if ((*out)[i].kind != ServerOutgoing::Kind::kScanRequest) continue;
+    ScanRequest q = (*out)[i].request;
+    q.utime_us = 0;
+    o.step.requests.push_back(std::move(q));
+  }
+  out->insert(out->begin() + static_cast<std::ptrdiff_t>(first), std::move(o));
+}
+
+Status ServerLink::FollowStep(const RoundStep& recorded, std::int64_t now_us, std::vector<ServerOutgoing>* out) {
+  if (!params_status_.ok()) return params_status_;
+  for (const RoundRobotInput& r : recorded.robots) {
+    if (r.left) OnRobotLeft(r.robot_id, robot_session(r.robot_id));
+  }
+  const std::size_t first = out->size();
+  std::string before;
+  if (recorded.step == 0) {
+    if (round_active_) {
+      before = "round " + std::to_string(recorded.round) + " began in the recording while round " +
+               std::to_string(round_ + 1) + " here still waited for scans; ";
+    }
+    Status st = StartRound(now_us, out);
+    if (!st.ok()) {
+      round_active_ = false;
+      return st;
+    }
+  } else {
+    if (!round_active_) {
+      return DataLoss("round " + std::to_string(recorded.round) + " step " + std::to_string(recorded.step) +
+                                ": the recording continued a round, but no round waits here");
+    }
+    if (Status st = ContinueRound(now_us, out); !st.ok()) return st;
+  }
+  const RoundStep* mine = nullptr;
+  for (std::size_t i = first; i < out->size() && mine == nullptr; ++i) {
+    if ((*out)[i].kind == ServerOutgoing::Kind::kRoundStep) mine = &(*out)[i].step;
+  }
+  const std::string mismatch = mine != nullptr ? RoundStepMismatch(recorded, *mine) : "no step ran";
+  if (before.empty() && mismatch.empty()) return Status::Ok();
+  return DataLoss(before + mismatch);
 }
 
 std::size_t ServerLink::SendRequests(const std::vector<ScanRequest>& requests, std::int64_t now_us,
@@ -318,6 +408,8 @@ void ServerLink::WithdrawIncompleteRequests() {
 }
 
 Status ServerLink::ContinueRound(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
+  const std::size_t first = out->size();
+  const int step = ++round_step_;
   round_active_ = false;
   WithdrawIncompleteRequests();
   while (true) {
@@ -328,6 +420,7 @@ Status ServerLink::ContinueRound(std::int64_t now_us, std::vector<ServerOutgoing
     if (SendRequests(round_requests_, now_us, out) > 0) {  // wait for the extra scans
       round_active_ = true;
       round_start_us_ = now_us;
+      EmitStep(round_ + 1, step, false, first, now_us, out);
       return Status::Ok();
     }
   }
@@ -345,6 +438,7 @@ Status ServerLink::ContinueRound(std::int64_t now_us, std::vector<ServerOutgoing
   last_result_ = MakeMergeResultMessage(round, *server_, Span<const int>(ids), Span<const std::uint32_t>(keyframes),
                                         session_, now_us);
   last_result_.round = round_;
+  EmitStep(round_, step, true, first, now_us, out);
   ServerOutgoing o;
   o.kind = ServerOutgoing::Kind::kMergeResult;
   o.result = last_result_;
@@ -372,7 +466,7 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
       complete = complete && state.request_complete;
     }
     const bool timed_out = Elapsed(round_start_us_, now_us, params_.request_timeout_s);
-    if (complete || timed_out) {
+    if (!params_.follow_recorded_steps && (complete || timed_out)) {
       if (!complete) ++stats_.rounds_timed_out;
       round_work = true;
       if (Status st = ContinueRound(now_us, out); !st.ok()) return st;
@@ -380,7 +474,7 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
   } else {
     // Counting the delivered keyframes walks every database: only when a round could start.
     bool start = false;
-    if (round_requested_ || (params_.automatic_rounds && Elapsed(last_round_us_, now_us, params_.round_interval_s) &&
+    if ((round_requested_ && !params_.follow_recorded_steps) || (params_.automatic_rounds && Elapsed(last_round_us_, now_us, params_.round_interval_s) &&
                              Elapsed(last_round_check_us_, now_us, params_.status_interval_s))) {
       last_round_check_us_ = now_us;
       const std::size_t delivered = DeliveredKeyframes();

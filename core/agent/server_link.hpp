@@ -15,17 +15,22 @@
 //     is emitted as a MergeResultMessage.
 //   * Chunks must belong to the robot's active request; others (stale retransmissions, a previous server's
 //     requests) are refused and counted.
+//   * Every step of a round (its beginning, and each continuation) is also emitted as a RoundStep record: the
+//     messages taken from each robot so far and the requests sent, so a recording replays exactly
+//     (core/agent/round_replay.hpp, FollowStep).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
 #include "core/agent/merge_round.hpp"
 #include "core/agent/merge_server.hpp"
 #include "core/agent/messages.hpp"
+#include "core/agent/round_replay.hpp"
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 
@@ -50,6 +55,9 @@ struct ServerLinkParams {
   /// Start rounds by the rules above. A replaying server turns this off and starts a round (RequestRound) where
   /// the recording has the recording server's merge result, so its rounds see the same data.
   bool automatic_rounds = true;
+  /// Replay of a recording with round steps (merge_round_t): rounds neither start nor continue by themselves,
+  /// only at FollowStep (no request timeout either), so they run where the recorded ones ran.
+  bool follow_recorded_steps = false;
   /// What a round asks of pairs earlier rounds answered (core/agent/pair_exchange.hpp).
   PairExchangeParams exchange;
 };
@@ -57,11 +65,12 @@ struct ServerLinkParams {
 Status ValidateServerLinkParams(const ServerLinkParams& params);
 
 struct ServerOutgoing {
-  enum class Kind : std::uint8_t { kTransferStatus, kScanRequest, kMergeResult };
+  enum class Kind : std::uint8_t { kTransferStatus, kScanRequest, kMergeResult, kRoundStep };
   Kind kind = Kind::kTransferStatus;
   TransferStatus status;
   ScanRequest request;
   MergeResultMessage result;
+  RoundStep step;
 };
 
 struct ServerLinkStats {
@@ -92,6 +101,20 @@ class ServerLink {
 
   /// Starts a round at the next Poll() whatever the triggers say (when any robot has keyframes).
   void RequestRound() noexcept { round_requested_ = true; }
+
+  /// Replay (follow_recorded_steps): runs the step `recorded` describes now, on the messages handed over so far:
+  /// step 0 begins a round, a later step continues the waiting one. Robots the record says left are treated as
+  /// left first. Appends what the step sends (its RoundStep record first, then requests or the merge result).
+  /// Returns an error naming the difference when this server's step differs from the recorded one
+  /// (RoundStepMismatch) or cannot run (a continuation with no round waiting), or when the round failed.
+  Status FollowStep(const RoundStep& recorded, std::int64_t now_us, std::vector<ServerOutgoing>* out);
+  /// Turns follow_recorded_steps off and accept_unrequested_scans on: a replay of a log without round steps
+  /// (rounds begin at RequestRound and continue when their scans arrived or timed out).
+  void FollowRecordedRequests() noexcept;
+
+  /// What the server has taken of each robot id 0..max_robots-1 (messages handed to the On...() handlers, by
+  /// kind, over every session), as a round step records it.
+  std::vector<RoundRobotInput> TakenInputs() const;
 
   /// Robot `robot_id`'s process said it is leaving (its status "merged": `commerge robot --exit-when-merged`
   /// exits). Its open scan request is withdrawn and later rounds ask it for nothing: they use the scans held
@@ -145,6 +168,11 @@ class ServerLink {
   /// Sends `requests` (not to robots that left); returns how many it sent.
   std::size_t SendRequests(const std::vector<ScanRequest>& requests, std::int64_t now_us,
                            std::vector<ServerOutgoing>* out);
+  /// Inserts the RoundStep record of the step that began at out[first] (its requests are those sent since).
+  void EmitStep(int round, int step, bool finished, std::size_t first, std::int64_t now_us,
+                std::vector<ServerOutgoing>* out) const;
+  /// Counts a message handed to a handler; `ids` identify it within its kind (RoundRobotInput::digest).
+  void CountTaken(int robot_id, RobotMessageKind kind, std::initializer_list<std::int64_t> ids);
   /// Keyframes delivered by every robot, or by `only_robot` alone.
   std::size_t DeliveredKeyframes(int only_robot = -1) const;
 
@@ -159,6 +187,9 @@ class ServerLink {
   std::int64_t round_start_us_ = -1, last_round_us_ = -1, last_message_us_ = -1, last_round_check_us_ = -1;
   std::size_t delivered_at_last_round_ = 0;
   std::vector<std::uint32_t> round_keyframes_;  ///< per robot: delivered keyframes when the round started
+  /// Per robot id: messages handed to the handlers (over every session; RobotState resets with a session).
+  std::vector<RoundRobotInput> taken_;
+  int round_step_ = 0;  ///< steps of the current round so far
   int round_ = 0;
   MergeResultMessage last_result_;
   ServerLinkStats stats_;

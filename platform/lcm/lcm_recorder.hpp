@@ -74,7 +74,7 @@ struct LcmRecorderParams {
   /// LCM channel regex. The default is the mission's channels between robots and server; the live input
   /// (lidar_scan_t, odometry_t) stays on each board and is not recorded.
   std::string channels =
-      "COMMERGE_(KEYFRAMES|POSES|POLICY|SCANS|TRANSFER_STATUS|MERGE_RESULT|ROBOT_STATUS|SERVER_STATUS)";
+      "COMMERGE_(KEYFRAMES|POSES|POLICY|SCANS|TRANSFER_STATUS|MERGE_RESULT|ROUND|ROBOT_STATUS|SERVER_STATUS)";
   std::string out_path;
   bool overwrite = false;  ///< replace an existing file (otherwise refused)
   /// Messages LCM may hold between two polls (LCM counts messages, not bytes: see LcmBusParams).

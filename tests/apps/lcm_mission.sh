@@ -24,7 +24,11 @@
 #                   20 Hz on the board-local input URL, and `commerge robot --live` synchronises and maps it
 #   replay          a clean mission recorded with `commerge record` (complete by the senders' sequence numbers),
 #                   then played back with lcm-logplayer into a fresh `commerge server --replay`, which must
-#                   reproduce the recorded merge
+#                   follow every recorded round step with the same requests and reproduce the recorded merge;
+#                   then the same log without its round steps (lcm-logplayer -e), as a log from before them:
+#                   the replay must say so and still run
+#   replay-load     replay under CPU load: 3 busy loops (on 2 cores) run beside the recorded mission and beside
+#                   3 replays of its log, each of which must follow every round step exactly
 #   scan-context    robots and server with --descriptor scan-context (1226-byte Scan Context records, one per
 #                   batch) and 10 % of the packets dropped as in loss10
 #   attack          cm_lcm_sampler --attack (give --sampler) captures the daemons' signed messages and publishes
@@ -61,7 +65,8 @@ while [ $# -gt 0 ]; do
 done
 [ -n "$bin" ] && [ -n "$data" ] && [ -n "$work" ] && [ -n "$scenario" ] || usage
 case "$scenario" in
-  clean|loss10|loss50|tbf2mbit|delay2s|dup-reorder|robot-restart|server-restart|hostile|live|replay|attack|scan-context) ;;
+  clean|loss10|loss50|tbf2mbit|delay2s|dup-reorder|robot-restart|server-restart|hostile|live|replay|replay-load|attack|\
+  scan-context) ;;
   *) echo "lcm_mission.sh: unknown scenario '$scenario'" >&2; exit 2 ;;
 esac
 for f in "$data/robot_0/poses.txt" "$data/robot_1/poses.txt" "$data/start_transforms.txt"; do
@@ -176,8 +181,26 @@ start_robot() {  # $1 = id, $2 = log name
   pids+=("$!")
 }
 
+burners=()
+start_burners() {  # $1 = seconds: 3 busy loops, each ending by itself
+  local i
+  for i in 1 2 3; do
+    timeout "$1" bash -c 'while :; do :; done' &
+    burners+=("$!")
+    pids+=("$!")
+  done
+}
+stop_burners() {
+  local p
+  for p in "${burners[@]}"; do kill "$p" 2>/dev/null || true; wait "$p" 2>/dev/null || true; done
+  burners=()
+}
+is_replay=0
+case "$scenario" in replay|replay-load) is_replay=1 ;; esac
+[ "$scenario" = replay-load ] && start_burners "$max_runtime_s"
+
 logger_pid=""
-if [ "$scenario" = replay ]; then
+if [ "$is_replay" = 1 ]; then
   command -v lcm-logplayer >/dev/null ||
     { echo "CM-SKIP: lcm-logplayer (Debian liblcm-bin) is not installed"; exit 0; }
   # commerge record, not lcm-logger: lcm-logger keeps LCM's queue of 30 messages and lost scan chunks under CPU
@@ -397,25 +420,30 @@ if [ ${#auth[@]} -gt 0 ]; then
   dropped+=" auth on (robot 0: ${overhead:-?} of its bytes);"
 fi
 
-if [ "$scenario" = replay ]; then
-  kill -INT "$logger_pid"
-  rc=0
-  wait "$logger_pid" 2>/dev/null || rc=$?
-  [ "$rc" = 0 ] && [ -s "$work/mission.lcmlog" ] ||
-    { echo "lcm_mission.sh: commerge record failed (exit $rc): $(cat "$work/logger.err")" >&2; exit 1; }
-  # The recording must be complete by the senders' sequence numbers, or no replay could reproduce the merge.
-  grep -q "; 0 missing by the senders' sequence numbers" "$work/logger.out" ||
-    { echo "lcm_mission.sh: the recording is incomplete: $(cat "$work/logger.out") $(rcvbuf_note)" >&2; exit 1; }
-  server_args=(server --out "$work/replay" --robots "$n" --tau-area 1000 --round-quiet-s 3 --exit-when-merged "$n"
+# $1 = name, $2 = lcm-logplayer channel regex ("" = every channel): plays the log into a fresh replay server.
+replay_log() {
+  server_args=(server --out "$work/$1" --robots "$n" --tau-area 1000 --round-quiet-s 3 --exit-when-merged "$n"
                --max-runtime-s "$max_runtime_s" --linger-s 0 --replay "${auth[@]}")
-  start_server replay-server
+  start_server "$1"
   sleep 0.5
-  lcm-logplayer "$work/mission.lcmlog" >"$work/logplayer.out" 2>&1 &
+  lcm-logplayer ${2:+-e "$2"} "$work/mission.lcmlog" >"$work/$1-logplayer.out" 2>&1 &
   player_pid=$!
   pids+=("$player_pid")
-  wait_for "$server_pid" replay-server
+  rc=0
+  wait_for "$server_pid" "$1"
   kill "$player_pid" 2>/dev/null || true
-  [ "$rc" = 0 ] || { echo "lcm_mission.sh: the replay server did not merge" >&2; exit 1; }
+}
+# $1 = name: the replay followed every round step exactly and reproduced the recorded transforms.txt.
+check_exact_replay() {
+  [ "$rc" = 0 ] || { echo "lcm_mission.sh: $1: the replay server did not merge or differed" >&2; exit 1; }
+  local line
+  line=$(grep "^server: replay followed " "$work/$1.out" || true)
+  case "$line" in
+    *" round steps of recording server session "*": 0 differed; "*" compared, 0 differed "*) ;;
+    *) echo "lcm_mission.sh: $1: the replay did not follow the recorded round steps: ${line:-<no summary>}" >&2
+       grep "MISMATCH" "$work/$1.err" >&2 || true
+       exit 1 ;;
+  esac
   # Every robot's line: merged or not and T_world_map (a robot missing from one file differs by its matrix).
   diff_m=$(awk 'FNR == 1 { f++ }
                 $1 == "robot" { r[$2] = 1; st[f, $2] = $3; for (i = 4; i <= 15; i++) v[f, $2, i] = $i }
@@ -426,14 +454,45 @@ if [ "$scenario" = replay ]; then
                           d = v[1, id, i] - v[2, id, i]; if (d < 0) d = -d; if (d > m) m = d
                         }
                       }
-                      printf "%.6f", m }' "$work/server/transforms.txt" "$work/replay/transforms.txt")
+                      printf "%.6f", m }' "$work/server/transforms.txt" "$work/$1/transforms.txt")
   if ! awk -v d="$diff_m" 'BEGIN { exit !(d < 0.001) }'; then
-    echo "lcm_mission.sh: the replayed merge differs from the recorded one by $diff_m (largest matrix entry)" \
+    echo "lcm_mission.sh: $1: the replayed merge differs from the recorded one by $diff_m (largest matrix entry)" \
          "$(rcvbuf_note)" >&2
     exit 1
   fi
-  echo "lcm mission replay: $(stat -c %s "$work/mission.lcmlog") B log replayed into a fresh server; largest" \
-       "difference of T_world_map from the recorded merge: $diff_m; $(sed 's/^record: //' "$work/logger.out")"
+  steps=$(echo "$line" | sed -n 's/^server: replay followed \([0-9]*\) round steps.*/\1/p')
+}
+
+if [ "$is_replay" = 1 ]; then
+  kill -INT "$logger_pid"
+  rc=0
+  wait "$logger_pid" 2>/dev/null || rc=$?
+  [ "$rc" = 0 ] && [ -s "$work/mission.lcmlog" ] ||
+    { echo "lcm_mission.sh: commerge record failed (exit $rc): $(cat "$work/logger.err")" >&2; exit 1; }
+  # The recording must be complete by the senders' sequence numbers, or no replay could reproduce the merge.
+  grep -q "; 0 missing by the senders' sequence numbers" "$work/logger.out" ||
+    { echo "lcm_mission.sh: the recording is incomplete: $(cat "$work/logger.out") $(rcvbuf_note)" >&2; exit 1; }
+  replays=1
+  [ "$scenario" = replay-load ] && replays=3
+  summary=""
+  for i in $(seq "$replays"); do
+    name=replay
+    [ "$replays" = 1 ] || name=replay$i
+    replay_log "$name" ""
+    check_exact_replay "$name"
+    summary+=" $name: $steps steps, requests as recorded, largest difference $diff_m;"
+  done
+  stop_burners
+  if [ "$scenario" = replay ]; then
+    # A log from before round steps: the same log without COMMERGE_ROUND replays as before, with a warning.
+    replay_log replay-old 'COMMERGE_(KEYFRAMES|POSES|POLICY|SCANS|TRANSFER_STATUS|MERGE_RESULT|ROBOT_STATUS|SERVER_STATUS)'
+    grep -q "replay: warning: the log shows .* before any round step" "$work/replay-old.err" &&
+      grep -q "^server: replay without round steps" "$work/replay-old.out" ||
+      { echo "lcm_mission.sh: a log without round steps was not replayed with the warning" >&2; exit 1; }
+    summary+=" the log without round steps replayed with the warning (exit $rc);"
+  fi
+  echo "lcm mission $scenario: $(stat -c %s "$work/mission.lcmlog") B log replayed into fresh servers;$summary" \
+       "$(sed 's/^record: //' "$work/logger.out")"
 fi
 
 dropped+=" kernel receive-buffer drops $(udp_rcvbuf_errors);"

@@ -19,8 +19,8 @@ add_test(NAME "lcm mission: generate the two-robot urban dataset"
 set_tests_properties("lcm mission: generate the two-robot urban dataset"
                      PROPERTIES FIXTURES_SETUP lcm_mission_data LABELS heavy TIMEOUT 300)
 
-foreach(scenario clean loss10 loss50 tbf2mbit delay2s dup-reorder robot-restart server-restart hostile live replay attack
-                 scan-context)
+foreach(scenario clean loss10 loss50 tbf2mbit delay2s dup-reorder robot-restart server-restart hostile live replay
+                 replay-load attack scan-context)
   set(name "lcm mission: ${scenario} ends merged with every descriptor delivered")
   add_test(NAME "${name}"
            COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/lcm_mission.sh" --commerge $<TARGET_FILE:commerge>

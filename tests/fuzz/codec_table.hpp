@@ -5,7 +5,8 @@
 // decoding the largest legal message needs, plus the two copies of the input libFuzzer holds (the CTest test runs
 // that message first, when seed_corpus.cpp makes one). For the rows below the largest legal message is a full
 // merge_result_t (645 KB; 64 robots, 2016 pairs with 256-byte verdicts), whose decoding needs ~0.5 MB in one
-// block (its 2016 MergePairOutcome; a full pose_update_t's 4096 Eigen::Isometry3d are 0.5 MB too): 2 MB.
+// block (its 2016 MergePairOutcome; a full pose_update_t's 4096 Eigen::Isometry3d are 0.5 MB too): 2 MB. A full
+// merge_round_t carries 2^20 keyframes (4.2 MB on the wire, decoded into one 4 MB int32 block): 16 MB.
 //
 // Adding a decoder is one row here. tests/fuzz/CMakeLists.txt reads the rows from this file and builds
 // cm_fuzz_<name> (fuzz_decoder.cpp with the row selected) and the CTest test "fuzz: <name>"; cm_fuzz_seeds
@@ -16,6 +17,7 @@
 #include "platform/lcm/message_codec.hpp"
 #include "platform/lcm/status_codec.hpp"
 #include "platform/lcm/input_codec.hpp"
+#include "platform/lcm/round_codec.hpp"
 
 // clang-format off
 #define CM_FUZZ_CODECS(X)                                                                   \
@@ -25,6 +27,7 @@
   X(scan_chunk,      ScanChunk,          DecodeScanChunk,       EncodeScanChunk,      2)    \
   X(transfer_status, TransferStatus,     DecodeTransferStatus,  EncodeTransferStatus, 2)    \
   X(merge_result,    MergeResultMessage, DecodeMergeResult,     EncodeMergeResult,    2)    \
+  X(round_step,      RoundStep,          DecodeRoundStep,       EncodeRoundStep,      16)   \
   X(robot_status,    RobotStatus,        DecodeRobotStatus,     EncodeRobotStatus,    2)    \
   X(server_status,   ServerStatus,       DecodeServerStatus,    EncodeServerStatus,   2)    \
   X(lidar_scan,      LidarScan,          DecodeLidarScan,       EncodeLidarScan,      8)    \

@@ -64,6 +64,7 @@ struct SampleBank {
   std::vector<ScanChunk> chunks;
   std::vector<TransferStatus> statuses;
   std::vector<MergeResultMessage> results;
+  std::vector<RoundStep> round_steps;
   std::vector<RobotStatus> robot_statuses;
   std::vector<ServerStatus> server_statuses;
   std::vector<std::uint8_t> stream;         // the whole server inbox
@@ -246,6 +247,7 @@ class Mission {
           bank_.results.push_back(o.result);
           merged_us_ = server_.now_us();
           break;
+        case ServerOutgoing::Kind::kRoundStep: bank_.round_steps.push_back(o.step); break;
       }
     }
   }
@@ -586,6 +588,31 @@ Samples<TransferStatus> SamplesOf(const SampleBank& b, Tag<TransferStatus>) {
 }
 Samples<MergeResultMessage> SamplesOf(const SampleBank& b, Tag<MergeResultMessage>) {
   return {true, Plus(Spread(b.results, kSeedsPerKind), {MergeResultMessage{}}), {LargestResult()}};
+}
+// The largest legal round step: 64 robots, 64 requests of 16 384 keyframes (2^20 in all).
+RoundStep LargestRoundStep() {
+  RoundStep m;
+  m.round = 2147483647;
+  m.step = 32767;
+  for (int r = 0; r <= kMaxRobotId; ++r) {
+    RoundRobotInput in;
+    in.robot_id = r;
+    in.session = kInboxStartUs + r;
+    in.keyframe_batches = in.pose_updates = in.scan_chunks = 2147483647u;
+    in.digest = 0xffffffffu;
+    m.robots.push_back(in);
+  }
+  for (std::size_t q = 0; q < kMaxRoundRequests; ++q) {
+    ScanRequest req;
+    req.robot_id = static_cast<int>(q);
+    req.request_id = static_cast<std::int32_t>(q);
+    for (std::uint32_t k = 0; k < kMaxRoundKeyframes / kMaxRoundRequests; ++k) req.keyframes.push_back(3 * k);
+    m.requests.push_back(std::move(req));
+  }
+  return m;
+}
+Samples<RoundStep> SamplesOf(const SampleBank& b, Tag<RoundStep>) {
+  return {true, Plus(Spread(b.round_steps, kSeedsPerKind), {RoundStep{}}), {LargestRoundStep()}};
 }
 Samples<RobotStatus> SamplesOf(const SampleBank& b, Tag<RobotStatus>) {
   return {true, Plus(Spread(b.robot_statuses, kSeedsPerKind), {RobotStatus{}}), {LargestRobotStatus()}};

@@ -8,6 +8,7 @@
 
 #include "platform/lcm/message_codec.hpp"
 #include "platform/lcm/status_codec.hpp"
+#include "platform/lcm/round_codec.hpp"
 #include "tests/fuzz/fuzz_support.hpp"
 
 namespace commerge::fuzz {
@@ -202,6 +203,9 @@ void InboxServer::Publish() {
       case ServerOutgoing::Kind::kMergeResult:
         out_bytes_.push_back(RoundTrip("merge_result_t", o.result, platform::EncodeMergeResult,
                                        platform::DecodeMergeResult));
+        break;
+      case ServerOutgoing::Kind::kRoundStep:
+        out_bytes_.push_back(RoundTrip("merge_round_t", o.step, platform::EncodeRoundStep, platform::DecodeRoundStep));
         break;
     }
   }

@@ -27,6 +27,7 @@
 #include <commerge/keyframe_batch_t.hpp>
 #include <commerge/lidar_scan_t.hpp>
 #include <commerge/merge_result_t.hpp>
+#include <commerge/merge_round_t.hpp>
 #include <commerge/odometry_t.hpp>
 #include <commerge/pose_update_t.hpp>
 #include <commerge/robot_status_t.hpp>
@@ -45,6 +46,7 @@
 #include "platform/lcm/lcm_bus.hpp"
 #include "platform/lcm/message_auth.hpp"
 #include "platform/lcm/message_codec.hpp"
+#include "platform/lcm/round_codec.hpp"
 #include "platform/lcm/status_codec.hpp"
 
 namespace commerge {
@@ -196,6 +198,29 @@ std::vector<Sample> MakeSamples(std::int64_t robot_session, std::int64_t server_
     p.consistent = true;
     m.pairs = {p};
     return platform::EncodeMergeResult(m, out);
+  }));
+  s.push_back(MakeSample<commerge::merge_round_t>(platform::kRoundChannel, [=](int round, Bytes* out) {
+    RoundStep m;
+    m.utime_us = platform::WallTimeUs();
+    m.server_session = server_session;
+    m.round = round + 1;
+    m.step = 0;
+    for (int r : {0, 1}) {
+      RoundRobotInput in;
+      in.robot_id = r;
+      in.session = robot_session + r;
+      in.keyframe_batches = 17;
+      in.pose_updates = 2;
+      in.scan_chunks = 40u * static_cast<std::uint32_t>(round);
+      in.digest = 0x811c9dc5u + static_cast<std::uint32_t>(r);
+      m.robots.push_back(in);
+    }
+    ScanRequest q;
+    q.robot_id = kRobotId;
+    q.request_id = kRequestId;
+    q.keyframes = {3, 4, 5};
+    m.requests = {q};
+    return platform::EncodeRoundStep(m, out);
   }));
   // The odometry stack's input (board-local in a deployment; here on the same URL, for lcm-spy).
   s.push_back(MakeSample<commerge::lidar_scan_t>(platform::kLidarScanChannel, [=](int round, Bytes* out) {

@@ -12,10 +12,12 @@
 #include <deque>
 #include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "core/agent/merge_server.hpp"
 #include "core/agent/robot_link.hpp"
+#include "core/agent/round_replay.hpp"
 #include "core/agent/server_link.hpp"
 #include "core/agent/delivery_digest.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
@@ -144,6 +146,7 @@ class Mission {
     REQUIRE(server_->Poll(now_us_, &out).ok());
     for (ServerOutgoing& o : out) {
       if (o.kind == ServerOutgoing::Kind::kMergeResult) ++merge_results_;
+      if (o.kind == ServerOutgoing::Kind::kRoundStep) steps_.push_back({recorded_.size(), o.step});
       const int to = o.kind == ServerOutgoing::Kind::kTransferStatus ? o.status.robot_id
                      : o.kind == ServerOutgoing::Kind::kScanRequest ? o.request.robot_id
                                                                      : -2;  // broadcast: nobody consumes it here
@@ -317,6 +320,8 @@ class Mission {
   std::uint64_t bytes_sent_ = 0, bytes_resent_ = 0;
   int merge_results_ = 0, refused_ = 0;
   std::vector<std::pair<std::int64_t, RobotOutgoing>> recorded_;  ///< robot -> server, as delivered
+  /// The server's round steps, each after the first n messages of recorded_ (n = its first member).
+  std::vector<std::pair<std::size_t, RoundStep>> steps_;
 };
 
 ServerLinkParams SendAllParams() {
@@ -627,6 +632,125 @@ TEST_CASE("Reliable transfer: a recorded mission replayed into a fresh server re
   const MergeResultMessage live_rules = Replay(recorded, params);
   REQUIRE(live_rules.in_world.size() == 2);
   CHECK(live_rules.in_world[1] == 0);
+}
+
+// What a replay that follows the recorded round steps did.
+struct StepReplay {
+  MergeResultMessage result;
+  std::vector<RoundStep> steps;        ///< its own steps
+  std::vector<std::string> mismatches; ///< FollowStep's errors, in order
+};
+
+// Replays `recorded` (robot -> server) and the recorded round steps into a fresh server as `commerge server
+// --replay` does: robot messages wait in a queue, and each step record arriving `late` messages after the point
+// where the recording server ran it (as a recorder sees it when the server's cascade took a while) first hands
+// the link the messages the recording had taken (MessagesDue), then runs the step.
+StepReplay ReplaySteps(const std::vector<std::pair<std::int64_t, RobotOutgoing>>& recorded,
+                       const std::vector<std::pair<std::size_t, RoundStep>>& steps, std::size_t late, int robots) {
+  MergeServerParams mp;
+  mp.cascade.stage_a = SequentialMatchParams{};
+  mp.cascade.stage_a.tau_area = 4;
+  MergeServer merge(robots, 64, mp);
+  ServerLinkParams params;
+  params.mode = ExchangeMode::kStageABC;
+  params.automatic_rounds = false;
+  params.follow_recorded_steps = true;
+  ServerLink link(777, params, &merge);
+  StepReplay replay;
+  std::vector<std::pair<std::int64_t, RobotOutgoing>> queue;
+  const auto apply = [&](const std::pair<std::int64_t, RobotOutgoing>& m) {
+    switch (m.second.kind) {
+      case RobotOutgoing::Kind::kKeyframeBatch: (void)link.OnKeyframeBatch(m.second.batch, m.first); break;
+      case RobotOutgoing::Kind::kPoseUpdate: (void)link.OnPoseUpdate(m.second.poses, m.first); break;
+      case RobotOutgoing::Kind::kScanChunk: (void)link.OnScanChunk(m.second.chunk, m.first); break;
+    }
+  };
+  std::size_t next_step = 0;
+  std::vector<ServerOutgoing> out;
+  for (std::size_t i = 0; i <= recorded.size() + late; ++i) {
+    if (i < recorded.size()) queue.push_back(recorded[i]);
+    for (; next_step < steps.size() && std::min(steps[next_step].first + late, recorded.size()) <= i; ++next_step) {
+      const RoundStep& step = steps[next_step].second;
+      std::vector<QueuedRobotMessage> refs;
+      for (const auto& [t, m] : queue) {
+        refs.push_back({m.kind == RobotOutgoing::Kind::kKeyframeBatch ? m.batch.robot_id
+                        : m.kind == RobotOutgoing::Kind::kPoseUpdate  ? m.poses.robot_id
+                                                                      : m.chunk.robot_id,
+                        m.kind == RobotOutgoing::Kind::kKeyframeBatch ? RobotMessageKind::kKeyframeBatch
+                        : m.kind == RobotOutgoing::Kind::kPoseUpdate  ? RobotMessageKind::kPoseUpdate
+                                                                      : RobotMessageKind::kScanChunk});
+      }
+      const std::vector<RoundRobotInput> taken = link.TakenInputs();
+      const std::vector<std::size_t> due = MessagesDue(Span<const QueuedRobotMessage>(refs),
+                                                       Span<const RoundRobotInput>(step.robots),
+                                                       Span<const RoundRobotInput>(taken));
+      std::vector<std::pair<std::int64_t, RobotOutgoing>> kept;
+      std::size_t d = 0;
+      for (std::size_t q = 0; q < queue.size(); ++q) {
+        if (d < due.size() && due[d] == q) {
+          apply(queue[q]);
+          ++d;
+        } else {
+          kept.push_back(std::move(queue[q]));
+        }
+      }
+      queue = std::move(kept);
+      out.clear();
+      const Status st = link.FollowStep(step, step.utime_us, &out);
+      if (!st.ok()) replay.mismatches.push_back(st.message());
+      for (const ServerOutgoing& o : out) {
+        if (o.kind == ServerOutgoing::Kind::kRoundStep) replay.steps.push_back(o.step);
+      }
+    }
+  }
+  replay.result = link.last_result();
+  return replay;
+}
+
+TEST_CASE("Reliable transfer: a replay that follows the recorded round steps reproduces every round and request") {
+  // Three robots, loss, duplicates and reordering, rounds every second: messages keep arriving between a
+  // round's steps, so where a step cuts the data matters.
+  ServerLinkParams params = SendAllParams();
+  params.mode = ExchangeMode::kStageABC;
+  params.round_interval_s = 1.0;
+  params.round_min_new_keyframes = 8;
+  params.request_timeout_s = 3.0;
+  Mission m(3, 48, LinkModel{0.1, 0.05, 20000, 60000}, 11, params);
+  m.RunUntil(60000000);
+  REQUIRE(m.server_->rounds_merged() >= 3);
+  REQUIRE(m.steps_.size() >= 6);
+  const MergeResultMessage& original = m.server_->last_result();
+  REQUIRE(original.in_world.size() == 3);
+  for (std::size_t late : {std::size_t{0}, std::size_t{7}, std::size_t{40}}) {
+    CAPTURE(late);
+    const StepReplay replay = ReplaySteps(m.recorded_, m.steps_, late, 3);
+    CHECK(replay.mismatches.empty());
+    if (!replay.mismatches.empty()) MESSAGE(replay.mismatches.front());
+    REQUIRE(replay.steps.size() == m.steps_.size());
+    for (std::size_t i = 0; i < replay.steps.size(); ++i) {
+      CAPTURE(i);
+      CHECK(RoundStepMismatch(m.steps_[i].second, replay.steps[i]).empty());
+      CHECK(replay.steps[i].requests.size() == m.steps_[i].second.requests.size());
+    }
+    REQUIRE(replay.result.round == original.round);
+    CHECK(replay.result.in_world == original.in_world);
+    for (std::size_t r = 0; r < original.robot_ids.size(); ++r) {
+      CHECK((replay.result.T_world_map[r].matrix() - original.T_world_map[r].matrix()).cwiseAbs().maxCoeff() == 0.0);
+    }
+  }
+  // A log that lacks one of robot 1's keyframe batches: the step that had taken it says so, by robot and count.
+  std::vector<std::pair<std::int64_t, RobotOutgoing>> lacking = m.recorded_;
+  std::vector<std::pair<std::size_t, RoundStep>> steps = m.steps_;
+  for (std::size_t i = 0; i < lacking.size(); ++i) {
+    if (lacking[i].second.kind != RobotOutgoing::Kind::kKeyframeBatch || lacking[i].second.batch.robot_id != 1) continue;
+    lacking.erase(lacking.begin() + static_cast<std::ptrdiff_t>(i));
+    for (auto& [at, step] : steps) at -= at > i ? 1 : 0;
+    break;
+  }
+  const StepReplay broken = ReplaySteps(lacking, steps, 0, 3);
+  REQUIRE(!broken.mismatches.empty());
+  MESSAGE(broken.mismatches.front());
+  CHECK(broken.mismatches.front().find("robot 1 input: recorded session 1001") != std::string::npos);
 }
 
 TEST_CASE("Reliable transfer: a refused message of a newer session neither resets the robot nor locks it out") {
