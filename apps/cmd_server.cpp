@@ -114,6 +114,8 @@ class ServerProcess {
   Status HandleRecorded(const platform::BusMessage& message, std::int64_t wall);
   Status HandleMessage(const platform::BusMessage& message, std::int64_t wall, Received* received);
   void CountReceived(const platform::BusMessage& message, const Received& received);
+  /// Counts an accepted message's bytes, or the rejection (last_rejection_).
+  void Account(const platform::BusMessage& message, const Status& st, const Received& received);
   /// A row of exchange_rounds.tsv and the chart, for the round just finished.
   void WriteExchangeRound(const MergeResultMessage& result);
   void WriteExchangeSummary();
@@ -374,13 +376,17 @@ void ServerProcess::HandleQueued(const platform::BusMessage& message, std::int64
   replay_mode_ = ReplayMode::kRequests;  // handled now, not queued again
   const Status st = HandleMessage(message, wall, &received);
   replay_mode_ = mode;
+  Account(message, st, received);
+}
+
+void ServerProcess::Account(const platform::BusMessage& message, const Status& st, const Received& received) {
   if (st.ok()) {
     CountReceived(message, received);
-  } else {
-    ++rejected_;
-    last_rejection_ = message.channel + ": " + st.message();
-    if (last_rejection_.size() > kMaxStatusTextBytes) last_rejection_.resize(kMaxStatusTextBytes);
+    return;
   }
+  ++rejected_;
+  last_rejection_ = message.channel + ": " + st.message();
+  if (last_rejection_.size() > kMaxStatusTextBytes) last_rejection_.resize(kMaxStatusTextBytes);
 }
 
 void ServerProcess::ApplyQueued(const std::vector<std::size_t>& due, bool all, std::int64_t wall) {
@@ -730,14 +736,7 @@ int ServerProcess::Run() {
       Received received;
       const Status st = HandleMessage(message, wall, &received);
       last_recorded_us_ = platform::MonotonicUs();
-      if (st.ok() && received.queued) continue;  // counted when a recorded round step takes it
-      if (st.ok()) {
-        CountReceived(message, received);
-      } else {
-        ++rejected_;
-        last_rejection_ = message.channel + ": " + st.message();
-        if (last_rejection_.size() > kMaxStatusTextBytes) last_rejection_.resize(kMaxStatusTextBytes);
-      }
+      if (!(st.ok() && received.queued)) Account(message, st, received);  // a queued one: when a step takes it
     }
     out.clear();
     if (Status st = link_->Poll(wall, &out); !st.ok()) {

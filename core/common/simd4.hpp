@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: four floats in one SIMD register (GCC/Clang vector extension: SSE2 on x86-64, NEON on aarch64), with
 // loads and stores through memcpy, so no alignment or aliasing assumption is made on the buffers. Lane operations
-// are the correctly rounded scalar ones. Used by the affinity kernel and the sequence smoothing.
+// are the correctly rounded scalar ones. Used by the affinity kernel, the sequence smoothing and the neighbour rank.
 #pragma once
 
 #include <cstring>

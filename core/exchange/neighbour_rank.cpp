@@ -4,11 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <limits>
 #include <string>
 
 #include "core/common/float_limits.hpp"
+#include "core/common/simd4.hpp"
 
 namespace commerge {
 
@@ -25,17 +25,12 @@ void KeepSmallest(float v, float* list, std::size_t k) {
   list[pos] = v;
 }
 
-typedef float V4f __attribute__((vector_size(16)));  // GCC/Clang vector extension, as in affinity.cpp
-typedef std::int32_t V4i __attribute__((vector_size(16)));
+typedef std::int32_t V4i __attribute__((vector_size(16)));  // the lane masks of V4f comparisons
 
 // True when one of the 8 values v[q] is at or below row_kth or at or below col_kth[q * k] (NaN never is).
 bool AnyAtOrBelow(const float* v, float row_kth, const float* col_kth, std::size_t k) noexcept {
   if (k == 1) {
-    V4f a, b, ca, cb;
-    std::memcpy(&a, v, sizeof a);
-    std::memcpy(&b, v + 4, sizeof b);
-    std::memcpy(&ca, col_kth, sizeof ca);
-    std::memcpy(&cb, col_kth + 4, sizeof cb);
+    const V4f a = Load4f(v), b = Load4f(v + 4), ca = Load4f(col_kth), cb = Load4f(col_kth + 4);
     const V4f r = {row_kth, row_kth, row_kth, row_kth};
     const V4i m = (a <= r) | (a <= ca) | (b <= r) | (b <= cb);
     return (m[0] | m[1] | m[2] | m[3]) != 0;
