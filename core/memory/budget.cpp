@@ -6,7 +6,7 @@
 #include <cstdio>
 
 #include "core/common/bytes.hpp"
-#include "core/exchange/place_consensus.hpp"
+#include "core/memory/consensus_bound.hpp"
 
 namespace commerge {
 
