@@ -356,7 +356,8 @@ bool ServerProcess::QueueReplayed(const platform::BusMessage& message) {
   replay_queue_.push_back(QueuedMessage{message, ref});
   // Bounded by the inbox budget (--queue-mb): beyond it the oldest goes to the link now. The step that should
   // have taken it later differs, and says so.
-  while (replay_queue_bytes_ > static_cast<std::size_t>(setup_.config.message_queue_bytes) && replay_queue_.size() > 1) {
+  const auto limit = static_cast<std::size_t>(setup_.config.message_queue_bytes);
+  while (replay_queue_bytes_ > limit && replay_queue_.size() > 1) {
     if (replay_overflow_++ == 0) {
       std::fprintf(stderr, "%s: replay: more than --queue-mb %lld MiB of robot messages wait for a recorded round "
                            "step; the oldest are handed over early (this replay may differ from the recording)\n",

@@ -121,7 +121,9 @@ void ServerLink::CountTaken(int robot_id, RobotMessageKind kind, std::initialize
   if (robot_id < 0 || robot_id >= static_cast<int>(taken_.size())) return;
   RoundRobotInput& t = taken_[static_cast<std::size_t>(robot_id)];
   const auto mix = [&t](std::uint64_t value) {  // FNV-1a, byte by byte
-    for (int b = 0; b < 8; ++b, value >>= 8) t.digest = (t.digest ^ static_cast<std::uint32_t>(value & 0xffu)) * 16777619u;
+    for (int b = 0; b < 8; ++b, value >>= 8) {
+      t.digest = (t.digest ^ static_cast<std::uint32_t>(value & 0xffu)) * 16777619u;
+    }
   };
   mix(static_cast<std::uint64_t>(kind));
   for (std::int64_t id : ids) mix(static_cast<std::uint64_t>(id));
@@ -362,7 +364,7 @@ Status ServerLink::FollowStep(const RoundStep& recorded, std::int64_t now_us, st
   } else {
     if (!round_active_) {
       return DataLoss("round " + std::to_string(recorded.round) + " step " + std::to_string(recorded.step) +
-                                ": the recording continued a round, but no round waits here");
+                      ": the recording continued a round, but no round waits here");
     }
     if (Status st = ContinueRound(now_us, out); !st.ok()) return st;
   }
@@ -474,8 +476,9 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
   } else {
     // Counting the delivered keyframes walks every database: only when a round could start.
     bool start = false;
-    if ((round_requested_ && !params_.follow_recorded_steps) || (params_.automatic_rounds && Elapsed(last_round_us_, now_us, params_.round_interval_s) &&
-                             Elapsed(last_round_check_us_, now_us, params_.status_interval_s))) {
+    const bool requested = round_requested_ && !params_.follow_recorded_steps;
+    if (requested || (params_.automatic_rounds && Elapsed(last_round_us_, now_us, params_.round_interval_s) &&
+                      Elapsed(last_round_check_us_, now_us, params_.status_interval_s))) {
       last_round_check_us_ = now_us;
       const std::size_t delivered = DeliveredKeyframes();
       const std::size_t fresh = delivered > delivered_at_last_round_ ? delivered - delivered_at_last_round_ : 0;

@@ -23,7 +23,9 @@ static_assert(commerge::merge_round_t::MAX_KEYFRAMES == static_cast<std::int32_t
 
 constexpr const char* kRoundType = "merge_round_t";
 
-std::string RoundIndexed(const char* field, std::size_t i) { return std::string(field) + "[" + std::to_string(i) + "]"; }
+std::string RoundIndexed(const char* field, std::size_t i) {
+  return std::string(field) + "[" + std::to_string(i) + "]";
+}
 
 // The rules both sides enforce on the plain struct (`make`: InvalidArgument when encoding, DataLoss when
 // decoding).
@@ -34,20 +36,25 @@ Status ValidateRoundStep(const RoundStep& m, MakeError make) {
   }
   if (m.robots.size() > kMaxMergeRobots || m.requests.size() > kMaxRoundRequests) {
     return make(std::string(kRoundType) + ": " + std::to_string(m.robots.size()) + " robots and " +
-                std::to_string(m.requests.size()) + " requests (at most " + std::to_string(kMaxMergeRobots) +
-                " and " + std::to_string(kMaxRoundRequests) + ")");
+                std::to_string(m.requests.size()) + " requests (at most " + std::to_string(kMaxMergeRobots) + " and " +
+                std::to_string(kMaxRoundRequests) + ")");
   }
   for (std::size_t i = 0; i < m.robots.size(); ++i) {
-    if (Status st = CheckRobotIdAs(make, m.robots[i].robot_id, kRoundType, RoundIndexed("robot_id", i)); !st.ok()) return st;
+    if (Status st = CheckRobotIdAs(make, m.robots[i].robot_id, kRoundType, RoundIndexed("robot_id", i)); !st.ok()) {
+      return st;
+    }
     if (i > 0 && m.robots[i].robot_id <= m.robots[i - 1].robot_id) {
-      return make(std::string(kRoundType) + ": " + RoundIndexed("robot_id", i) + " = " + std::to_string(m.robots[i].robot_id) +
-                  " does not follow " + std::to_string(m.robots[i - 1].robot_id) + " (ascending, unique)");
+      return make(std::string(kRoundType) + ": " + RoundIndexed("robot_id", i) + " = " +
+                  std::to_string(m.robots[i].robot_id) + " does not follow " +
+                  std::to_string(m.robots[i - 1].robot_id) + " (ascending, unique)");
     }
   }
   std::size_t keyframes = 0;
   for (std::size_t i = 0; i < m.requests.size(); ++i) {
     const ScanRequest& q = m.requests[i];
-    if (Status st = CheckRobotIdAs(make, q.robot_id, kRoundType, RoundIndexed("request_robot_id", i)); !st.ok()) return st;
+    if (Status st = CheckRobotIdAs(make, q.robot_id, kRoundType, RoundIndexed("request_robot_id", i)); !st.ok()) {
+      return st;
+    }
     keyframes += q.keyframes.size();
     for (std::size_t k = 0; k < q.keyframes.size(); ++k) {
       if (q.keyframes[k] > static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max()) ||
@@ -133,9 +140,10 @@ Result<RoundStep> DecodeRoundStep(Span<const std::uint8_t> bytes) {
     r.robot_id = msg.robot_id[i];
     r.session = msg.robot_session[i];
     const std::string at = RoundIndexed("robots", i) + ".";
-    for (const auto& [name, wire, value] : {std::make_tuple("keyframe_batches", msg.keyframe_batches[i], &r.keyframe_batches),
-                                            std::make_tuple("pose_updates", msg.pose_updates[i], &r.pose_updates),
-                                            std::make_tuple("scan_chunks", msg.scan_chunks[i], &r.scan_chunks)}) {
+    for (const auto& [name, wire, value] :
+         {std::make_tuple("keyframe_batches", msg.keyframe_batches[i], &r.keyframe_batches),
+          std::make_tuple("pose_updates", msg.pose_updates[i], &r.pose_updates),
+          std::make_tuple("scan_chunks", msg.scan_chunks[i], &r.scan_chunks)}) {
       if (Status st = FromWireInt32(wire, kRoundType, at + name, value); !st.ok()) return st;
     }
     r.digest = static_cast<std::uint32_t>(msg.input_digest[i]);
@@ -151,8 +159,8 @@ Result<RoundStep> DecodeRoundStep(Span<const std::uint8_t> bytes) {
     q.server_session = msg.server_session;
     const std::int32_t count = msg.request_keyframes[i];
     if (count < 0 || static_cast<std::size_t>(count) > static_cast<std::size_t>(nk) - next) {
-      return DataLoss(std::string(kRoundType) + ": " + RoundIndexed("request_keyframes", i) + " = " + std::to_string(count) +
-                      " is negative or beyond the " + std::to_string(nk) + " keyframes");
+      return DataLoss(std::string(kRoundType) + ": " + RoundIndexed("request_keyframes", i) + " = " +
+                      std::to_string(count) + " is negative or beyond the " + std::to_string(nk) + " keyframes");
     }
     for (std::int32_t k = 0; k < count; ++k, ++next) {
       if (msg.keyframe_index[next] < 0) {
