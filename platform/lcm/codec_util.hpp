@@ -95,6 +95,14 @@ Status EncodeInto(const LcmType& msg, std::vector<std::uint8_t>* out, const char
   return Status::Ok();
 }
 
+/// "field[i]" and "field[i].member": the names errors give array elements.
+inline std::string Indexed(const char* field, std::size_t i) {
+  return std::string(field) + "[" + std::to_string(i) + "]";
+}
+inline std::string Indexed(const char* field, std::size_t i, const char* member) {
+  return Indexed(field, i) + "." + member;
+}
+
 /// A robot id in 0..kMaxRobotId; `field` names it ("robot_id", "pairs[3].alpha").
 inline Status CheckRobotIdAs(MakeError make, std::int64_t robot_id, const char* type, const std::string& field) {
   if (robot_id < 0 || robot_id > kMaxRobotId) {

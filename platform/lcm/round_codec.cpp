@@ -23,10 +23,6 @@ static_assert(commerge::merge_round_t::MAX_KEYFRAMES == static_cast<std::int32_t
 
 constexpr const char* kRoundType = "merge_round_t";
 
-std::string RoundIndexed(const char* field, std::size_t i) {
-  return std::string(field) + "[" + std::to_string(i) + "]";
-}
-
 // The rules both sides enforce on the plain struct (`make`: InvalidArgument when encoding, DataLoss when
 // decoding).
 Status ValidateRoundStep(const RoundStep& m, MakeError make) {
@@ -40,11 +36,11 @@ Status ValidateRoundStep(const RoundStep& m, MakeError make) {
                 std::to_string(kMaxRoundRequests) + ")");
   }
   for (std::size_t i = 0; i < m.robots.size(); ++i) {
-    if (Status st = CheckRobotIdAs(make, m.robots[i].robot_id, kRoundType, RoundIndexed("robot_id", i)); !st.ok()) {
+    if (Status st = CheckRobotIdAs(make, m.robots[i].robot_id, kRoundType, Indexed("robot_id", i)); !st.ok()) {
       return st;
     }
     if (i > 0 && m.robots[i].robot_id <= m.robots[i - 1].robot_id) {
-      return make(std::string(kRoundType) + ": " + RoundIndexed("robot_id", i) + " = " +
+      return make(std::string(kRoundType) + ": " + Indexed("robot_id", i) + " = " +
                   std::to_string(m.robots[i].robot_id) + " does not follow " +
                   std::to_string(m.robots[i - 1].robot_id) + " (ascending, unique)");
     }
@@ -52,7 +48,7 @@ Status ValidateRoundStep(const RoundStep& m, MakeError make) {
   std::size_t keyframes = 0;
   for (std::size_t i = 0; i < m.requests.size(); ++i) {
     const ScanRequest& q = m.requests[i];
-    if (Status st = CheckRobotIdAs(make, q.robot_id, kRoundType, RoundIndexed("request_robot_id", i)); !st.ok()) {
+    if (Status st = CheckRobotIdAs(make, q.robot_id, kRoundType, Indexed("request_robot_id", i)); !st.ok()) {
       return st;
     }
     keyframes += q.keyframes.size();
@@ -85,7 +81,7 @@ Status EncodeRoundStep(const RoundStep& m, std::vector<std::uint8_t>* out) {
   for (std::size_t i = 0; i < m.robots.size(); ++i) {
     const RoundRobotInput& r = m.robots[i];
     std::int32_t batches = 0, poses = 0, chunks = 0;
-    const std::string at = RoundIndexed("robots", i) + ".";
+    const std::string at = Indexed("robots", i) + ".";
     for (const auto& [name, value, wire] : {std::make_tuple("keyframe_batches", r.keyframe_batches, &batches),
                                             std::make_tuple("pose_updates", r.pose_updates, &poses),
                                             std::make_tuple("scan_chunks", r.scan_chunks, &chunks)}) {
@@ -139,7 +135,7 @@ Result<RoundStep> DecodeRoundStep(Span<const std::uint8_t> bytes) {
     RoundRobotInput& r = m.robots[i];
     r.robot_id = msg.robot_id[i];
     r.session = msg.robot_session[i];
-    const std::string at = RoundIndexed("robots", i) + ".";
+    const std::string at = Indexed("robots", i) + ".";
     for (const auto& [name, wire, value] :
          {std::make_tuple("keyframe_batches", msg.keyframe_batches[i], &r.keyframe_batches),
           std::make_tuple("pose_updates", msg.pose_updates[i], &r.pose_updates),
@@ -159,12 +155,12 @@ Result<RoundStep> DecodeRoundStep(Span<const std::uint8_t> bytes) {
     q.server_session = msg.server_session;
     const std::int32_t count = msg.request_keyframes[i];
     if (count < 0 || static_cast<std::size_t>(count) > static_cast<std::size_t>(nk) - next) {
-      return DataLoss(std::string(kRoundType) + ": " + RoundIndexed("request_keyframes", i) + " = " +
+      return DataLoss(std::string(kRoundType) + ": " + Indexed("request_keyframes", i) + " = " +
                       std::to_string(count) + " is negative or beyond the " + std::to_string(nk) + " keyframes");
     }
     for (std::int32_t k = 0; k < count; ++k, ++next) {
       if (msg.keyframe_index[next] < 0) {
-        return DataLoss(std::string(kRoundType) + ": " + RoundIndexed("keyframe_index", next) + " = " +
+        return DataLoss(std::string(kRoundType) + ": " + Indexed("keyframe_index", next) + " = " +
                         std::to_string(msg.keyframe_index[next]) + " is negative");
       }
       q.keyframes.push_back(static_cast<std::uint32_t>(msg.keyframe_index[next]));

@@ -47,11 +47,6 @@ using namespace lcm_detail;  // NOLINT(google-build-using-namespace): the shared
 
 namespace {
 
-std::string Indexed(const char* field, std::size_t i) { return std::string(field) + "[" + std::to_string(i) + "]"; }
-std::string Indexed(const char* field, std::size_t i, const char* member) {
-  return Indexed(field, i) + "." + member;
-}
-
 Status CheckSize(std::size_t size, std::size_t max, MakeError make, const char* type, const char* field) {
   if (size > max) {
     return make(std::string(type) + ": " + field + " has " + std::to_string(size) + " entries (at most " +
