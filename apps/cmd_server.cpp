@@ -112,7 +112,10 @@ class ServerProcess {
   void OnRecordedResult(const MergeResultMessage& result);
   void SwitchToRequestReplay(const char* what);
   Status HandleRecorded(const platform::BusMessage& message, std::int64_t wall);
+  /// Queues a replayed robot message for the round step that takes it, else HandleNow.
   Status HandleMessage(const platform::BusMessage& message, std::int64_t wall, Received* received);
+  /// Hands a message to the link now (robot data, robot status) or follows the recording (replay).
+  Status HandleNow(const platform::BusMessage& message, std::int64_t wall, Received* received);
   void CountReceived(const platform::BusMessage& message, const Received& received);
   /// Counts an accepted message's bytes, or the rejection (last_rejection_).
   void Account(const platform::BusMessage& message, const Status& st, const Received& received);
@@ -241,6 +244,10 @@ Status ServerProcess::HandleMessage(const platform::BusMessage& message, std::in
     received->queued = true;
     return Status::Ok();
   }
+  return HandleNow(message, wall, received);
+}
+
+Status ServerProcess::HandleNow(const platform::BusMessage& message, std::int64_t wall, Received* received) {
   if (message.channel == platform::kPolicyChannel || message.channel == platform::kMergeResultChannel ||
       message.channel == platform::kRoundChannel) {
     return HandleRecorded(message, wall);
@@ -375,10 +382,7 @@ bool ServerProcess::QueueReplayed(const platform::BusMessage& message) {
 
 void ServerProcess::HandleQueued(const platform::BusMessage& message, std::int64_t wall) {
   Received received;
-  const ReplayMode mode = replay_mode_;
-  replay_mode_ = ReplayMode::kRequests;  // handled now, not queued again
-  const Status st = HandleMessage(message, wall, &received);
-  replay_mode_ = mode;
+  const Status st = HandleNow(message, wall, &received);
   Account(message, st, received);
 }
 
