@@ -5,6 +5,8 @@
 #include <string>
 
 #include "apps/app_common.hpp"
+#include "apps/app_descriptor_flags.hpp"
+#include "apps/app_memory.hpp"
 #include "apps/commands.hpp"
 #include "platform/memory/allocator.hpp"
 

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "apps/app_common.hpp"
+#include "apps/app_memory.hpp"
 #include "apps/cmd_sim.hpp"
 #include "apps/commands.hpp"
 #include "apps/run_pipeline.hpp"

@@ -15,7 +15,10 @@
 #include <string>
 #include <vector>
 
+#include "apps/app_auth.hpp"
 #include "apps/app_common.hpp"
+#include "apps/app_descriptor_flags.hpp"
+#include "apps/app_memory.hpp"
 #include "apps/commands.hpp"
 #include "core/agent/delivery_digest.hpp"
 #include "core/agent/robot_link.hpp"

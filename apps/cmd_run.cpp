@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "apps/app_common.hpp"
+#include "apps/app_descriptor_flags.hpp"
 #include "apps/commands.hpp"
 #include "apps/run_pipeline.hpp"
 

@@ -26,7 +26,10 @@
 #include <utility>
 #include <vector>
 
+#include "apps/app_auth.hpp"
 #include "apps/app_common.hpp"
+#include "apps/app_descriptor_flags.hpp"
+#include "apps/app_memory.hpp"
 #include "apps/commands.hpp"
 #include "apps/merge_flags.hpp"
 #include "core/agent/delivery_digest.hpp"

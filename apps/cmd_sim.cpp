@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "apps/app_common.hpp"
+#include "apps/app_memory.hpp"
 #include "apps/cmd_sim.hpp"
 #include "apps/commands.hpp"
 #include "core/common/bytes.hpp"

@@ -12,7 +12,7 @@
 
 #include <Eigen/Geometry>
 
-#include "apps/app_common.hpp"
+#include "apps/app_memory.hpp"
 #include "apps/run_pipeline.hpp"
 #include "core/agent/merge_round.hpp"
 #include "core/agent/merge_server.hpp"
@@ -20,6 +20,7 @@
 #include "core/descriptor/solid.hpp"
 #include "core/eval/alignment_metrics.hpp"
 #include "core/eval/byte_ledger.hpp"
+#include "core/eval/loop_errors.hpp"
 #include "core/slam/scan_store.hpp"
 #include "platform/io/kitti_dataset_reader.hpp"
 
@@ -52,17 +53,10 @@ struct RobotRun {
   std::vector<Loop> loops;
 };
 
-/// The robot's loops against its ground truth: how many are false (translation > kFalseLoopTranslationM or
-/// rotation > kFalseLoopRotationDeg), and the median and largest translation error [m]. checked = -1 without
-/// ground truth.
-struct LoopErrors {
-  long long checked = -1;
-  long long wrong = 0;
-  double median_m = 0.0;
-  double max_m = 0.0;
-};
-constexpr double kFalseLoopTranslationM = 2.0;
-constexpr double kFalseLoopRotationDeg = 10.0;
+/// A robot's loops against its ground truth are LoopErrors (core/eval/loop_errors.hpp); a loop is false beyond
+/// these (FalseLoopCriterion's defaults).
+constexpr double kFalseLoopTranslationM = FalseLoopCriterion{}.max_translation_m;
+constexpr double kFalseLoopRotationDeg = FalseLoopCriterion{}.max_rotation_deg;
 
 /// Keyframe trajectories of one robot: estimated (its map frame) and ground truth, with their times.
 struct Trajectories {
@@ -122,26 +116,6 @@ struct RunJob {
   std::uint64_t raw_keyframe_bytes() const;
 };
 
-/// How robot r of the final mode compares with the truth: whether a chain of robot pairs that share a place
-/// (core/eval/shared_place.hpp) joins it to robot 0, whether it was placed, and the placement's error.
-struct RobotVerdict {
-  bool has_gt = false;
-  bool reachable = false;
-  bool merged = false;
-  TransformError error;  ///< of T_world_map against the transform of the true start poses (merged, has_gt)
-  /// Against the truth where it met another placed robot (core/eval TruthAtSharedPlace, fitted at the keyframes
-  /// their registration used when those lie at a shared place, else over every shared place; the partner that
-  /// agrees best); judged_at_place is false when it shares no place with a placed robot.
-  TransformError error_at_place;
-  bool judged_at_place = false;
-  int place_partner = -1;  ///< the robot of error_at_place
-  /// Merged and off the truth by more than kWrongMergeM or kWrongMergeDeg: at the shared place when judged
-  /// there (a drifting robot's start pose is not where a right registration puts it), else at the start pose.
-  bool wrong = false;
-};
-constexpr double kWrongMergeM = 1.0;
-constexpr double kWrongMergeDeg = 3.0;
-
 // run_report.cpp: the results, side by side; the output files and pictures.
 /// Prints the mode table and the final mode's result (and keeps the text for the report's summary.md).
 std::string PrintResults(const RunJob& job);
@@ -152,8 +126,10 @@ std::string WriteRunOutputs(const RunJob& job, const std::string& summary);
 void DumpKeyframes(const RunJob& job);
 /// The robot's loops file (trajectories/robot_<r>_loops.txt).
 Status WriteLoops(const RobotRun& r, const std::string& path);
-/// The loop of `r` against its ground truth: E = (T_match_query_gt)^-1 T_match_query, in the query's frame.
+/// The loop of `r` against its ground truth: E = (T_match_query_gt)^-1 T_match_query, in the query's frame
+/// (core/eval LoopErrorTransform).
 Eigen::Isometry3d LoopError(const RobotRun& r, const RobotRun::Loop& l);
+/// Rotation angle of T [deg] (core/eval RotationAngleDeg).
 double RotationDeg(const Eigen::Isometry3d& T);
 
 }  // namespace commerge::app

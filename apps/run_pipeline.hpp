@@ -9,6 +9,8 @@
 #include <CLI/CLI.hpp>
 
 #include "apps/app_common.hpp"
+#include "apps/app_descriptor_flags.hpp"
+#include "apps/app_memory.hpp"
 #include "core/agent/merge_server.hpp"
 
 namespace commerge::app {

@@ -12,7 +12,11 @@
 #include "apps/run_job.hpp"
 #include "core/agent/merge_round.hpp"
 #include "core/common/bytes.hpp"
+#include "core/eval/descriptor_separation.hpp"
+#include "core/eval/loop_errors.hpp"
+#include "core/eval/merge_judgement.hpp"
 #include "core/eval/shared_place.hpp"
+#include "core/eval/stage_a_truth.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/merge/merged_map.hpp"
@@ -33,109 +37,60 @@ std::string PoseText(const Eigen::Isometry3d& T) {
          Fmt("%.2f", YawRad(T.linear()) * kRadToDeg) + " deg";
 }
 
-// ---- against ground truth: robots that share a place, merged, wrong; where unmerged pairs stopped
+// ---- against ground truth (core/eval: merge_judgement, descriptor_separation, stage_a_truth): the run's data
+// as the plain views those take; where unmerged pairs stopped
 
-// A sensor narrower than 360 deg (ScanTraits: Livox Avia 70.4 deg, Aeva 120 deg) does not see a place again
-// from a heading more than its field of view away; a spinning one does.
-SharedPlaceParams SharedPlaceFor(const RunJob& job) {
-  SharedPlaceParams p;
-  Result<LidarSensor> sensor = LidarSensorFor(job.options.sensor);
-  if (sensor.ok() && ScanTraits(*sensor).horizontal_fov_deg < 360.0) {
-    p.max_heading_deg = ScanTraits(*sensor).horizontal_fov_deg;
+// A forward-looking sensor sees a place again only from a heading within its field of view.
+SharedPlaceParams SharedPlaceFor(const RunJob& job) { return SharedPlaceParamsForSensor(job.options.sensor); }
+
+MergeJudgementParams JudgementParamsFor(const RunJob& job) {
+  MergeJudgementParams params;
+  params.shared_place = SharedPlaceFor(job);
+  return params;
+}
+
+// Mode m's round as core/eval views into the job: every robot's trajectories and placement, and per pair (in the
+// round's order) whether it registered and the keyframes of its selection (plan.pairs, the same index).
+struct JudgementInput {
+  std::vector<RobotTrajectoryTruth> robots;
+  std::vector<RobotPlacement> placements;
+  std::vector<JudgedPair> pairs;
+};
+
+JudgementInput JudgementInputOf(const RunJob& job, const ModeOutcome& m) {
+  JudgementInput in;
+  for (int r = 0; r < job.num_robots(); ++r) {
+    const Trajectories& t = job.trajectories[static_cast<std::size_t>(r)];
+    in.robots.push_back({Span<const Eigen::Isometry3d>(t.estimated), Span<const Eigen::Isometry3d>(t.ground_truth),
+                         t.T_gt_map});
+    in.placements.push_back({m.round.in_world(r), m.round.T_world_map(r)});
   }
-  return p;
+  for (std::size_t i = 0; i < m.round.pairs.size(); ++i) {
+    const PairMergeResult& p = m.round.pairs[i];
+    JudgedPair j;
+    j.alpha = p.alpha;
+    j.beta = p.beta;
+    j.registered = p.attempted && p.registration.success();
+    if (i < m.round.plan.pairs.size()) {
+      j.alpha_keyframes = Span<const std::uint32_t>(m.round.plan.pairs[i].alpha_keyframes);
+      j.beta_keyframes = Span<const std::uint32_t>(m.round.plan.pairs[i].beta_keyframes);
+    }
+    in.pairs.push_back(j);
+  }
+  return in;
 }
 
 // Per pair (in the final round's order): the two robots share a place by ground truth; empty without it.
 std::vector<SharedPlace> SharedPlaces(const RunJob& job, const ModeOutcome& m) {
-  std::vector<SharedPlace> out;
-  const SharedPlaceParams params = SharedPlaceFor(job);
-  for (const PairMergeResult& p : m.round.pairs) {
-    const Trajectories& a = job.trajectories[static_cast<std::size_t>(p.alpha)];
-    const Trajectories& b = job.trajectories[static_cast<std::size_t>(p.beta)];
-    if (a.ground_truth.empty() || b.ground_truth.empty()) return {};
-    out.push_back(MeasureSharedPlace(Span<const Eigen::Isometry3d>(a.ground_truth),
-                                     Span<const Eigen::Isometry3d>(b.ground_truth), params));
-  }
-  return out;
-}
-
-// Robot r's keyframes whose scans the registered pair of r and q used (empty when the pair did not merge).
-std::vector<std::uint32_t> RegisteredKeyframes(const ModeOutcome& m, int r, int q) {
-  for (std::size_t i = 0; i < m.round.pairs.size() && i < m.round.plan.pairs.size(); ++i) {
-    const PairMergeResult& p = m.round.pairs[i];
-    if (!((p.alpha == r && p.beta == q) || (p.alpha == q && p.beta == r))) continue;
-    if (!p.attempted || !p.registration.success()) return {};
-    const PairSelection& sel = m.round.plan.pairs[i];
-    return p.alpha == r ? sel.alpha_keyframes : sel.beta_keyframes;
-  }
-  return {};
-}
-
-// Placed robot r against every other placed robot q it meets: the reported T_q_r = T_world_q^-1 T_world_r
-// against the truth where they met (TruthAtSharedPlace): at the keyframes whose scans their registration used when
-// it merged and at least 3 of those lie at a shared place, else over every place they share. Odometry drifts,
-// so no rigid transform fits every shared place; a merge is right when it fits the place it was made at. A merge
-// at a look-alike place stays far from the truth at any of r's keyframes (the truth pairs keyframes by their true
-// positions). The best-agreeing partner decides.
-void JudgeAtSharedPlace(const RunJob& job, const ModeOutcome& m, int r, RobotVerdict& v) {
-  const SharedPlaceParams params = SharedPlaceFor(job);
-  const Trajectories& tr = job.trajectories[static_cast<std::size_t>(r)];
-  double best = 0.0;
-  for (int q = 0; q < job.num_robots(); ++q) {
-    if (q == r || !m.round.in_world(q)) continue;
-    const Trajectories& tq = job.trajectories[static_cast<std::size_t>(q)];
-    const auto truth_at = [&](Span<const std::uint32_t> keyframes) {
-      return TruthAtSharedPlace(
-          Span<const Eigen::Isometry3d>(tq.estimated), Span<const Eigen::Isometry3d>(tq.ground_truth),
-          Span<const Eigen::Isometry3d>(tr.estimated), Span<const Eigen::Isometry3d>(tr.ground_truth), params, 3,
-          keyframes);
-    };
-    const std::vector<std::uint32_t> registered = RegisteredKeyframes(m, r, q);
-    Result<SharedPlaceTruth> truth = truth_at(Span<const std::uint32_t>(registered));
-    if (!registered.empty() && !truth.ok()) truth = truth_at({});
-    if (!truth.ok()) continue;
-    const TransformError e =
-        ErrorAtSharedPlace(m.round.T_world_map(q).inverse() * m.round.T_world_map(r), *truth);
-    const double score = std::max(e.translation_m / kWrongMergeM, e.rotation_deg / kWrongMergeDeg);
-    if (!v.judged_at_place || score < best) {
-      v.judged_at_place = true;
-      v.error_at_place = e;
-      v.place_partner = q;
-      best = score;
-    }
-  }
+  const JudgementInput in = JudgementInputOf(job, m);
+  return MeasurePairSharedPlaces(Span<const RobotTrajectoryTruth>(in.robots), Span<const JudgedPair>(in.pairs),
+                                 SharedPlaceFor(job));
 }
 
 std::vector<RobotVerdict> RobotVerdicts(const RunJob& job, const ModeOutcome& m) {
-  const std::vector<SharedPlace> shared = SharedPlaces(job, m);
-  std::vector<bool> shared_pairs;
-  for (int a = 0; a < job.num_robots(); ++a) {
-    for (int b = a + 1; b < job.num_robots(); ++b) {
-      bool s = false;
-      for (std::size_t i = 0; i < shared.size(); ++i) {
-        if (m.round.pairs[i].alpha == a && m.round.pairs[i].beta == b) s = shared[i].shared;
-      }
-      shared_pairs.push_back(s);
-    }
-  }
-  const std::vector<bool> reachable = ReachableFromRobot0(job.num_robots(), shared_pairs);
-  std::vector<RobotVerdict> out(static_cast<std::size_t>(job.num_robots()));
-  for (int r = 0; r < job.num_robots(); ++r) {
-    RobotVerdict& v = out[static_cast<std::size_t>(r)];
-    const Trajectories& t = job.trajectories[static_cast<std::size_t>(r)];
-    v.has_gt = !shared.empty();
-    v.reachable = v.has_gt && reachable[static_cast<std::size_t>(r)];
-    v.merged = m.round.in_world(r);
-    if (v.merged && v.has_gt) {
-      const Eigen::Isometry3d truth = job.trajectories[0].T_gt_map.inverse() * t.T_gt_map;
-      v.error = ComputeTransformError(m.round.T_world_map(r), truth);
-      if (r > 0) JudgeAtSharedPlace(job, m, r, v);
-      const TransformError& e = v.judged_at_place ? v.error_at_place : v.error;
-      v.wrong = r > 0 && (e.translation_m > kWrongMergeM || e.rotation_deg > kWrongMergeDeg);
-    }
-  }
-  return out;
+  const JudgementInput in = JudgementInputOf(job, m);
+  return JudgeRobots(Span<const RobotTrajectoryTruth>(in.robots), Span<const RobotPlacement>(in.placements),
+                     Span<const JudgedPair>(in.pairs), JudgementParamsFor(job));
 }
 
 // The stage that stopped pair i: "merged", the cascade stage that found nothing, the registration verdict, or
@@ -156,82 +111,33 @@ std::string StoppedAt(const RunJob& job, const ModeOutcome& m, std::size_t i) {
   return colon == std::string::npos ? reason : reason.substr(0, colon);
 }
 
-// Descriptor distances of keyframe pairs at the same place (ground truth within kTruePairM and, for a
-// forward-looking sensor, headings within its field of view) and at different places (beyond kFalsePairM):
-// how well the descriptor separates them, per robot pair.
-constexpr double kTruePairM = 3.0;
-constexpr double kFalsePairM = 20.0;
-struct DistanceQuantiles {
-  std::size_t true_pairs = 0, false_pairs = 0;
-  double true_p05 = 0, true_p50 = 0, true_p95 = 0;     ///< of the true pairs
-  double false_p01 = 0, false_p05 = 0, false_p50 = 0;  ///< of the false pairs
-};
-
-double Quantile(std::vector<float>* v, double q) {
-  if (v->empty()) return -1.0;
-  const std::size_t k = std::min(v->size() - 1, static_cast<std::size_t>(q * static_cast<double>(v->size())));
-  std::nth_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(k), v->end());
-  return static_cast<double>((*v)[k]);
+DescriptorSetView KeyframeDescriptors(const RobotKeyframeDb& db) {
+  DescriptorSetView set;
+  set.values = Span<const float>(db.descriptors);
+  set.dim = db.dim;
+  set.valid = Span<const std::uint8_t>(db.valid);
+  return set;
 }
 
-DistanceQuantiles DescriptorSeparation(const RunJob& job, int a, int b) {
-  DistanceQuantiles out;
-  const RobotKeyframeDb& A = job.server->robot(a);
-  const RobotKeyframeDb& B = job.server->robot(b);
-  const Trajectories& ta = job.trajectories[static_cast<std::size_t>(a)];
-  const Trajectories& tb = job.trajectories[static_cast<std::size_t>(b)];
-  const double max_heading_rad = SharedPlaceFor(job).max_heading_deg * kDegToRad;
-  const DescriptorMetric& metric = job.server->params().cascade.metric;
-  const bool scan_context = metric.kind != DescriptorMetric::Kind::kUnitL2;
-  std::vector<float> same, different;
-  for (std::size_t i = 0; i < A.size() && i < ta.ground_truth.size(); ++i) {
-    if (!A.valid[i]) continue;
-    for (std::size_t j = 0; j < B.size() && j < tb.ground_truth.size(); ++j) {
-      if (!B.valid[j]) continue;
-      const double d = (ta.ground_truth[i].translation() - tb.ground_truth[j].translation()).norm();
-      if (d > kTruePairM && d < kFalsePairM) continue;
-      const double heading =
-          RotationAngleRad(Eigen::AngleAxisd(YawRad(ta.ground_truth[i].linear()) - YawRad(tb.ground_truth[j].linear()),
-                                             Eigen::Vector3d::UnitZ()).toRotationMatrix());
-      if (d <= kTruePairM && heading > max_heading_rad) continue;
-      // The Scan Context distance costs ~1000x a dot product: every true pair, but every 31st false pair only.
-      if (d > kTruePairM && scan_context && (i + j) % 31 != 0) continue;
-      const double distance = DescriptorDistance(metric, Span<const float>(&A.descriptors[i * A.dim], A.dim),
-                                                 Span<const float>(&B.descriptors[j * B.dim], B.dim));
-      (d <= kTruePairM ? same : different).push_back(static_cast<float>(distance));
-    }
-  }
-  out.true_pairs = same.size();
-  out.false_pairs = different.size();
-  out.true_p05 = Quantile(&same, 0.05);
-  out.true_p50 = Quantile(&same, 0.5);
-  out.true_p95 = Quantile(&same, 0.95);
-  out.false_p01 = Quantile(&different, 0.01);
-  out.false_p05 = Quantile(&different, 0.05);
-  out.false_p50 = Quantile(&different, 0.5);
-  return out;
+// Descriptor distances of keyframe pairs at the same place and at different places, per robot pair.
+DistanceQuantiles PairDescriptorSeparation(const RunJob& job, int a, int b) {
+  DescriptorSeparationParams params;
+  params.max_heading_deg = SharedPlaceFor(job).max_heading_deg;
+  return DescriptorSeparation(KeyframeDescriptors(job.server->robot(a)),
+                              Span<const Eigen::Isometry3d>(job.trajectories[static_cast<std::size_t>(a)].ground_truth),
+                              KeyframeDescriptors(job.server->robot(b)),
+                              Span<const Eigen::Isometry3d>(job.trajectories[static_cast<std::size_t>(b)].ground_truth),
+                              job.server->params().cascade.metric, params);
 }
 
-// Stage A's chosen cluster against ground truth: the fraction of its cells (L_seq) whose two keyframes were truly
-// within kPlaceM of each other (-1 when there is no cluster or no ground truth). Low means stage A picked a place
-// the robots never shared (aliasing), whatever registration made of it afterwards.
-double StageATrueFraction(const RunJob& job, int a, int b) {
-  constexpr double kPlaceM = 10.0;
+// Stage A's chosen cluster: the fraction of its cells that were truly at one place (-1 without a cluster or
+// ground truth).
+double PairStageATrueFraction(const RunJob& job, int a, int b) {
   const ExchangeCascadeResult* c = job.server->cascade(a, b);
-  const Trajectories& ta = job.trajectories[static_cast<std::size_t>(a)];
-  const Trajectories& tb = job.trajectories[static_cast<std::size_t>(b)];
-  if (!c || !c->stage_a.found || c->stage_a.cells.empty() || ta.ground_truth.empty() || tb.ground_truth.empty()) {
-    return -1.0;
-  }
-  std::size_t near = 0, judged = 0;
-  for (const SequentialLoopCell& cell : c->stage_a.cells) {
-    if (cell.alpha_index >= ta.ground_truth.size() || cell.beta_index >= tb.ground_truth.size()) continue;
-    ++judged;
-    const double d =
-        (ta.ground_truth[cell.alpha_index].translation() - tb.ground_truth[cell.beta_index].translation()).norm();
-    if (d <= kPlaceM) ++near;
-  }
-  return judged == 0 ? -1.0 : static_cast<double>(near) / static_cast<double>(judged);
+  if (!c || !c->stage_a.found) return -1.0;
+  return StageATrueFraction(Span<const SequentialLoopCell>(c->stage_a.cells),
+                            Span<const Eigen::Isometry3d>(job.trajectories[static_cast<std::size_t>(a)].ground_truth),
+                            Span<const Eigen::Isometry3d>(job.trajectories[static_cast<std::size_t>(b)].ground_truth));
 }
 
 // ---- stdout
@@ -305,6 +211,7 @@ void FinalResult(const RunJob& job, const ModeOutcome& m, const std::function<vo
   }
   const std::vector<RobotVerdict> verdicts = RobotVerdicts(job, m);
   if (job.num_robots() > 1 && verdicts[1].has_gt) {
+    const WrongMergeCriterion criterion = JudgementParamsFor(job).wrong;
     int reachable = 0, merged = 0, wrong = 0;
     for (int r = 1; r < job.num_robots(); ++r) {
       const RobotVerdict& v = verdicts[static_cast<std::size_t>(r)];
@@ -314,8 +221,8 @@ void FinalResult(const RunJob& job, const ModeOutcome& m, const std::function<vo
     }
     line("  against ground truth: " + std::to_string(reachable) + " of " + std::to_string(job.num_robots() - 1) +
          " robots share a place with robot 0's team, " + std::to_string(merged) + " placed right, " +
-         std::to_string(wrong) + " wrong (> " + Fmt("%.0f m", kWrongMergeM) + " or " + Fmt("%.0f deg", kWrongMergeDeg) +
-         " off where it met a placed robot)");
+         std::to_string(wrong) + " wrong (> " + Fmt("%.0f m", criterion.max_translation_m) + " or " +
+         Fmt("%.0f deg", criterion.max_rotation_deg) + " off where it met a placed robot)");
   }
   for (const MeasurementOutcome& mo : m.round.frames.measurements) {
     if (mo.verdict == MeasurementVerdict::kRejected) {
@@ -606,8 +513,8 @@ void WriteMetrics(const RunJob& job) {
       }
     }
     if (shared.empty()) continue;
-    if (const double f = StageATrueFraction(job, p.alpha, p.beta); f >= 0.0) kv(k + "stage_a_true_fraction", Fmt("%.2f", f));
-    const DistanceQuantiles q = DescriptorSeparation(job, p.alpha, p.beta);
+    if (const double f = PairStageATrueFraction(job, p.alpha, p.beta); f >= 0.0) kv(k + "stage_a_true_fraction", Fmt("%.2f", f));
+    const DistanceQuantiles q = PairDescriptorSeparation(job, p.alpha, p.beta);
     kv(k + "true_pairs", std::to_string(q.true_pairs));
     kv(k + "false_pairs", std::to_string(q.false_pairs));
     kv(k + "true_distance_p05_p50_p95", Fmt("%.3f", q.true_p05) + " " + Fmt("%.3f", q.true_p50) + " " + Fmt("%.3f", q.true_p95));
@@ -665,12 +572,12 @@ void WriteMetrics(const RunJob& job) {
 }  // namespace
 
 Eigen::Isometry3d LoopError(const RobotRun& r, const RobotRun::Loop& l) {
-  const Eigen::Isometry3d& gt_q = r.data.ground_truth[r.keyframe_scan[l.query]];
-  const Eigen::Isometry3d& gt_m = r.data.ground_truth[r.keyframe_scan[l.match]];
-  return (gt_m.inverse() * gt_q).inverse() * l.T_match_query;
+  return LoopErrorTransform(l.T_match_query, r.data.ground_truth[r.keyframe_scan[l.match]],
+                            r.data.ground_truth[r.keyframe_scan[l.query]]);
 }
 
-double RotationDeg(const Eigen::Isometry3d& T) { return RotationAngleRad(T.linear()) * kRadToDeg; }
+double RotationDeg(const Eigen::Isometry3d& T) { return RotationAngleDeg(T); }
+
 
 Status WriteLoops(const RobotRun& r, const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "w");

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include "core/descriptor/sensor_presets.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/geometry/umeyama.hpp"
 
@@ -12,11 +13,12 @@ namespace commerge {
 
 namespace {
 
-constexpr double kRadToDeg = 57.29577951308232;
+// Its own name: a unity batch may also see core/geometry/angles.hpp's kRadToDeg.
+constexpr double kSharedPlaceRadToDeg = 57.29577951308232;
 
 // Heading difference [deg] in [0, 180].
 double HeadingDifferenceDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  double d = std::fabs(YawRad(a.linear()) - YawRad(b.linear())) * kRadToDeg;
+  double d = std::fabs(YawRad(a.linear()) - YawRad(b.linear())) * kSharedPlaceRadToDeg;
   d = std::fmod(d, 360.0);
   return d > 180.0 ? 360.0 - d : d;
 }
@@ -57,6 +59,15 @@ Status ValidateSharedPlaceParams(const SharedPlaceParams& p) {
     return InvalidArgument("shared place min_shared_path_fraction must be in [0, 1]");
   }
   return Status::Ok();
+}
+
+SharedPlaceParams SharedPlaceParamsForSensor(const std::string& lidar) {
+  SharedPlaceParams p;
+  Result<LidarSensor> sensor = LidarSensorFor(lidar);
+  if (sensor.ok() && ScanTraits(*sensor).horizontal_fov_deg < 360.0) {
+    p.max_heading_deg = ScanTraits(*sensor).horizontal_fov_deg;
+  }
+  return p;
 }
 
 SharedPlace MeasureSharedPlace(Span<const Eigen::Isometry3d> alpha_gt, Span<const Eigen::Isometry3d> beta_gt,

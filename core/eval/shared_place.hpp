@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -30,6 +31,12 @@ struct SharedPlaceParams {
 };
 
 Status ValidateSharedPlaceParams(const SharedPlaceParams& params);
+
+/// The default SharedPlaceParams for the robots' LiDAR named `lidar` (names as LidarSensorFor): a sensor narrower
+/// than 360 deg (ScanTraits: Livox Avia 70.4 deg, Aeva 120 deg) does not see a place again from a heading more
+/// than its horizontal field of view away, so max_heading_deg becomes that field of view; a spinning sensor or
+/// an unknown name keeps 180 (any heading).
+SharedPlaceParams SharedPlaceParamsForSensor(const std::string& lidar);
 
 struct SharedPlace {
   /// Path length [m] of alpha's trajectory whose keyframes have a beta keyframe at the same place (each keyframe

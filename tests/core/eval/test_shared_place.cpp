@@ -214,3 +214,14 @@ TEST_CASE("Truth at the shared place: too few keyframes at a shared place and ba
   p.radius_m = 0.0;
   CHECK(TruthAtSharedPlace(Poses(a), Poses(a), Poses(b), Poses(b), p).status().code() == StatusCode::kInvalidArgument);
 }
+
+TEST_CASE("Shared place: a forward-looking sensor's heading limit is its field of view, a spinning one's any heading") {
+  CHECK(SharedPlaceParamsForSensor("avia").max_heading_deg == doctest::Approx(70.4));
+  CHECK(SharedPlaceParamsForSensor("aeva").max_heading_deg == doctest::Approx(120.0));
+  CHECK(SharedPlaceParamsForSensor("hdl-64e").max_heading_deg == 180.0);
+  CHECK(SharedPlaceParamsForSensor("no-such-lidar").max_heading_deg == 180.0);
+  // Only the heading depends on the sensor.
+  const SharedPlaceParams avia = SharedPlaceParamsForSensor("avia");
+  CHECK(avia.radius_m == SharedPlaceParams{}.radius_m);
+  CHECK(avia.min_shared_path_m == SharedPlaceParams{}.min_shared_path_m);
+}
