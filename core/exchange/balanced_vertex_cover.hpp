@@ -73,17 +73,17 @@ struct BalancedCoverParams {
   /// candidate (applied literally, see the header comment).
   int min_share_per_robot_override = -1;
   /// Branch-and-bound node limit (nodes whose bounds were evaluated). Must be >= 1. The limit that normally binds:
-  /// it gives the same selection on every machine (the cascade's graphs take 1-10 nodes; the hardest benchmark
-  /// graphs 700-2 000 nodes, about 1 ms each on an x86 core).
+  /// it gives the same selection on every machine (core/agent/decisions/023-solver-node-limits.md).
   std::int64_t max_nodes = 20000;
   /// Wall-clock limit of the branch-and-bound in seconds (steady clock). Must be > 0. A safety cap: max_nodes
-  /// binds first unless a node takes more than 3 ms, so a slow board stops where a fast one does.
+  /// binds first on any board (core/agent/decisions/023-solver-node-limits.md).
   double time_limit_s = 60.0;
   /// Per-scan transmission cost w_x. Empty = unit weights (the paper's default). Otherwise one finite weight > 0
   /// per vertex (summing to at most 1e100): left vertices then right vertices for the bipartite API, global
   /// vertex ids for the N-robot API.
   std::vector<double> vertex_weights;
-  /// Engine of the master LPs (ignored when a caller-supplied LpSolver is passed).
+  /// Engine of the master LPs (ignored when a caller-supplied LpSolver is passed;
+  /// core/agent/decisions/021-stage-b-master-lp-engine.md).
   MasterLpEngine master_lp = MasterLpEngine::kGlpk;
 };
 

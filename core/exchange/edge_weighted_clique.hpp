@@ -52,8 +52,8 @@ struct StageCParams {
   /// kBothEndpointsElseAny: most loops the fallback set takes (>= 1).
   int fallback_max_loops = 10;
   /// Clique search: objective is always the edge weight; node and time limits apply (best-so-far + gap). The node
-  /// limit normally binds (the same clique on every machine; the cascade's graphs take 1-100 nodes); the time
-  /// limit is a safety cap, above what 2 000 000 nodes take unless a node takes more than 15 us.
+  /// limit normally binds (the same clique on every machine); the time limit is a safety cap
+  /// (core/agent/decisions/023-solver-node-limits.md).
   double time_limit_s = 30.0;
   std::int64_t max_nodes = 2'000'000;
 };

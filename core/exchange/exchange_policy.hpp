@@ -16,17 +16,16 @@
 namespace commerge {
 
 struct ExchangePolicyParams {
-  /// Points per stored scan assumed when a robot did not report its stored point counts. 4 300 is what a
-  /// 64-beam scan keeps after the 1 m voxel grid (KITTI 00: 124 668 -> 4 273 points).
+  /// Points per stored scan assumed when a robot did not report its stored point counts: what a 64-beam scan
+  /// keeps after the 1 m voxel grid (core/agent/decisions/013-minimum-scans-per-robot.md).
   std::uint32_t assumed_points_per_scan = 4300;
   /// Fewest scans asked of each robot (ours, not in the paper; 0 = exactly the scans of L_K, the paper's
-  /// policy). The server pads every other exchange mode's selection by the same rule (MergeServer::Plan). The paper sends raw scans, so a handful of them make a dense submap; our robots keep 1 m voxel
-  /// scans (a few hundred points each), and a submap of 4-6 of them leaves the coarse registration without
-  /// enough features (generated campus, 3 robots: 6 + 4 and 4 + 2 scans failed, 10 + 10 merged). When L_K
+  /// policy). The server pads every other exchange mode's selection by the same rule (MergeServer::Plan). When L_K
   /// names fewer keyframes of a robot, keyframes of the same robot that stage A matched to the other robot
   /// (endpoints of L_seq, so they see the shared place) are added, nearest in trajectory index to one of L_K's
   /// first (ties: the lower index), so the submap grows along the same stretch of path and only with scans of
-  /// the overlap (padding with plain neighbours outside the overlap made a KITTI 00 pair register 0.4 m off).
+  /// the overlap. Why: our 1 m voxel scans keep a few hundred points, and a handful of them leave the coarse
+  /// registration without enough features (core/agent/decisions/013-minimum-scans-per-robot.md).
   std::uint32_t min_scans_per_robot = 10;
 };
 

@@ -3,13 +3,10 @@
 // its distance is among the k smallest of row i or among the k smallest of column j; every other cell becomes
 // +inf before stage A thresholds and labels.
 //
-// Why: the paper's B_ij = [A_ij <= tau_inter] needs one absolute distance that separates true from false pairs
-// for every sensor, scene and mounting. Measured on our data it does not exist: true pairs of one scenario lie
-// above false pairs of another (simulator vs real Livox, same lane vs other lane). Whether a keyframe of beta is
-// the nearest of alpha's keyframe i is a relative question instead (the rank-based matching of SeqSLAM and of
-// Scan Context's candidate search): on a shared path the nearest neighbours of consecutive keyframes lie on a
-// diagonal (or anti-diagonal) of the affinity matrix and form one 8-connected cluster; elsewhere the nearest
-// neighbours are scattered and form no large cluster. tau_inter then acts as a loose cap only.
+// Why: no absolute tau_inter separates true from false pairs for every sensor and scene, while on a shared path
+// the nearest neighbours of consecutive keyframes form one diagonal (or anti-diagonal) cluster and elsewhere
+// scatter (the rank-based matching of SeqSLAM and Scan Context); tau_inter then acts as a loose cap only
+// (core/agent/decisions/001-server-stage-a-defaults.md).
 //
 // The k-th smallest value per row and column is found in one pass over the inner source (Prepare), with
 // O((N + M) k) memory. The same pass keeps, per row and column, the cells that were at or below the k-th smallest

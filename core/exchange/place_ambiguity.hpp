@@ -2,14 +2,11 @@
 // commerge: how ambiguous the place of a stage A cluster is (ours, not in the paper). A keyframe of the cluster
 // is ambiguous when its own robot's map holds a keyframe far from it (more than far_m apart, the robot's own
 // poses) whose descriptor is at least as close as the cluster's match on the other robot: the descriptor cannot
-// tell that place from another one the robot knows. In the generated indoor world (repeated corridors and rooms)
-// stage A's best cluster was twice a place the robots never shared, and registration, refused at first and then
-// widened until something aligned, merged the maps 130 m off: there 94-96 % of the cluster's keyframes were
-// ambiguous, but so were 82-95 % of true clusters, so ambiguity alone cannot refuse a pair. The cascade flags a
-// cluster above ExchangeCascadeParams::max_ambiguous_fraction and the server registers it once, never widened,
-// unless the place consensus confirms it (MergeServerParams::widen_ambiguous_support: then only a registration
-// where the consensus places it is accepted); on the generated streets true clusters stay at or below 61 %, on
-// the real sequences at 0.
+// tell that place from another one the robot knows. The cascade flags a cluster above
+// ExchangeCascadeParams::max_ambiguous_fraction and the server registers it once, never widened, unless the place
+// consensus confirms it (then only a registration where the consensus places it is accepted). Why: look-alike
+// clusters, widened until something aligned, merged repeated corridors; true clusters there are ambiguous too, so
+// ambiguity alone never refuses a pair (core/agent/decisions/003-ambiguous-places.md).
 #pragma once
 
 #include <cstddef>

@@ -7,7 +7,7 @@
 // weight of the clusters that agree with it. The cascade (exchange_cascade.hpp) passes on the qualifying
 // cluster of most support when the one of lowest mean distance (the paper's S*) has clearly less: the scans
 // requested then come from the place the rest of the matrix confirms. No bytes are sent for this; the
-// registration gates still decide every merge.
+// registration gates still decide every merge (core/agent/decisions/004-place-consensus.md).
 #pragma once
 
 #include <cstddef>

@@ -60,10 +60,8 @@ struct ScanContextAffinityParams {
   ScanContextAffinityMode mode = ScanContextAffinityMode::kSectorKeyShift;
   /// kSectorKeyShift: how many sector-key alignment peaks are refined, in [1, kScanContextMaxSectors]. Each peak is
   /// the best key shift outside the windows of the earlier ones; once the windows cover every shift the mode
-  /// evaluates what kExact does. 2: on 800 x 800 ray-cast street keyframes at random headings
-  /// (profiling/bench_scan_context_affinity) 1 peak equals exact in 61 % of the cells (73 % of the pairs below 0.3),
-  /// 2 peaks in 96.7 % (99.2 %), 3 peaks in 98.7 % (99.5 %) for 1.25x the time of 2; on KITTI 00 frames turned at
-  /// random 2 peaks equal exact in every cell.
+  /// evaluates what kExact does. 2: nearly always the exact distance, at a fraction of its time
+  /// (core/agent/decisions/022-scan-context-candidate-shifts.md).
   int num_candidate_shifts = 2;
   /// kSectorKeyShift: d_s is evaluated at each peak +- this many sectors, in [0, kScanContextMaxSectors / 2].
   /// 3 = SC-LIO-SAM's search radius (0.1 x 60 / 2 sectors, +-18 deg at 6 deg per sector).

@@ -15,9 +15,9 @@
 // Stage A thresholds V_ij = min of S over the 3 x 3 cells around (i, j) (inside the matrix), and +inf where
 // A_ij is +inf: a sequence match admits the keyframes next to it as loops too. Without that widening a
 // smoothed revisit is often one cell wide, its exchange graph a matching, and a balanced vertex cover of a
-// matching selects no loop with both endpoints, which stage C needs (measured on the generated indoor and cave
-// worlds). V depends only on A, never on the tile grid, so the source is as deterministic and position
-// independent as its inner source.
+// matching selects no loop with both endpoints, which stage C needs
+// (core/agent/decisions/001-server-stage-a-defaults.md). V depends only on A, never on the tile grid, so the source
+// is as deterministic and position independent as its inner source.
 #pragma once
 
 #include <cstddef>

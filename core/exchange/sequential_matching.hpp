@@ -36,7 +36,8 @@ struct SequentialMatchParams {
   /// tau_inter becomes a cap (neighbour_rank.hpp).
   std::size_t neighbour_rank = 0;
   /// 0 = tau_area as given (the paper). f > 0 (ours): the span area asked of a cluster scales with the shorter
-  /// mission, EffectiveTauArea: robots of a few dozen keyframes cannot share a 20 x 20 span.
+  /// mission, EffectiveTauArea: robots of a few dozen keyframes cannot share a 20 x 20 span
+  /// (core/agent/decisions/001-server-stage-a-defaults.md).
   double tau_area_fraction = 0.0;
   /// With tau_area_fraction: the scaled area never drops below this many cells.
   std::uint64_t min_tau_area = 100;

@@ -27,8 +27,8 @@ struct TransformAgreementParams {
   double near_m = 3.0;             ///< [m] co-located: positions within this after the transform
   double max_heading_deg = 180.0;  ///< [deg] and headings within this (180 = any)
   /// At most this many co-located beta keyframes are ranked, evenly spaced over them (>= 1): ranking one costs a
-  /// descriptor distance to every alpha keyframe, and a median over 256 is as good as over 10 000 (a pair of two
-  /// 10 000-keyframe robots took 4 s ranking them all on the development VM, 0.1 s ranking 256).
+  /// descriptor distance to every alpha keyframe, and a median over 256 is as good as over 10 000
+  /// (core/agent/decisions/010-descriptor-agreement.md).
   std::size_t max_ranked = 256;
 };
 

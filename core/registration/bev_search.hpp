@@ -1,11 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: global yaw + translation search on bird's-eye-view structure grids, the fallback coarse stage of
-// submap registration for ground robots (ours, not in REGISTRATION.md).
+// submap registration for ground robots (ours, not in ../shared/spec/REGISTRATION.md).
 //
-// Why: FPFH-style features need repeatable local geometry. Two submaps that share a place but saw it from far
-// apart (KITTI 07 GLIM submaps 2 and 4: 54 % overlap, 21 m apart) give no true descriptor match at all, for any
-// radius, ratio or mutual setting of the matcher, so no pruning can recover them. Their bird's-eye views still
-// agree: walls, trees and poles occupy the same cells.
+// Why: submaps that share a place but saw it from far apart give no true FPFH match, while their bird's-eye views
+// still agree (core/agent/decisions/015-bev-search-peak-ratio.md).
 //
 // How: each submap becomes an n x n grid of cells (cell_size_m) marking "structure" (the points of the cell
 // span more than min_vertical_extent_m in z). For every yaw step the rotated source grid is correlated with
@@ -45,16 +43,15 @@ struct BevSearchParams {
   /// A cell is structure when its points span more than this in z [m] (0.5 x voxel size).
   double min_vertical_extent_m = 0.5;
   /// Cells with points but no structure (open ground) count -free_cell_weight, unobserved cells 0: a wall placed
-  /// on the other submap's open road is penalised. Without it, the dense surroundings of both frame origins
-  /// correlate at small shifts whatever the true alignment (KITTI 07 submaps 2-4 peak at a 2 m shift, not 21 m).
+  /// on the other submap's open road is penalised, so the dense surroundings of both frame origins do not win at
+  /// small shifts (core/agent/decisions/015-bev-search-peak-ratio.md).
   double free_cell_weight = 0.5;
   /// Candidates returned, best correlation first (1..8).
   int max_candidates = 2;
   /// SubmapRegistration verifies only the best candidate, and only when its score is at least this times the
   /// best distinct runner-up's (or there is none): a repetitive street correlates almost equally at several
-  /// shifts, and GICP plus the overlap gates cannot always tell those apart (a generated street matched to
-  /// itself 389 m away, turned by 180 deg, passes them). Calibration (bench_registration): at most 1.59 on 132
-  /// pairs without overlap; KITTI 07 submaps 3-4 turned by 90 deg (recovered only by this search): 2.79.
+  /// shifts, which GICP and the overlap gates cannot always tell apart
+  /// (core/agent/decisions/015-bev-search-peak-ratio.md).
   double min_peak_ratio = 2.0;
   /// Two peaks are distinct when their yaws differ by more than this [rad] or their shifts by more than
   /// min_separation_m [m].

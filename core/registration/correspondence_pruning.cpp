@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Compatibility graph and maximum k-core / clique pruning (REGISTRATION.md §1.2 steps 9-10).
+// Compatibility graph and maximum k-core / clique pruning (../shared/spec/REGISTRATION.md §1.2 "Pipeline", steps 9-10).
 #include "core/registration/correspondence_pruning.hpp"
 
 #include <algorithm>

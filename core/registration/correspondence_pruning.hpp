@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// commerge: outlier pruning of putative correspondences (REGISTRATION.md §1.2 steps 9-10): a pairwise
-// compatibility graph (two correspondences agree when they preserve their mutual distance, a test that is
-// invariant to the unknown rotation and translation) and its maximum k-core (Batagelj-Zaversnik core
-// decomposition) or, as an option, its maximum clique (core/solvers/max_clique).
+// commerge: outlier pruning of putative correspondences (../shared/spec/REGISTRATION.md §1.2 "Pipeline", steps 9-10): a
+// pairwise compatibility graph (two correspondences agree when they preserve their mutual distance, a test that is
+// invariant to the unknown rotation and translation) and its maximum k-core (Batagelj-Zaversnik core decomposition) or,
+// as an option, its maximum clique (core/solvers/max_clique).
 #pragma once
 
 #include <Eigen/Core>

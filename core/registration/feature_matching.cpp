@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Descriptor matching (REGISTRATION.md §1.2 step 8) by an exact brute-force pass over all descriptor pairs.
+// Descriptor matching (../shared/spec/REGISTRATION.md §1.2 "Pipeline", step 8) by an exact brute-force pass over all
+// descriptor pairs.
 //
 // Why brute force: a k-d tree in 33 dimensions visits most of its leaves anyway, and one pass over all pairs
 // yields both the 2-NN of every query and the reverse 1-NN of every database row that the mutual check needs.

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// commerge: descriptor correspondences between two submaps (REGISTRATION.md §1.2 step 8): 2-NN in 33-D
-// descriptor space with a descriptor gate and a ratio test on squared distances, a mutual (reverse 1-NN)
+// commerge: descriptor correspondences between two submaps (../shared/spec/REGISTRATION.md §1.2 "Pipeline", step 8):
+// 2-NN in 33-D descriptor space with a descriptor gate and a ratio test on squared distances, a mutual (reverse 1-NN)
 // check, and a cap that keeps the most distinctive pairs (smallest d1^2 / d2^2).
 #pragma once
 
@@ -27,8 +27,8 @@ struct FeatureMatchingParams {
   /// each block) do not take part: open road and facade interiors all look alike (see feature_matching.cpp).
   /// 0 keeps every keypoint (the reference behaviour; this filter and the cap below are ours).
   double min_saliency = 10.0;
-  /// At most this many keypoints per submap take part, the most salient first (bounds the 33-D search; 2000
-  /// or 2500 lost real pairs on bench_registration).
+  /// At most this many keypoints per submap take part, the most salient first: bounds the 33-D search without
+  /// losing real pairs (core/agent/decisions/016-registration-neighbour-and-keypoint-caps.md).
   std::size_t max_match_keypoints = 3000;
 };
 

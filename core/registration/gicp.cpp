@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// GICP / point-to-plane ICP with Levenberg-Marquardt (REGISTRATION.md §2.2): correspondences and their
-// information M are fixed during the inner LM trials and searched again at every outer iteration.
+// GICP / point-to-plane ICP with Levenberg-Marquardt (../shared/spec/REGISTRATION.md §2.2 "Factor and optimiser"):
+// correspondences and their information M are fixed during the inner LM trials and searched again at every outer
+// iteration.
 #include "core/registration/gicp.hpp"
 
 #include <Eigen/Cholesky>

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// commerge: fine registration by generalized ICP (REGISTRATION.md §2; Segal et al. 2009, small_gicp-style
-// plane-regularised covariances), with point-to-plane ICP as an alternative factor on the same
-// Levenberg-Marquardt optimiser.
+// commerge: fine registration by generalized ICP (../shared/spec/REGISTRATION.md §2 "GICP (fine), small_gicp style";
+// Segal et al. 2009, small_gicp-style plane-regularised covariances), with point-to-plane ICP as an alternative factor
+// on the same Levenberg-Marquardt optimiser.
 #pragma once
 
 #include <Eigen/Core>
@@ -38,8 +38,8 @@ struct GicpParams {
   double translation_eps_m = 1e-3;
   /// Two phases (ours, not small_gicp's): first with max_correspondence_distance_m (wide basin; steps below 10x
   /// the thresholds count as converged), then with this tighter gate so that pairs without a true counterpart
-  /// (parts seen by one submap only) stop pulling the result; `converged` is the second phase's [m]. On KITTI 07
-  /// submaps the rotation error is 0.04-0.06 deg with it, 0.2-0.3 deg without. 0 disables the second phase.
+  /// (parts seen by one submap only) stop pulling the result; `converged` is the second phase's [m]. 0 disables
+  /// the second phase (core/agent/decisions/017-gicp-refinement-phase.md).
   double refine_correspondence_distance_m = 1.5;
   /// The wide-gate phase uses every coarse_phase_stride-th source point (1 = all): it only has to reach the
   /// basin; the refinement phase and the final evaluation use every point.

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// GNC-TLS rotation and per-axis adaptive-voting translation (REGISTRATION.md §1.2 steps 11-12; Yang et al.,
-// "Graduated Non-Convexity for Robust Spatial Perception", RA-L 2020).
+// GNC-TLS rotation and per-axis adaptive-voting translation (../shared/spec/REGISTRATION.md §1.2 "Pipeline", steps
+// 11-12; Yang et al., "Graduated Non-Convexity for Robust Spatial Perception", RA-L 2020).
 #include "core/registration/robust_solver.hpp"
 
 #include <Eigen/SVD>

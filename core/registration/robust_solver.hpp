@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// commerge: robust rigid fit on pruned correspondences (REGISTRATION.md §1.2 steps 11-12): rotation by
-// graduated non-convexity with a truncated-least-squares cost (GNC-TLS) on translation-invariant chained
+// commerge: robust rigid fit on pruned correspondences (../shared/spec/REGISTRATION.md §1.2 "Pipeline", steps 11-12):
+// rotation by graduated non-convexity with a truncated-least-squares cost (GNC-TLS) on translation-invariant chained
 // measurements, then translation by per-axis adaptive voting (truncated least squares in 1-D).
 #pragma once
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Submap preprocessing (REGISTRATION.md §1.2 steps 2-7, §2.1). One capped radius search per point gives a
-// sorted neighbour list; its prefix within normal_radius_m gives the normal, its first covariance_neighbors
-// entries the GICP covariance, the whole list (within fpfh_radius_m) the descriptor support.
+// Submap preprocessing (../shared/spec/REGISTRATION.md §1.2 "Pipeline", steps 2-7, §2.1 "Preprocessing"). One capped
+// radius search per point gives a sorted neighbour list; its prefix within normal_radius_m gives the normal, its first
+// covariance_neighbors entries the GICP covariance, the whole list (within fpfh_radius_m) the descriptor support.
 #include "core/registration/submap_features.hpp"
 
 #include <Eigen/Eigenvalues>

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// commerge: per-submap preprocessing for coarse-to-fine registration (REGISTRATION.md §1.2 steps 2-7 and
-// §2.1): one bounded neighbour search per point, normals oriented towards the sensor origins, GICP
-// covariances, keypoints and 33-D FPFH-style descriptors ("Faster-PFH": normals, covariances and
+// commerge: per-submap preprocessing for coarse-to-fine registration (../shared/spec/REGISTRATION.md §1.2 "Pipeline",
+// steps 2-7, and §2.1 "Preprocessing"): one bounded neighbour search per point, normals oriented towards the sensor
+// origins, GICP covariances, keypoints and 33-D FPFH-style descriptors ("Faster-PFH": normals, covariances and
 // descriptors all reuse the same neighbour lists).
 #pragma once
 
@@ -28,9 +28,9 @@ struct SubmapFeatureParams {
   double normal_radius_m = 3.0;
   /// Descriptor support and the single neighbour search radius [m] (spec: 5 x voxel size).
   double fpfh_radius_m = 5.0;
-  /// Cap on the neighbour list of one point (the closest ones win). Bounds memory (points x cap x 8 bytes)
-  /// and time; at 1 m voxels a 5 m ball on a surface holds about 80-150 points. On the benchmark pairs 48 is
-  /// as good as 64 (32 loses real pairs), and the neighbour search is the largest single cost.
+  /// Cap on the neighbour list of one point (the closest ones win). Bounds memory (points x cap x 8 bytes) and
+  /// the largest single cost, the neighbour search
+  /// (core/agent/decisions/016-registration-neighbour-and-keypoint-caps.md).
   int max_neighbors = 48;
   /// Fewer neighbours within normal_radius_m (the point included): no normal.
   int min_normal_neighbors = 3;

@@ -65,14 +65,10 @@ struct LoopDetectorParams {
   ///      lenient side);
   ///   2. T from the optimised graph, d = the shortest path through the loops already optimised into it
   ///      (KeyframeGraphDistance): where earlier loops tie the two places together, little drift is left.
-  /// Descriptor search ignores position, so repetitive places (corridors, rows of identical doors or trees)
-  /// verify by ICP at the wrong copy: a corridor period away, or turned at a crossing. Check 1 exists because
-  /// a check against the graph alone can be defeated: an alias that passes bends the graph, and the bent graph
-  /// then refuses true loops and passes aliases that agree with the bend. Check 1 cannot be bent by any loop;
-  /// check 2 is the tight one once loops are closed. The defaults allow 2 % translation and 0.1 deg/m heading
-  /// drift, the upper end of LiDAR odometry (~0.5-2 % and ~0.001-0.01 deg/m): a looser rate admits aliases a
-  /// corridor period away after a few hundred metres of path. Raise them for worse odometry (wheels: 2-5 %);
-  /// huge values disable the checks.
+  /// Why: descriptor search ignores position, so repetitive places verify by ICP at the wrong copy; check 1
+  /// cannot be bent by any loop, check 2 is the tight one once loops are closed. The defaults are the upper end
+  /// of LiDAR odometry drift (core/agent/decisions/018-loop-odometry-plausibility.md). Raise them for worse
+  /// odometry (wheels: 2-5 %); huge values disable the checks.
   double max_correction_m = 2.0;
   double max_correction_per_travelled = 0.02;
   double max_correction_deg = 5.0;
@@ -81,12 +77,10 @@ struct LoopDetectorParams {
   /// Loop refinement (ours, not the paper's, which uses the ICP result as the loop measurement): after the
   /// point-to-point ICP passed the paper's checks, GICP (core/registration) refines the loop transform from the
   /// ICP result; the checks and the information matrix stay the ICP's. Why: on 1 m voxel scans point-to-point
-  /// ICP is biased towards the scans' own sensor-centred sampling (ground rings, one centroid per voxel), with
-  /// a share along the direction of travel; hundreds of such loops shrink and bend a map. GICP matches local
-  /// surfaces (covariances of neighbourhoods) rather than single centroids, so the sampling pattern pulls it far
-  /// less (core/README.md "GICP refinement of intra-robot loops"). The refinement is kept only when GICP
-  /// converged and moved the ICP result by at most
-  /// max_refinement_m / max_refinement_deg (otherwise the ICP result stands and the check says so).
+  /// ICP is biased towards the scans' own sensor-centred sampling, and hundreds of such loops shrink and bend a
+  /// map (core/agent/decisions/019-gicp-loop-refinement.md). The refinement is kept only when GICP converged and
+  /// moved the ICP result by at most max_refinement_m / max_refinement_deg (otherwise the ICP result stands and
+  /// the check says so).
   bool refine_with_gicp = true;
   double max_refinement_m = 1.0;
   double max_refinement_deg = 3.0;

@@ -56,11 +56,9 @@ struct RobotMapperParams {
   /// Yaw (about the sensor's z axis).
   double odometry_sigma_rotation_rad = 0.005;
   /// Roll and pitch (about x and y). The paper's odometry is LiDAR-inertial (FAST-LIO2): gravity keeps its roll and
-  /// pitch from drifting, so a step's roll or pitch is known to about 0.01 deg. With the yaw's 0.005 rad there, the
-  /// loops' pitch noise (0.017 deg on average on the simulator's Town loops, none of them wrong) bent the graph:
-  /// thousands of loops tilted a 10 km urban patrol up to 16.6 m out of its flat road (0.6 m with this value),
-  /// and every bend moved poses the robot then streamed again (core/README.md "Roll and pitch of the odometry").
-  /// Odometry without an IMU drifts in roll and pitch too: give it the yaw's value.
+  /// pitch from drifting, so a step's roll or pitch is known to about 0.01 deg; with the yaw's value the loops' pitch
+  /// noise tilts the graph (core/agent/decisions/020-odometry-roll-pitch-sigma.md). Odometry without an IMU drifts
+  /// in roll and pitch too: give it the yaw's value.
   double odometry_sigma_roll_pitch_rad = 0.0002;
   /// Optimise at most once per this many keyframes: a revisit yields a loop at almost every keyframe, and
   /// each optimisation of a 20k-node graph costs ~0.3 s on a desktop core. Loops found in between are added
