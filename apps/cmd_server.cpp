@@ -702,8 +702,13 @@ int ServerProcess::Run() {
     std::fprintf(stderr, "%s: cannot create --out %s: %s\n", kTag, o_.out_dir.c_str(), ec.message().c_str());
     return kExitFailure;
   }
-  server_ = std::make_unique<MergeServer>(robots_, static_cast<std::size_t>(setup_.config.max_keyframes_per_robot),
-                                          server_params_);
+  auto server = MergeServer::Create(robots_, static_cast<std::size_t>(setup_.config.max_keyframes_per_robot),
+                                    server_params_);
+  if (!server.ok()) {
+    std::fprintf(stderr, "%s: %s\n", kTag, server.status().message().c_str());
+    return kExitUsage;
+  }
+  server_ = std::move(*server);
   link_ = std::make_unique<ServerLink>(session_, link_params_, server_.get());
   confirmed_session_.assign(static_cast<std::size_t>(robots_), 0);
   MissionTrafficParams traffic_params;

@@ -49,22 +49,22 @@ const MergeFlag kMergeFlags[] = {
      "its stage A cluster's keyframes of either robot look as alike to another place of the robot's own map "
      "(more than 20 m away) as to the other robot (repeated structure); 1 = off (the paper)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.max_ambiguous_fraction; }},
-    {"--min-ambiguous-support", "cascade.min_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
+    {"--min-ambiguous-support", "decision.min_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
      "a stage A cluster at an ambiguous place (--max-ambiguous-fraction) is passed on only when the place "
      "consensus (--consensus-max-cells) confirms it with at least this summed weight of agreeing clusters, its "
      "own included; 0 = off (the paper)",
-     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.min_ambiguous_support; }},
-    {"--widen-ambiguous-support", "widen_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.min_ambiguous_support; }},
+    {"--widen-ambiguous-support", "decision.widen_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
      "a pair at an ambiguous place (--max-ambiguous-fraction) whose stage A cluster the place consensus confirms "
      "with at least this summed weight may be widened like any other (--max-widen-steps), and is merged only "
      "where that consensus places it (within the tolerances by which two clusters agree); 0 = off: an ambiguous "
      "pair is never widened",
-     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->widen_ambiguous_support; }},
-    {"--chain-check-support", "chain_check_support", "keyframes", 0.0, 1e7, "ours",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.widen_ambiguous_support; }},
+    {"--chain-check-support", "decision.chain_check_support", "keyframes", 0.0, 1e7, "ours",
      "a pair whose stage A cluster has less place-consensus support than this is not passed on when a third "
      "robot, through two pairs supported at least this much, places the two maps elsewhere and no such robot "
      "agrees; 0 = off (the paper)",
-     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->chain_check_support; }},
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.chain_check_support; }},
     {"--consensus-max-cells", "cascade.consensus_max_cells", "cells", 0.0, 1e7, "ours",
      "place every stage A cluster from the robots' keyframe positions and pass on the qualifying cluster the "
      "other clusters agree with when the lowest-mean one has less than half its support (repeated places); "
@@ -91,15 +91,15 @@ const MergeFlag kMergeFlags[] = {
      "both finer, in steps of 1/sqrt(2) down to 0.25 m, while the smaller gains points (the robots' scans must hold "
      "the detail: --min-scan-points; try 4000 with 1000 there); 0 = always 1 m (the paper)",
      FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->min_submap_points; }},
-    {"--max-colocated-chance", "max_colocated_chance", "", 0.0, 1.0, "ours",
+    {"--max-colocated-chance", "decision.max_colocated_chance", "", 0.0, 1.0, "ours",
      "refuse a registration that places keyframes of the two robots together (away from stage A's cluster; "
      "within 3 m and, for a forward-looking --lidar, its field of view of heading) whose descriptors rank among "
      "each other's nearest no better than this median chance (0 = the co-located keyframe is the nearest, 0.5 = "
      "strangers); 0 = off",
-     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->max_colocated_chance; }},
-    {"--min-colocated-keyframes", "min_colocated_keyframes", "keyframes", 0.0, 1e7, "ours",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.max_colocated_chance; }},
+    {"--min-colocated-keyframes", "decision.min_colocated_keyframes", "keyframes", 0.0, 1e7, "ours",
      "--max-colocated-chance judges a registration only when it places at least this many keyframes together",
-     FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->min_colocated_keyframes; }},
+     FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->decision.min_colocated_keyframes; }},
     {"--max-widen-steps", "max_widen_steps", "steps", 0.0, 8.0, "ours",
      "when registration refuses a pair, ask again for up to twice its scans (more of stage A's keyframes) and "
      "register again, at most this many times per round (0 = the paper's single exchange)",

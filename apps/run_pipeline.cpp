@@ -51,7 +51,7 @@ std::size_t ModeOutcome::scans_requested() const {
 
 std::size_t ModeOutcome::pairs_merged() const {
   std::size_t n = 0;
-  for (const PairMergeResult& p : round.pairs) n += p.attempted && p.registration.success();
+  for (const PairMergeResult& p : round.pairs) n += p.merged();
   return n;
 }
 
@@ -192,8 +192,10 @@ int SetUpRun(RunJob* job) {
       std::find(job->modes.begin(), job->modes.end(), ExchangeMode::kStageAC) != job->modes.end();
   server_params.colocation.max_heading_deg = ColocationHeadingDeg(o.sensor);
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) return Fail(*job, kExitUsage, st.message());
-  job->server = std::make_unique<MergeServer>(
-      job->num_robots(), static_cast<std::size_t>(job->memory.config.max_keyframes_per_robot), server_params);
+  auto server = MergeServer::Create(job->num_robots(),
+                                    static_cast<std::size_t>(job->memory.config.max_keyframes_per_robot), server_params);
+  if (!server.ok()) return Fail(*job, kExitUsage, server.status().message());
+  job->server = std::move(*server);
   job->ledger_params.max_robots = static_cast<std::size_t>(job->num_robots());
   job->stream_ledger = std::make_unique<ByteLedger>(job->ledger_params);
   return kExitOk;
@@ -458,7 +460,7 @@ int RunCascades(RunJob* job) {
       }
       if (c->stage_c.any_endpoint_fallback) padded += " (stage C over the loops with one endpoint selected: none had both)";
       if (c->verification) padded += " (to verify: stage A's " + c->verification_reason + ", --verify-area-fraction)";
-      if (AmbiguousClusterConfirmed(*c, job->server->params())) {
+      if (AmbiguousPlaceConfirmed(CascadeEvidence(*c), job->server->params().decision)) {
         padded += " (ambiguous place: " + c->ambiguity_reason + ", --max-ambiguous-fraction; confirmed by " +
                   FormatNumber(c->consensus_support_chosen, 4) + " keyframes of place consensus, may be widened, " +
                   "--widen-ambiguous-support)";
@@ -568,7 +570,7 @@ void EvaluateMode(const RunJob& job, ModeOutcome* out) {
   const std::vector<Trajectories>& traj = job.trajectories;
   for (const PairMergeResult& p : out->round.pairs) {
     PairEval e;
-    if (p.attempted && p.registration.success()) {
+    if (p.merged()) {
       e = Evaluate(traj[static_cast<std::size_t>(p.alpha)], traj[static_cast<std::size_t>(p.beta)],
                    p.registration.T_target_source);
     }

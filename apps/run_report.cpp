@@ -70,7 +70,7 @@ JudgementInput JudgementInputOf(const RunJob& job, const ModeOutcome& m) {
     JudgedPair j;
     j.alpha = p.alpha;
     j.beta = p.beta;
-    j.registered = p.attempted && p.registration.success();
+    j.registered = p.merged();
     if (i < m.round.plan.pairs.size()) {
       j.alpha_keyframes = Span<const std::uint32_t>(m.round.plan.pairs[i].alpha_keyframes);
       j.beta_keyframes = Span<const std::uint32_t>(m.round.plan.pairs[i].beta_keyframes);
@@ -93,22 +93,21 @@ std::vector<RobotVerdict> RobotVerdicts(const RunJob& job, const ModeOutcome& m)
                      Span<const JudgedPair>(in.pairs), JudgementParamsFor(job));
 }
 
-// The stage that stopped pair i: "merged", the cascade stage that found nothing, the registration verdict, or
-// the frame solver.
-std::string StoppedAt(const RunJob& job, const ModeOutcome& m, std::size_t i) {
+// The stage that stopped pair i (PairStopName): "merged", the frame solver, registration with its verdict, or where
+// the pair stopped before.
+std::string StoppedAt(const ModeOutcome& m, std::size_t i) {
   const PairMergeResult& p = m.round.pairs[i];
-  if (p.attempted && p.registration.success()) {
-    std::size_t k = 0;  // SolveFrames numbers the successful pairs in order
-    for (std::size_t j = 0; j < i; ++j) k += m.round.pairs[j].attempted && m.round.pairs[j].registration.success();
+  if (p.merged()) {
+    std::size_t k = 0;  // SolveFrames numbers the merged pairs in order
+    for (std::size_t j = 0; j < i; ++j) k += m.round.pairs[j].merged();
     const bool rejected = m.round.frames_ok && k < m.round.frames.measurements.size() &&
                           m.round.frames.measurements[k].verdict == MeasurementVerdict::kRejected;
-    return rejected ? "frame solver (inconsistent)" : "merged";
+    return PairStopName(rejected ? PairStop::kInconsistent : PairStop::kNone);
   }
-  if (p.attempted) return std::string("registration (") + RegistrationVerdictName(p.registration.verdict) + ")";
-  const ExchangeCascadeResult* c = job.server->cascade(p.alpha, p.beta);
-  const std::string& reason = c != nullptr && !c->no_candidate_reason.empty() ? c->no_candidate_reason : p.reason;
-  const std::size_t colon = reason.find(':');
-  return colon == std::string::npos ? reason : reason.substr(0, colon);
+  if (p.stop == PairStop::kRegistration) {
+    return std::string(PairStopName(p.stop)) + " (" + RegistrationVerdictName(p.registration.verdict) + ")";
+  }
+  return PairStopName(p.stop);
 }
 
 DescriptorSetView KeyframeDescriptors(const RobotKeyframeDb& db) {
@@ -472,7 +471,7 @@ void WriteMetrics(const RunJob& job) {
     const std::string k = "pair." + std::to_string(p.alpha) + "-" + std::to_string(p.beta) + ".";
     if (!shared.empty()) kv(k + "shared_path_m", Fmt("%.1f", std::min(shared[i].alpha_path_m, shared[i].beta_path_m)));
     const bool no_place = !shared.empty() && !shared[i].shared;
-    const std::string stopped = StoppedAt(job, final_mode, i);
+    const std::string stopped = StoppedAt(final_mode, i);
     kv(k + "stopped", no_place && stopped != "merged" ? "no shared place" : stopped);
     if (p.attempted) kv(k + "submap_voxel_m", Fmt("%.3f", p.voxel_size_m));
     if (const ExchangeCascadeResult* c = job.server->cascade(p.alpha, p.beta); c) {
@@ -501,10 +500,7 @@ void WriteMetrics(const RunJob& job) {
                                                 Fmt("%.0f", c->consensus_support_chosen));
         if (c->consensus_switched) kv(k + "stage_a_consensus_switched", "1");
       }
-      const bool has_transform = p.registration.success() ||
-                                 p.registration.verdict == RegistrationVerdict::kOffConfirmedPlace ||
-                                 p.registration.verdict == RegistrationVerdict::kDescriptorsDisagree;
-      if (p.attempted && has_transform && c->consensus_placement.valid) {
+      if (p.has_transform() && c->consensus_placement.valid) {
         const PlacementGap gap = GapToPlacement(c->consensus_placement, p.registration.T_target_source);
         kv(k + "registration_vs_placement_m_deg", Fmt("%.2f", gap.distance_m) + " " + Fmt("%.1f", gap.yaw_deg));
       }
@@ -577,7 +573,6 @@ Eigen::Isometry3d LoopError(const RobotRun& r, const RobotRun::Loop& l) {
 }
 
 double RotationDeg(const Eigen::Isometry3d& T) { return RotationAngleDeg(T); }
-
 
 Status WriteLoops(const RobotRun& r, const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "w");

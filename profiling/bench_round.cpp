@@ -595,13 +595,18 @@ int main(int argc, char** argv) {
   params.record_kind = KeyframeRecordKind::kUnit40;
   params.cover = cover;
   params.stage_ac_ablation = stage_ac;  // off: as `commerge server --mode A+B+C` (the default) runs it
-  MergeServer server(robots, total, params);
+  auto made = MergeServer::Create(robots, total, params);
+  if (!made.ok()) {
+    std::fprintf(stderr, "bench_round: %s\n", made.status().message().c_str());
+    return 2;
+  }
+  MergeServer& server = **made;
   std::printf("server: MergeServerParams{} (stage A neighbour rank %zu, sequence half window %zu, tau_area %llu "
               "scaled by %.2f, tau_inter %.2f; place consensus up to %zu cells; stage B %s; chain check %.0f)\n",
               server.params().cascade.stage_a.neighbour_rank, server.params().cascade.stage_a.sequence_half_window,
               static_cast<unsigned long long>(server.params().cascade.stage_a.tau_area),
               server.params().cascade.stage_a.tau_area_fraction, server.params().cascade.stage_a.tau_inter,
-              server.params().cascade.consensus_max_cells, StageBCoverName(cover), server.params().chain_check_support);
+              server.params().cascade.consensus_max_cells, StageBCoverName(cover), server.params().decision.chain_check_support);
 
   std::vector<std::int32_t> sequence(static_cast<std::size_t>(robots), 0);
   const int num_pairs = robots * (robots - 1) / 2;

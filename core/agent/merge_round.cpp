@@ -159,6 +159,7 @@ void MergeRound::AddPair(const PairSelection& plan_pair, std::size_t decision, s
       ++current_.pairs_kept;
       for (std::size_t i = 0; i < h->verified.size(); ++i) add_slot(kept(i), static_cast<int>(i));
     } else {
+      placeholder.stop = PairStop::kNotThisRound;
       placeholder.reason = d.why.size() > 255 ? d.why.substr(0, 255) : d.why;
       add_slot(placeholder, -1);
     }
@@ -232,7 +233,7 @@ Status MergeRound::Register(std::vector<Job>* jobs) {
     current_.registration_s[i] += seconds;
     const PairExchangeDecision& d = current_.decisions[job.decision];
     const PairHistory* h = history(job.selection.alpha, job.selection.beta);
-    if (d.reason == PairExchangeReason::kPosesMoved && !(merged->attempted && merged->registration.success()) &&
+    if (d.reason == PairExchangeReason::kPosesMoved && !merged->merged() &&
         h != nullptr && d.region < h->verified.size()) {
       // The overlap at its moved poses did not register: the earlier verification stands.
       job.refused_with_scans = merged->attempted && merged->alpha_missing + merged->beta_missing == 0;
@@ -242,7 +243,7 @@ Status MergeRound::Register(std::vector<Job>* jobs) {
       PairMergeResult k = h->verified[d.region].result;
       k.kept_from_round = h->verified[d.region].region.round;
       k.reason = "kept from round " + std::to_string(k.kept_from_round) + " (registration at the moved poses: " +
-                 (merged->attempted ? RegistrationVerdictName(merged->registration.verdict) : merged->reason) + ")";
+                 (merged->attempted ? PairVerdictName(*merged) : merged->reason) + ")";
       if (k.reason.size() > 255) k.reason.resize(255);
       current_.pairs[i] = std::move(k);
     } else {
@@ -310,7 +311,7 @@ void MergeRound::RecordJob(const Job& job) {
   }
   PairMergeResult& result = current_.pairs[job.slot];
   const PairExchangeDecision& d = current_.decisions[job.decision];
-  const bool success = result.attempted && result.registration.success() && result.kept_from_round == 0;
+  const bool success = result.merged() && result.kept_from_round == 0;
   PairRegion region = MakePairRegion(sel, PosesOf(sel.alpha), PosesOf(sel.beta), current_.round);
   if (d.reason == PairExchangeReason::kPosesMoved && d.region < h->verified.size()) {
     VerifiedRegion& v = h->verified[d.region];
@@ -342,7 +343,7 @@ void MergeRound::RecordJob(const Job& job) {
   if (h->tried.size() < params_.exchange.max_tried_regions) h->tried.push_back(region);
   if (!success) {
     h->refused_round = current_.round;
-    h->refused_reason = RegistrationVerdictName(result.registration.verdict);
+    h->refused_reason = PairVerdictName(result);
     return;
   }
   VerifiedRegion v;
@@ -366,7 +367,7 @@ Status MergeRound::Finish() {
   for (const Job& job : jobs_) {
     const PairMergeResult& p = current_.pairs[job.slot];
     if (current_.decisions[job.decision].region > 0 && entry_region_[job.slot] < 0 &&
-        !(p.attempted && p.registration.success())) {
+        !p.merged()) {
       dropped.push_back(job.slot);
     }
   }
@@ -387,7 +388,7 @@ Status MergeRound::Finish() {
     std::size_t m = 0;
     for (std::size_t i = 0; i < current_.pairs.size(); ++i) {
       const PairMergeResult& p = current_.pairs[i];
-      if (!p.attempted || !p.registration.success()) continue;
+      if (!p.merged()) continue;
       const MeasurementVerdict verdict = current_.frames.measurements[m++].verdict;
       PairHistory* h = MutableHistory(p.alpha, p.beta);
       if (h == nullptr || entry_region_[i] < 0 || static_cast<std::size_t>(entry_region_[i]) >= h->verified.size()) {
@@ -460,8 +461,8 @@ MergeResultMessage MakeMergeResultMessage(const MergeRoundResult& round, const M
     MergePairOutcome o;
     o.alpha = p.alpha;
     o.beta = p.beta;
-    o.success = p.attempted && p.registration.success();
-    o.verdict = !p.attempted || p.kept_from_round > 0 ? p.reason : RegistrationVerdictName(p.registration.verdict);
+    o.success = p.merged();
+    o.verdict = !p.attempted || p.kept_from_round > 0 ? p.reason : PairVerdictName(p);
     o.T_alpha_beta = o.success ? p.registration.T_target_source : Eigen::Isometry3d::Identity();
     o.alpha_scans = static_cast<std::uint32_t>(p.alpha_scans);
     o.beta_scans = static_cast<std::uint32_t>(p.beta_scans);

@@ -109,6 +109,19 @@ LidarScanTraits ScanTraits(LidarSensor sensor) noexcept {
   return t;
 }
 
+LidarScanTraits ScanTraitsFor(const std::string& sensor) {
+  Result<LidarSensor> found = LidarSensorFor(sensor);
+  return found.ok() ? ScanTraits(*found) : LidarScanTraits{};
+}
+
+double PaperTauInter(const LidarScanTraits& traits) noexcept { return traits.non_repetitive ? 0.05 : 0.10; }
+
+double PaperTauIntra(const LidarScanTraits& traits) noexcept { return traits.non_repetitive ? 0.01 : 0.05; }
+
+double ColocationHeadingDeg(const LidarScanTraits& traits) noexcept {
+  return traits.horizontal_fov_deg < 180.0 ? traits.horizontal_fov_deg : 180.0;
+}
+
 Status ValidateSolidParams(const SolidParams& p) {
   const auto count_error = [](const char* field, int value, int max) {
     return InvalidArgument(std::string("SOLiD parameters: ") + field + " must be in [1, " + std::to_string(max) +

@@ -79,6 +79,15 @@ struct LidarScanTraits {
   bool non_repetitive = false;
 };
 LidarScanTraits ScanTraits(LidarSensor sensor) noexcept;
+/// The traits of the sensor named `sensor` (names as LidarSensorFor); a spinning 360 deg sensor when unknown.
+LidarScanTraits ScanTraitsFor(const std::string& sensor);
+
+/// The paper's descriptor thresholds by scan pattern (its two threshold columns): tau_inter 0.10 and tau_intra
+/// 0.05 for a spinning sensor, 0.05 and 0.01 for a non-repetitive one.
+double PaperTauInter(const LidarScanTraits& traits) noexcept;
+double PaperTauIntra(const LidarScanTraits& traits) noexcept;
+/// Headings within which two keyframes see the same place: the horizontal field of view, at most 180 deg.
+double ColocationHeadingDeg(const LidarScanTraits& traits) noexcept;
 
 /// OK, or invalid argument naming the first offending field and its value: counts in [1, kSolidMax*];
 /// num_sectors must divide 360; FOV finite, within [-90, 90] deg and fov_down_deg < fov_up_deg; ranges

@@ -149,10 +149,6 @@ Status ValidateExchangeCascadeParams(const ExchangeCascadeParams& params) {
   if (Status s = ValidateSequentialMatchParams(params.stage_a); !s.ok()) return s;
   if (Status s = ValidateStageCParams(params.stage_c); !s.ok()) return s;
   if (Status s = ValidateExchangePolicyParams(params.policy); !s.ok()) return s;
-  if (!(params.min_ambiguous_support >= 0.0 && std::isfinite(params.min_ambiguous_support))) {
-    return InvalidArgument("cascade min_ambiguous_support must be finite and >= 0, got " +
-                           std::to_string(params.min_ambiguous_support));
-  }
   if (!(params.max_ambiguous_fraction >= 0.0 && params.max_ambiguous_fraction <= 1.0)) {
     return InvalidArgument("cascade max_ambiguous_fraction must be in [0, 1], got " +
                            std::to_string(params.max_ambiguous_fraction));
@@ -273,14 +269,6 @@ Result<ExchangeCascadeResult> RunCascadeStageA(const CascadeRobotInput& alpha, c
           " of robot " + (alpha_worse ? "alpha" : "beta") + "'s keyframes in the cluster look as alike to a place of " +
           "its own map more than " + FormatNumber(params.ambiguity_far_m, 3) + " m away";
     }
-  }
-  if (result.ambiguous && result.consensus_measured && params.min_ambiguous_support > 0.0 &&
-      result.consensus_support_chosen < params.min_ambiguous_support) {
-    result.no_candidate_reason = "stage A: ambiguous place (" + result.ambiguity_reason +
-                                 ") that other clusters do not confirm: place consensus support " +
-                                 FormatNumber(result.consensus_support_chosen, 4) + " keyframes < " +
-                                 FormatNumber(params.min_ambiguous_support, 4) + " (min_ambiguous_support)";
-    return result;
   }
   return result;
 }

@@ -32,25 +32,19 @@ struct ExchangeCascadeParams {
   /// Ours; 0 = off (the paper). When no cluster of stage A spans the area asked (EffectiveTauArea) but the
   /// largest spans at least this fraction of it, stage A takes that largest cluster (a second pass asking for
   /// exactly its span area) and the cascade goes on, flagged `verification`: the few scans its policy names
-  /// are registered, and the registration gates decide as for every candidate. In [0, 1].
+  /// are registered, and the registration gates decide as for every candidate. In [0, 1]
+  /// (core/agent/decisions/002-verification-below-tau-area.md).
   double verification_area_fraction = 0.0;
   /// Ours; 1 = off (the paper). When more than this fraction of the chosen cluster's keyframes of either robot are
   /// ambiguous (the robot's own map has a keyframe more than ambiguity_far_m away whose descriptor is as close as
-  /// the other robot's match, place_ambiguity.hpp), the result is flagged `ambiguous`: the pair is registered
-  /// once, never widened (MergeServer::WidenPlan) unless the place consensus confirms it
-  /// (MergeServerParams::widen_ambiguous_support). In [0, 1].
+  /// the other robot's match, place_ambiguity.hpp), the result is flagged `ambiguous` (evidence for the server's
+  /// decisions, core/agent/pair_decision.hpp). In [0, 1] (core/agent/decisions/003-ambiguous-places.md).
   double max_ambiguous_fraction = 1.0;
   /// [m], >= 0: how far a keyframe of the robot's own map must be to count as another place.
   double ambiguity_far_m = 20.0;
-  /// Ours; 0 = off. [keyframes] An ambiguous cluster (above) whose place consensus support (the summed weight of
-  /// the clusters agreeing with it, its own included; needs consensus_max_cells > 0) is below this is not passed
-  /// on: at a repeated place only other clusters that agree on the same placement tell the true place from a
-  /// look-alike, and registration's gates cannot (a corridor aligns well with another corridor). The pair ends
-  /// kNoCandidate with the reason; no scans are asked for.
-  double min_ambiguous_support = 0.0;
   /// Ours; 0 = off (the paper). c > 0: when stage A has at most c cells below threshold, every cluster is placed
   /// from the robots' keyframe positions and S* gives way to the qualifying cluster the other clusters confirm
-  /// (place_consensus.hpp).
+  /// (place_consensus.hpp; core/agent/decisions/004-place-consensus.md).
   std::size_t consensus_max_cells = 0;
   PlaceConsensusParams consensus;
   /// How descriptors are compared: unit L2 (SOLiD, the ring descriptor; the tile kernel) or the Scan Context
@@ -148,7 +142,7 @@ Result<ExchangeCascadeResult> RunExchangeCascade(const CascadeRobotInput& alpha,
                                                  const ExchangeCascadeParams& params);
 
 /// The cascade up to stage B: affinity and stage A, the verification retry, the place consensus and the
-/// ambiguity check. The result either ends there (kNoCandidate with its reason) or awaits stage B.
+/// ambiguity measure. The result either ends there (kNoCandidate with its reason) or awaits stage B.
 Result<ExchangeCascadeResult> RunCascadeStageA(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
                                                const ExchangeCascadeParams& params);
 /// Stage A passed L_seq on: stage B, C and the policy are still to run.

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Coarse-to-fine submap registration pipeline (REGISTRATION.md §1.2, §2, §3).
+// Coarse-to-fine submap registration pipeline (../shared/spec/REGISTRATION.md §1.2 "Pipeline", §2 "GICP (fine),
+// small_gicp style", §3 "How the authors chain the two").
 #include "core/registration/submap_registration.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -55,8 +56,6 @@ const char* RegistrationVerdictName(RegistrationVerdict verdict) noexcept {
     case RegistrationVerdict::kOverlapTooLow: return "overlap too low";
     case RegistrationVerdict::kDegenerate: return "degenerate";
     case RegistrationVerdict::kCoarseFineDisagree: return "coarse and fine disagree";
-    case RegistrationVerdict::kOffConfirmedPlace: return "off the confirmed place";
-    case RegistrationVerdict::kDescriptorsDisagree: return "descriptors disagree where it joins the robots";
   }
   return "unknown";
 }

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // commerge: coarse-to-fine submap registration, the last stage of the server (paper "Submap-Based Map
-// Merging"; REGISTRATION.md). Coarse: normals -> FPFH descriptors -> mutual ratio-test matching ->
+// Merging"; ../shared/spec/REGISTRATION.md). Coarse: normals -> FPFH descriptors -> mutual ratio-test matching ->
 // compatibility graph + maximum k-core -> GNC-TLS rotation + adaptive-voting translation (KISS-Matcher-style).
 // Fine: GICP from the coarse estimate. T_final = T_fine * T_coarse (paper eq. "final transformation"; here
 // the fine stage starts from T_coarse, so its output already is the composition).
@@ -44,9 +44,7 @@ struct RegistrationGates {
   /// GicpResult::directional_overlap: matched share of the weakest direction the source constrains.
   double min_directional_overlap = 0.15;
   /// overlap_ratio x directional_overlap. A wrong alignment of two streets matches the road (high overlap) but
-  /// not the facades across and along it (low directional overlap). Calibration (bench_registration, 1 m
-  /// voxels): wrong alignments of generated streets reached at most 0.095 (one pair; the next 0.084), correct
-  /// ones at least 0.127 (KITTI 07 submaps 3-4, 56 % overlap), generated correct ones >= 0.3.
+  /// not the facades across and along it (low directional overlap) (core/agent/decisions/014-registration-overlap-score.md).
   double min_overlap_score = 0.11;
   /// Translation block of the information: smallest / largest eigenvalue (1e-3 for one plane).
   double min_information_ratio = 0.005;
@@ -73,7 +71,8 @@ struct SubmapRegistrationParams {
   RegistrationGates gates;
 };
 
-/// Defaults of REGISTRATION.md §1.1 and §2.4 scaled by the voxel size v (>= 5e-3 m): normal radius 3v, FPFH
+/// Defaults of ../shared/spec/REGISTRATION.md §1.1 "Parameters, all scaled by the voxel size v" and §2.4
+/// "Project configuration (our choice)" scaled by the voxel size v (>= 5e-3 m): normal radius 3v, FPFH
 /// radius 5v, graph bound min(v, 1 m), solver bound min(0.75 v, 1 m), GICP gate 5v, overlap inlier distance v,
 /// fine correction 3v; global search cell v, vertical extent 0.5v, candidate separation 4v.
 SubmapRegistrationParams MakeSubmapRegistrationParams(double voxel_size_m);
@@ -103,13 +102,6 @@ enum class RegistrationVerdict : std::uint8_t {
   kOverlapTooLow,             ///< overlap_ratio, directional_overlap or their product below its gate
   kDegenerate,                ///< the information leaves a translation direction unconstrained
   kCoarseFineDisagree,        ///< the fine stage moved the coarse estimate too far
-  /// Set by the merge server after Register, never by it: the transform of a pair at a confirmed ambiguous place
-  /// lies away from where the place consensus places it (RegistrationAtConfirmedPlace in merge_server.hpp).
-  kOffConfirmedPlace,
-  /// Set by the merge server after Register, never by it: where the transform places keyframes of the two robots
-  /// together (away from stage A's cluster), their descriptors are no nearer than chance
-  /// (MergeServerParams::max_colocated_chance in merge_server.hpp).
-  kDescriptorsDisagree,
 };
 
 /// "success", "non-finite input", "too few points", ... (stable, for logs and tables).

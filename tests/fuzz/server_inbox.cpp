@@ -94,20 +94,22 @@ std::vector<std::uint8_t> RoundTrip(const char* what, const Message& m, Encoder 
   return bytes;
 }
 
+std::unique_ptr<MergeServer> MakeInboxMergeServer() {
+  auto server = MergeServer::Create(kInboxMaxRobots, kInboxMaxKeyframes, InboxMergeServerParams());
+  if (!server.ok()) Fail("server inbox: bad server parameters: %s", server.status().ToString().c_str());
+  return std::move(*server);
+}
+
 }  // namespace
 
 InboxServer::InboxServer()
-    : server_(kInboxMaxRobots, kInboxMaxKeyframes, InboxMergeServerParams()),
-      link_(kInboxServerSession, InboxServerLinkParams(), &server_) {
+    : server_(MakeInboxMergeServer()), link_(kInboxServerSession, InboxServerLinkParams(), server_->get()) {
   const char* strict = std::getenv("CM_FUZZ_STRICT_REFUSALS");
   strict_refusals_ = strict == nullptr || std::strcmp(strict, "0") != 0;
-  if (Status st = ValidateMergeServerParams(InboxMergeServerParams()); !st.ok()) {
-    Fail("server inbox: bad server parameters: %s", st.ToString().c_str());
-  }
 }
 
 std::uint64_t InboxServer::CountedRefusals() const {
-  const MergeServerStats& s = server_.stats();
+  const MergeServerStats& s = server_->stats();
   return s.rejected_batches + s.rejected_records + s.rejected_pose_updates + s.rejected_chunks +
          link_.stats().stale_messages;
 }
@@ -117,10 +119,10 @@ std::uint64_t InboxServer::CountedRefusals() const {
 // runs MergeServer::CheckKeyframeBatch / CheckPoseUpdate first.)
 std::uint64_t InboxServer::StateDigest() const {
   std::uint64_t h = 1469598103934665603ull;
-  for (int r = 0; r < server_.max_robots(); ++r) {
+  for (int r = 0; r < server_->max_robots(); ++r) {
     const std::int64_t session = link_.robot_session(r);
     Mix(&h, &session, sizeof(session));
-    const RobotKeyframeDb& db = server_.robot(r);
+    const RobotKeyframeDb& db = server_->robot(r);
     MixVector(&h, db.descriptors);
     MixVector(&h, db.valid);
     MixVector(&h, db.pose_known);
@@ -143,7 +145,7 @@ void InboxServer::Deliver(const char* channel, const Result<Message>& decoded, H
     return;
   }
   const std::uint64_t counted = CountedRefusals();
-  const std::uint64_t records = server_.stats().records;
+  const std::uint64_t records = server_->stats().records;
   const std::uint64_t digest = strict_refusals_ ? StateDigest() : 0;
   const Status st = handler(*decoded);
   if (st.ok()) {
@@ -155,7 +157,7 @@ void InboxServer::Deliver(const char* channel, const Result<Message>& decoded, H
   if (CountedRefusals() <= counted) {
     Fail("server inbox: %s: the server refused a message without counting it: %s", channel, st.ToString().c_str());
   }
-  if (strict_refusals_ && server_.stats().records == records && StateDigest() != digest) {
+  if (strict_refusals_ && server_->stats().records == records && StateDigest() != digest) {
     Fail("server inbox: %s: a refused message changed a robot's session or keyframes: %s", channel,
          st.ToString().c_str());
   }

@@ -11,6 +11,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -71,7 +72,7 @@ class InboxServer {
   /// The daemon's server_status_t content now (its memory modules left empty, as the daemon does).
   ServerStatus MakeServerStatus() const;
 
-  const MergeServer& server() const noexcept { return server_; }
+  const MergeServer& server() const noexcept { return *server_; }
   const ServerLink& link() const noexcept { return link_; }
   std::uint64_t rejected() const noexcept { return rejected_; }
   std::uint64_t accepted() const noexcept { return accepted_; }
@@ -84,7 +85,7 @@ class InboxServer {
   void Deliver(const char* channel, const Result<Message>& decoded, Handler handler);
   void Publish();
 
-  MergeServer server_;
+  std::unique_ptr<MergeServer> server_;  ///< MergeServer::Create, which must succeed
   ServerLink link_;
   std::int64_t now_us_ = kInboxStartUs;
   std::int64_t next_status_us_ = kInboxStartUs;

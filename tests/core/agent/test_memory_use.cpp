@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "tests/core/agent/server_fixture.hpp"
 #include "core/agent/merge_server.hpp"
 #include "core/agent/robot_agent.hpp"
 #include "core/cloud/scan_codec.hpp"
@@ -207,7 +208,8 @@ TEST_CASE("Robot agent memory: the scan store high-water mark stays when it evic
 }
 
 TEST_CASE("Merge server memory: the server budget modules, descriptor_db from the capacity of each robot's arrays") {
-  MergeServer server(3, 5000, MergeServerParams{});
+  std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(3, 5000, MergeServerParams{});
+  MergeServer& server = *server_owner;
   std::vector<std::string> names;
   for (const ModuleMemory& m : server.MemoryUse()) names.push_back(m.name);
   CHECK(names == BudgetModules(AppKind::kServer, {"merged_map", "inbox", "runtime"}));
@@ -250,7 +252,8 @@ TEST_CASE("Merge server memory: the server budget modules, descriptor_db from th
 }
 
 TEST_CASE("Merge server memory: scan_reassembly counts held and partial scans, and its mark stays after ClearScans") {
-  MergeServer server(2, 100, MergeServerParams{});
+  std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, MergeServerParams{});
+  MergeServer& server = *server_owner;
   const std::vector<std::uint8_t> a = EncodeForTest(LatticePoints(1000)), b = EncodeForTest(LatticePoints(3000));
   const std::vector<ScanChunk> ca = ChunksOf(0, 4, a), cb = ChunksOf(1, 9, b);
   REQUIRE(cb.size() > 2);
@@ -281,7 +284,8 @@ TEST_CASE("Merge server memory: the cascade, the submaps and the registration co
   MergeServerParams params;
   params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   params.cascade.stage_a.tau_area = 100;
-  MergeServer server(2, 100, params);
+  std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, params);
+  MergeServer& server = *server_owner;
   // Stage A: beta's keyframe j sees alpha's place j + 5.
   const int n = 40;
   for (const KeyframeBatch& b : ShiftedPairBatches(n, 5)) REQUIRE(server.OnKeyframeBatch(b).ok());
@@ -358,7 +362,8 @@ TEST_CASE("Merge server memory: the submaps stay within their budget module howe
   MergeServerParams params;
   params.max_submap_points = static_cast<std::size_t>(config.max_submap_points);
   params.max_scan_points = static_cast<std::size_t>(config.max_points_per_stored_scan);
-  MergeServer server(2, 100, params);
+  std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, params);
+  MergeServer& server = *server_owner;
   const int n = 40;
   for (const KeyframeBatch& b : ShiftedPairBatches(n, 5)) REQUIRE(server.OnKeyframeBatch(b).ok());
   std::mt19937 rng(23);

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "tests/core/agent/server_fixture.hpp"
 #include "core/agent/merge_round.hpp"
 #include "core/agent/merge_server.hpp"
 #include "core/agent/server_link.hpp"
@@ -42,7 +43,7 @@ std::unique_ptr<MergeServer> ShiftedServer(int max_widen_steps) {
   params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   params.cascade.stage_a.tau_area = 100;
   params.max_widen_steps = max_widen_steps;
-  auto server = std::make_unique<MergeServer>(2, 100, params);
+  auto server = commerge::test::MakeTestServer(2, 100, params);
   for (const KeyframeBatch& b : ShiftedPairBatches(kN, kShift)) REQUIRE(server->OnKeyframeBatch(b).ok());
   return server;
 }
@@ -195,7 +196,7 @@ struct StreetRounds {
     MergeServerParams params;
     params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
     params.cascade.stage_a.tau_area = 1;
-    server = std::make_unique<MergeServer>(2, 100, params);
+    server = commerge::test::MakeTestServer(2, 100, params);
     std::mt19937 rng(3);
     d4 = {RandomDescriptor(&rng), RandomDescriptor(&rng), RandomDescriptor(&rng), RandomDescriptor(&rng)};
     REQUIRE(server->OnKeyframeBatch(MakeBatch(0, 0, d4, std::vector<Eigen::Vector3d>(4, Eigen::Vector3d::Zero()), 0)).ok());
@@ -515,7 +516,8 @@ TEST_CASE("Server link emits the merge result the direct round makes on the same
     mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
     mp.cascade.stage_a.tau_area = 100;
     mp.max_widen_steps = steps;
-    MergeServer server(2, 100, mp);
+    std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, mp);
+    MergeServer& server = *server_owner;
     ServerLinkParams lp;
     lp.automatic_rounds = false;
     ServerLink link(500, lp, &server);

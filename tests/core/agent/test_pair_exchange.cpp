@@ -67,6 +67,7 @@ PairHistory History(const Poses& poses, std::uint32_t first, std::uint32_t count
     v.result.beta = 1;
     v.result.attempted = true;
     v.result.registration.verdict = RegistrationVerdict::kSuccess;
+    v.result.stop = PairStop::kNone;
     v.region = region;
     v.verdict = verdict;
     h.verified.push_back(v);

@@ -8,6 +8,7 @@
 #include <memory>
 #include <vector>
 
+#include "tests/core/agent/server_fixture.hpp"
 #include "core/agent/merge_server.hpp"
 #include "core/agent/robot_agent.hpp"
 #include "core/descriptor/sensor_presets.hpp"
@@ -34,7 +35,8 @@ TEST_CASE("Robot agent streams poses moved beyond its threshold and refreshes re
   capacity.max_points_per_raw_scan = 20000;
   RobotAgentParams params;
   RobotAgent agent(0, params, capacity, &*solid, store->get());
-  MergeServer server(2, 400, MergeServerParams{});
+  std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 400, MergeServerParams{});
+  MergeServer& server = *server_owner;
 
   // Odometry with a yaw drift of 0.1 deg per metre and 1 % scale error; batches stream as the robot drives.
   const double perimeter = 2.0 * (test::kWidth + test::kHeight);

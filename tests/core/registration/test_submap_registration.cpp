@@ -282,10 +282,10 @@ TEST_CASE("Parameters scale with the voxel size and are validated") {
   CHECK(r.status().code() == StatusCode::kInvalidArgument);
   // Every verdict and stage has its own name.
   std::set<std::string> names;
-  for (int v = 0; v <= static_cast<int>(RegistrationVerdict::kDescriptorsDisagree); ++v) {
+  for (int v = 0; v <= static_cast<int>(RegistrationVerdict::kCoarseFineDisagree); ++v) {
     names.insert(RegistrationVerdictName(static_cast<RegistrationVerdict>(v)));
   }
-  CHECK(names.size() == static_cast<std::size_t>(RegistrationVerdict::kDescriptorsDisagree) + 1);
+  CHECK(names.size() == static_cast<std::size_t>(RegistrationVerdict::kCoarseFineDisagree) + 1);
   CHECK(std::string(RegistrationVerdictName(RegistrationVerdict::kSuccess)) == "success");
   std::set<std::string> stages;
   for (int s = 0; s < kNumRegistrationStages; ++s) stages.insert(RegistrationStageName(static_cast<RegistrationStage>(s)));
@@ -297,7 +297,8 @@ TEST_CASE("Real pair small_gicp, 1 m pre-voxelised: coarse-to-fine within 0.5 de
   const Eigen::Isometry3d truth = test::ReadTransform4x4(dir + "/T_target_source.txt");
   const std::vector<PointXYZI> target = test::LoadVoxelised(dir + "/target.bin", Eigen::Isometry3d::Identity(), 1.0);
   const SubmapRegistrationParams params = MakeSubmapRegistrationParams(1.0);
-  // The reference is itself a registration result (agreement ~0.3-0.4 deg between methods, REGISTRATION.md §4.3).
+  // The reference is itself a registration result (agreement ~0.3-0.4 deg between methods, ../shared/spec/REGISTRATION.md
+  // §4.3 "Measured: KISS-Matcher → GICP on the small_gicp pair").
   for (const Eigen::Isometry3d& P : {Eigen::Isometry3d::Identity(), YawOffset(180.0, 5.0, -3.0, 0.5)}) {
     const std::vector<PointXYZI> source = test::LoadVoxelised(dir + "/source.bin", P.inverse(), 1.0);
     REQUIRE(source.size() > 1000);

@@ -1,0 +1,99 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// commerge: the server's pair registrar (budget modules "submaps" and "registration"): builds the two submaps of a
+// pair from the received scans (paper eqs. M_alpha, M_beta), registers them coarse to fine, measures the evidence
+// that only a registered transform gives (the gap to the consensus placement, the descriptors' agreement where it
+// joins the robots), asks DecideAccept, and combines accepted pairs into one frame per robot.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/agent/exchange_planner.hpp"
+#include "core/agent/keyframe_database.hpp"
+#include "core/agent/merge_server_params.hpp"
+#include "core/agent/pair_decision.hpp"
+#include "core/agent/scan_inbox.hpp"
+#include "core/cloud/point.hpp"
+#include "core/cloud/voxel_grid.hpp"
+#include "core/common/span.hpp"
+#include "core/common/status.hpp"
+#include "core/merge/frame_solver.hpp"
+#include "core/registration/submap_registration.hpp"
+
+namespace commerge {
+
+/// What registering one pair produced.
+struct PairMergeResult {
+  int alpha = 0, beta = 0;
+  bool attempted = false;           ///< false: nothing selected or no scan received (see stop and reason)
+  /// Where the pair stopped (kNone: accepted); `reason` in words (the failed verdict, the figures behind a check,
+  /// or why it was not attempted).
+  PairStop stop = PairStop::kNothingSelected;
+  std::string reason;
+  std::size_t alpha_scans = 0, beta_scans = 0;        ///< received scans used
+  std::size_t alpha_missing = 0, beta_missing = 0;    ///< selected but not received
+  std::size_t alpha_submap_points = 0, beta_submap_points = 0;
+  double voxel_size_m = 0.0;        ///< of the submaps
+  RegistrationResult registration;  ///< T_target_source = T_alpha_beta (p_alpha = T p_beta); geometry verdict only
+  /// > 0: this round could not register the pair for missing scans (reason says why); the result is the one
+  /// that round verified for the same two robot sessions (ServerLink keeps it; see KeepVerifiedPairs).
+  int kept_from_round = 0;
+  /// Descriptor agreement of a registered transform (decision.max_colocated_chance): beta keyframes outside stage
+  /// A's cluster it places on top of alpha's, and their median chance (-1 when not measured).
+  std::size_t colocated_keyframes = 0;
+  double colocated_chance = -1.0;
+  /// Registered and accepted (DecideAccept): the transform joins the two maps.
+  bool merged() const noexcept { return attempted && stop == PairStop::kNone; }
+  /// Registered, with a transform (accepted, or refused by a check after registration's gates passed).
+  bool has_transform() const noexcept { return attempted && registration.success(); }
+};
+
+/// The verdict of an attempted pair for messages and logs: "success", the registration verdict's name, or the
+/// stop's name for a check after registration (PairStopName).
+const char* PairVerdictName(const PairMergeResult& result) noexcept;
+
+class PairRegistrar {
+ public:
+  /// Parameters as MergeServer holds them (checked by ValidateMergeServerParams).
+  explicit PairRegistrar(const MergeServerParams& params) : params_(params) {}
+
+  /// Submap of one robot (map frame points) from received scans of `keyframes`, voxelised at voxel_size_m.
+  /// Returns the number of scans used; missing ones are counted in *missing. `note_memory` is called at the end.
+  std::size_t BuildSubmap(const KeyframeDatabase& db, const ScanInbox& inbox, int robot,
+                          Span<const std::uint32_t> keyframes, double voxel_size_m, std::vector<PointXYZI>* points,
+                          std::vector<Eigen::Vector3d>* sensor_origins, std::size_t* missing,
+                          const std::function<void()>& note_memory);
+
+  /// Builds the two submaps of `pair`, registers beta's onto alpha's, and asks DecideAccept. `cascade` and
+  /// `evidence`: the pair's from the last cascades (nullptr when it has none: no placement or descriptor check).
+  /// `note_memory` is called after each submap and after registration.
+  Result<PairMergeResult> MergePair(const KeyframeDatabase& db, const ScanInbox& inbox, const PairSelection& pair,
+                                    const ExchangeCascadeResult* cascade, const PairEvidence* evidence,
+                                    RegistrationStageObserver* observer, const std::function<void()>& note_memory);
+
+  /// Combines accepted pairwise results into one frame per robot (world = robot 0's map frame).
+  Result<FrameSolution> SolveFrames(int max_robots, Span<const PairMergeResult> pairs) const;
+
+  /// Bytes of the decoded scan, union and both submaps, sensor origins and the voxel grid's workspace (module
+  /// "submaps"); of SubmapRegistration::workspace_bytes (module "registration").
+  std::size_t SubmapBytes() const;
+  std::size_t RegistrationBytes() const { return registration_.workspace_bytes(); }
+
+ private:
+  // Fills result's colocated_keyframes / colocated_chance for its registered transform.
+  void MeasureColocation(const KeyframeDatabase& db, const ExchangeCascadeResult& cascade,
+                         PairMergeResult* result) const;
+
+  MergeServerParams params_;
+  SubmapRegistration registration_;
+  VoxelGrid voxel_grid_;
+  std::vector<PointXYZI> scan_points_, union_points_, alpha_points_, beta_points_;
+  std::vector<Eigen::Vector3d> alpha_origins_, beta_origins_;
+};
+
+}  // namespace commerge
