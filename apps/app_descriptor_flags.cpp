@@ -76,29 +76,19 @@ AdaptiveVoxelParams StoredScanVoxel(const DescriptorFlags& flags) {
 namespace {
 
 // A non-repetitive sensor (ScanTraits): the paper's thresholds for it, and local maps for the ring descriptor.
-bool NonRepetitive(const std::string& lidar) {
-  Result<LidarSensor> sensor = LidarSensorFor(lidar);
-  return sensor.ok() && ScanTraits(*sensor).non_repetitive;
-}
+bool NonRepetitive(const std::string& lidar) { return ScanTraitsFor(lidar).non_repetitive; }
 
 }  // namespace
-
-double ColocationHeadingDeg(const std::string& lidar) {
-  Result<LidarSensor> sensor = LidarSensorFor(lidar);
-  return sensor.ok() ? std::min(180.0, ScanTraits(*sensor).horizontal_fov_deg) : 180.0;
-}
 
 double DefaultTauIntra(const std::string& descriptor, const std::string& lidar) {
   if (descriptor == "ring") return 0.15;
   if (descriptor == "scan-context") return 0.2;
-  return NonRepetitive(lidar) ? 0.01 : 0.05;
+  return PaperTauIntra(ScanTraitsFor(lidar));
 }
-
-double PaperTauInter(const std::string& lidar) { return NonRepetitive(lidar) ? 0.05 : 0.10; }
 
 void ApplySensorTauInter(bool tau_inter_given, const std::string& lidar, MergeServerParams* params) {
   if (!tau_inter_given && params->cascade.stage_a.neighbour_rank == 0) {
-    params->cascade.stage_a.tau_inter = PaperTauInter(lidar);
+    params->cascade.stage_a.tau_inter = PaperTauInter(ScanTraitsFor(lidar));
   }
 }
 
@@ -116,8 +106,10 @@ std::string CascadeSettingsText(const MergeServerParams& params) {
                          ? "stage A tau_inter " + FormatNumber(a.tau_inter, 4) + " per cell"
                          : "stage A neighbour rank " + std::to_string(a.neighbour_rank) + " under tau_inter " +
                                FormatNumber(a.tau_inter, 4);
-  return text + (params.record_kind == KeyframeRecordKind::kScanContext ? " (Scan Context distance)" : "") +
-         ", stage B " + StageBCoverName(params.cover);
+  text += params.record_kind == KeyframeRecordKind::kScanContext ? " (Scan Context distance)" : "";
+  text += ", tau_area " + std::to_string(a.tau_area) + " cells";
+  if (a.tau_area_fraction > 0.0) text += " (at most (" + FormatNumber(a.tau_area_fraction, 4) + " x keyframes)^2)";
+  return text + ", stage B " + StageBCoverName(params.cover);
 }
 
 DescriptorInputParams RingDescriptorInput(const std::string& lidar) {

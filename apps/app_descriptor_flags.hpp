@@ -62,17 +62,11 @@ struct RobotDescriptor {
 /// scan sees a narrow cone) and the keyframe's own scan for a spinning one.
 DescriptorInputParams RingDescriptorInput(const std::string& lidar);
 /// tau_intra (the intra-robot loop candidate gate on the descriptor distance) of a descriptor for a sensor:
-/// SOLiD the paper's table (0.05 spinning, 0.01 non-repetitive); ring 0.15 (measured: true revisits' nearest
-/// neighbours lie below 0.11 in 9 of 10 cases, false ones above 0.2 in 9 of 10; the ICP check decides).
+/// SOLiD the paper's table (PaperTauIntra of the sensor's scan traits); ring 0.15, Scan Context 0.2.
 double DefaultTauIntra(const std::string& descriptor, const std::string& lidar);
-/// [deg] Headings within which two keyframes at one place see the same scene: a forward-looking sensor's
-/// horizontal field of view (avia 70.4), 180 (any) for a spinning one or an unknown name. The server's
-/// descriptor agreement (MergeServerParams::colocation) takes it.
-double ColocationHeadingDeg(const std::string& lidar);
-/// The paper's tau_inter for a sensor (its threshold table): 0.05 for a non-repetitive, 0.10 for a spinning one.
-double PaperTauInter(const std::string& lidar);
 /// Stage A's per-sensor default: when --tau-inter was not given (`tau_inter_given` false) and stage A thresholds
-/// every cell (--neighbour-rank 0, the paper's stage A), tau_inter becomes PaperTauInter(lidar). With a neighbour
+/// every cell (--neighbour-rank 0, the paper's stage A), tau_inter becomes PaperTauInter of the sensor's scan
+/// traits (core/descriptor/sensor_presets.hpp). With a neighbour
 /// rank it stays a cap (MergeServerParams{}: 0.5, measured by the recall benchmark for every sensor).
 void ApplySensorTauInter(bool tau_inter_given, const std::string& lidar, MergeServerParams* params);
 /// The keyframe records of a --descriptor (scan-context: Scan Context records; ring and solid: 40 unit values).
@@ -80,7 +74,8 @@ KeyframeRecordKind RecordKindForDescriptor(const std::string& descriptor);
 /// Floats per keyframe descriptor of a --descriptor (40, Scan Context 1200): MemoryFlags::descriptor_floats.
 std::int32_t DescriptorFloatsFor(const std::string& descriptor);
 /// Stage A's threshold and stage B's cover in words, for the start-up line of run and server:
-/// "stage A tau_inter 0.05 per cell, stage B pairwise" or "stage A neighbour rank 1 under tau_inter 0.5, ...".
+/// "stage A tau_inter 0.05 per cell, tau_area 10000 cells, stage B pairwise" or "stage A neighbour rank 1 under
+/// tau_inter 0.5, tau_area 400 cells (at most (0.3 x keyframes)^2), stage B pairwise".
 std::string CascadeSettingsText(const MergeServerParams& params);
 /// Builds the descriptor named by the flags for a robot with `lidar`. Errors name the flag and value.
 Result<RobotDescriptor> MakeRobotDescriptor(const DescriptorFlags& flags, const std::string& lidar);

@@ -1,10 +1,12 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // `commerge run DATASET_DIRS...`: the main job on recorded or generated data (see run_pipeline.hpp).
+#include <cstdio>
 #include <memory>
 
 #include "apps/app_common.hpp"
 #include "apps/app_descriptor_flags.hpp"
 #include "apps/commands.hpp"
+#include "apps/merge_flags.hpp"
 #include "apps/run_pipeline.hpp"
 
 namespace commerge::app {
@@ -23,6 +25,11 @@ Command AddRunCommand(CLI::App& root) {
       ->expected(2, 8);
   AddRunFlags(cmd, o.get());
   return {cmd, [o, cmd]() {
+            if (Status st = ApplyMergeProfile(*cmd, o->profile, o->sensor, &o->server); !st.ok()) {
+              std::fprintf(stderr, "commerge run: %s\n", st.message().c_str());
+              return static_cast<int>(kExitUsage);
+            }
+            if (cmd->count("--descriptor") == 0) o->descriptor.name = ProfileDescriptor(o->profile, o->descriptor.name);
             ApplySensorTauInter(cmd->count("--tau-inter") > 0, o->sensor, &o->server);
             return RunMergeJob(*o);
           }};

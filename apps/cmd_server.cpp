@@ -70,6 +70,7 @@ struct ServerOptions {
   bool every_round = false;
   /// The flags `server` shares with `run` (apps/merge_flags.hpp); max_submap_points comes from the memory flags.
   MergeServerParams server;
+  std::string profile = "commerge";  ///< --profile: what the merge flags not given take (ApplyMergeProfile)
   int exit_when_merged = 0;
   double max_runtime_s = 0.0;
   double linger_s = 10.0;
@@ -200,7 +201,7 @@ int ServerProcess::Configure() {
     std::fprintf(stderr, "%s: --lidar: %s\n", kTag, sensor.status().message().c_str());
     return kExitUsage;
   }
-  server_params_.colocation.max_heading_deg = ColocationHeadingDeg(o_.lidar);
+  server_params_.colocation.max_heading_deg = ColocationHeadingDeg(ScanTraitsFor(o_.lidar));
   link_params_.mode = mode_;
   link_params_.round_interval_s = o_.round_interval_s;
   link_params_.round_quiet_s = o_.round_quiet_s;
@@ -232,11 +233,11 @@ int ServerProcess::Configure() {
     return rc;
   }
   if (o_.auth.check) {
-    std::printf("%s: configuration OK (--check): board %s, memory budget %s of %s; robots 0..%d, mode %s, %s, "
-                "output %s; LCM %s; %s\n",
+    std::printf("%s: configuration OK (--check): board %s, memory budget %s of %s; robots 0..%d, mode %s, "
+                "profile %s, descriptor %s, %s, output %s; LCM %s; %s\n",
                 kTag, o_.memory.board.c_str(), FormatBytes(setup_.table.total_bytes()).c_str(),
-                FormatBytes(setup_.limit_bytes).c_str(), robots_ - 1, ExchangeModeName(mode_),
-                CascadeSettingsText(server_params_).c_str(), o_.out_dir.c_str(),
+                FormatBytes(setup_.limit_bytes).c_str(), robots_ - 1, ExchangeModeName(mode_), o_.profile.c_str(),
+                o_.descriptor.c_str(), CascadeSettingsText(server_params_).c_str(), o_.out_dir.c_str(),
                 o_.lcm_url.empty() ? "LCM_DEFAULT_URL" : o_.lcm_url.c_str(), AuthDescription(o_.auth, bus_params_).c_str());
   }
   return kExitOk;
@@ -872,7 +873,7 @@ Command AddServerCommand(CLI::App& root) {
                   "start a round when this many keyframes arrived since the last")->capture_default_str();
   cmd->add_option("--request-timeout-s", o->request_timeout_s, "merge with what arrived after this [s]")
       ->capture_default_str();
-  AddMergeFlags(cmd, &o->server);
+  AddMergeFlags(cmd, &o->server, &o->profile);
   cmd->add_flag("--every-round", o->every_round,
                 "register every pair every round, also pairs earlier rounds verified (off: a verified pair costs no "
                 "scans until its overlap's poses move, a new overlap can check it, it is rejected or a robot "
@@ -907,6 +908,11 @@ Command AddServerCommand(CLI::App& root) {
   AddFaultFlags(cmd, &o->delay_ms, &o->jitter_ms, &o->duplicate_pct);
   AddMemoryFlags(cmd, &o->memory);
   return {cmd, [o, cmd]() {
+            if (Status st = ApplyMergeProfile(*cmd, o->profile, o->lidar, &o->server); !st.ok()) {
+              std::fprintf(stderr, "commerge server: %s\n", st.message().c_str());
+              return static_cast<int>(kExitUsage);
+            }
+            if (cmd->count("--descriptor") == 0) o->descriptor = ProfileDescriptor(o->profile, o->descriptor);
             ApplySensorTauInter(cmd->count("--tau-inter") > 0, o->lidar, &o->server);
             return RunServer(*o);
           }};

@@ -129,7 +129,14 @@ std::string MergeFlagValue(const MergeFlag& f, MergeServerParams* params) {
   return text.str();
 }
 
-void AddMergeFlags(CLI::App* cmd, MergeServerParams* params) {
+void AddMergeFlags(CLI::App* cmd, MergeServerParams* params, std::string* profile) {
+  cmd->add_option("--profile", *profile,
+                  "a named set of every flag below: 'commerge' = ours (the defaults shown), 'paper' = the paper's "
+                  "cascade (stage A B_ij = [A_ij <= tau_inter] with the paper's tau_inter for --lidar, tau_area "
+                  "10000, exactly the scans of L_K, one registration, none of our checks; SOLiD unless --descriptor "
+                  "is given); a flag given on the command line wins over its profile")
+      ->check(CLI::IsMember({"commerge", "paper"}))
+      ->capture_default_str();
   for (const MergeFlag& f : MergeFlagTable()) {
     std::string help = f.help;
     help += std::string(" [") + (f.unit[0] != '\0' ? f.unit : "dimensionless") + "; " +
@@ -160,6 +167,33 @@ void AddMergeFlags(CLI::App* cmd, MergeServerParams* params) {
          "robots, a scan that serves two pairs paid for once [ours]")
       ->check(CLI::IsMember({"pairwise", "joint"}))
       ->default_str(StageBCoverName(params->cover));
+}
+
+Status ApplyMergeProfile(const CLI::App& cmd, const std::string& profile, const std::string& lidar,
+                         MergeServerParams* params) {
+  auto named = MergeProfileFromName(profile);
+  if (!named.ok()) return Status(named.status().code(), "--profile: " + named.status().message());
+  MergeServerParams out = MergeProfileParams(*named, ScanTraitsFor(lidar));
+  for (const MergeFlag& f : MergeFlagTable()) {
+    if (cmd.count(f.flag) == 0) continue;
+    void* from = f.bind(params);
+    void* to = f.bind(&out);
+    switch (f.type) {
+      case FlagType::kDouble: *static_cast<double*>(to) = *static_cast<double*>(from); break;
+      case FlagType::kUint64: *static_cast<std::uint64_t*>(to) = *static_cast<std::uint64_t*>(from); break;
+      case FlagType::kSize: *static_cast<std::size_t*>(to) = *static_cast<std::size_t*>(from); break;
+      case FlagType::kUint32: *static_cast<std::uint32_t*>(to) = *static_cast<std::uint32_t*>(from); break;
+      case FlagType::kInt: *static_cast<int*>(to) = *static_cast<int*>(from); break;
+      case FlagType::kInt64: *static_cast<std::int64_t*>(to) = *static_cast<std::int64_t*>(from); break;
+    }
+  }
+  if (cmd.count("--cover") > 0) out.cover = params->cover;
+  *params = out;
+  return Status::Ok();
+}
+
+std::string ProfileDescriptor(const std::string& profile, const std::string& fallback) {
+  return profile == "paper" ? "solid" : fallback;
 }
 
 }  // namespace commerge::app

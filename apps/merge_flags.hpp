@@ -28,8 +28,16 @@ struct MergeFlag {
 /// Every row of the table.
 Span<const MergeFlag> MergeFlagTable();
 
-/// Registers every row of the table on `cmd`, bound to `*params` (whose current values are the defaults shown).
-void AddMergeFlags(CLI::App* cmd, MergeServerParams* params);
+/// Registers every row of the table and --cover on `cmd`, bound to `*params` (whose current values are the defaults
+/// shown), and --profile bound to `*profile`.
+void AddMergeFlags(CLI::App* cmd, MergeServerParams* params, std::string* profile);
+
+/// After parsing: the parameters of `profile` (MergeProfileParams for the sensor named `lidar`) with every merge
+/// flag given on `cmd`'s command line (and --cover) taken from `*params`, into `*params`. Errors: an unknown profile.
+Status ApplyMergeProfile(const CLI::App& cmd, const std::string& profile, const std::string& lidar,
+                         MergeServerParams* params);
+/// The descriptor a profile's robots use when --descriptor is not given: SOLiD for the paper, else `fallback`.
+std::string ProfileDescriptor(const std::string& profile, const std::string& fallback);
 
 /// The value of `flag` in `params` as text (as --help shows it).
 std::string MergeFlagValue(const MergeFlag& flag, MergeServerParams* params);

@@ -190,7 +190,7 @@ int SetUpRun(RunJob* job) {
   server_params.max_scan_points = static_cast<std::size_t>(job->memory.config.max_points_per_stored_scan);
   server_params.stage_ac_ablation =
       std::find(job->modes.begin(), job->modes.end(), ExchangeMode::kStageAC) != job->modes.end();
-  server_params.colocation.max_heading_deg = ColocationHeadingDeg(o.sensor);
+  server_params.colocation.max_heading_deg = ColocationHeadingDeg(ScanTraitsFor(o.sensor));
   if (Status st = ValidateMergeServerParams(server_params); !st.ok()) return Fail(*job, kExitUsage, st.message());
   auto server = MergeServer::Create(job->num_robots(),
                                     static_cast<std::size_t>(job->memory.config.max_keyframes_per_robot), server_params);
@@ -661,7 +661,7 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
   cmd->add_option("--odometry", o->odometry_file,
                   "the robots' odometry: this file of each dataset directory instead of poses.txt (e.g. odom_poses.txt, "
                   "a trajectory before loop closure); poses.txt stays the reference for --gt-from-poses");
-  AddMergeFlags(cmd, &o->server);
+  AddMergeFlags(cmd, &o->server, &o->profile);
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m,
                   "robots take a keyframe every this many metres (paper 1.0; datasets written at exactly 1 m "
                   "keyframes need a little less, e.g. 0.9, or odometry noise skips every other one)")

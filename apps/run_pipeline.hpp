@@ -27,6 +27,7 @@ struct RunOptions {
   /// The merge server's parameters: the flags `run` shares with `server` (apps/merge_flags.hpp); max_submap_points
   /// comes from the memory configuration.
   MergeServerParams server;
+  std::string profile = "commerge";  ///< --profile: what the merge flags not given take (ApplyMergeProfile)
   double keyframe_spacing_m = 1.0;  ///< the robots' keyframe spacing (paper: 1 m)
   int threads = 2;                  ///< robots processed at once
   bool report = true;

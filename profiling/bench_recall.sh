@@ -27,10 +27,7 @@
 # that shares a place and was not merged, and the worst translation error against the transform of the true
 # start poses (what drift adds). Then one summary line: recall, real splits merged, wrong merges, median byte
 # reductions. Exit 0 (it measures; it does not judge) unless a run fails (a crash, an unreadable input; "no pair merged" is a measurement, not a failure).
-# --run-args adds options to every `commerge run` (e.g. the paper's stage A: "--neighbour-rank 0
-# --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1 --verify-area-fraction 0
-# --max-ambiguous-fraction 1 --consensus-max-cells 0 --min-ambiguous-support 0 --chain-check-support 0
-# --descriptor solid").
+# --run-args adds options to every `commerge run` (e.g. the paper's cascade: "--profile paper").
 # --only runs just the scenarios whose name matches the extended regular expression (a before/after subset).
 # --send-all also runs mode send-all (each pair registers the two complete stored maps) and adds its column:
 # robots placed / other robots and the worst e_rmse, what shipping everything buys.

@@ -259,9 +259,17 @@ list(JOIN CM_EMU " " cm_emu_words)  # for a sh -c string: ';' would end the comm
 # tau_inter per sensor: with the paper's stage A (--neighbour-rank 0) the paper's table, 0.05 for the
 # non-repetitive Avia and 0.10 for a spinning sensor; a given --tau-inter wins; with the neighbour rank a cap.
 cm_cli_test(NAME "server --check: with --neighbour-rank 0, tau_inter follows --lidar unless --tau-inter is given, and names the Scan Context distance" RC 0
-            REGEX "tau_inter 0\\.05 per cell, stage B pairwise.*tau_inter 0\\.1 per cell, stage B joint.*tau_inter 0\\.2 per cell.*neighbour rank 1 under tau_inter 0\\.5, stage B.*under tau_inter 0\\.5 .Scan Context distance., stage B pairwise"
+            REGEX "tau_inter 0\\.05 per cell, tau_area 400 cells [^,]*, stage B pairwise.*tau_inter 0\\.1 per cell, tau_area 400 cells [^,]*, stage B joint.*tau_inter 0\\.2 per cell.*neighbour rank 1 under tau_inter 0\\.5, tau_area 400 cells [^,]*, stage B.*under tau_inter 0\\.5 .Scan Context distance., tau_area 400 cells [^,]*, stage B pairwise"
             COMMAND sh -c "$1 server --lcm-url memq:// --check --lidar avia --neighbour-rank 0 && $1 server --lcm-url memq:// --check --lidar vlp-16 --neighbour-rank 0 --cover joint && $1 server --lcm-url memq:// --check --lidar avia --neighbour-rank 0 --tau-inter 0.2 && $1 server --lcm-url memq:// --check --lidar avia && $1 server --lcm-url memq:// --check --descriptor scan-context"
                     sh "${cm_emu_words} $<TARGET_FILE:commerge>")
+# --profile paper is the paper's cascade in one flag: its stage A (tau_inter of the sensor's scan pattern per cell,
+# tau_area 10 000 cells, no scaling) and SOLiD; a flag given on the command line wins over the profile.
+cm_cli_test(NAME "server --check --profile paper prints the paper's stage A thresholds, and a given flag wins over the profile" RC 0
+            REGEX "descriptor solid.*stage A tau_inter 0\\.1 per cell, tau_area 10000 cells, stage B pairwise.*stage A tau_inter 0\\.05 per cell, tau_area 10000 cells, stage B pairwise.*stage A tau_inter 0\\.1 per cell, tau_area 2500 cells, stage B joint.*stage A neighbour rank 1 under tau_inter 0\\.5, tau_area 400 cells"
+            COMMAND sh -c "$1 server --lcm-url memq:// --check --profile paper && $1 server --lcm-url memq:// --check --profile paper --lidar avia && $1 server --lcm-url memq:// --check --profile paper --tau-area 2500 --cover joint && $1 server --lcm-url memq:// --check --profile commerge"
+                    sh "${cm_emu_words} $<TARGET_FILE:commerge>")
+cm_cli_test(NAME "server: an unknown --profile is a usage error naming the profiles" RC 2 REGEX "--profile.*commerge.*paper"
+            COMMAND ${CM_BIN} server --lcm-url memq:// --check --profile fast)
 cm_cli_test(NAME "keygen: writes a 0600 key the server accepts with --check, refuses to overwrite it" RC 2
             REGEX "configuration OK \\(--check\\).*messages signed with key id 4.*--auth-key.*mode 0644: it must be readable by its owner only"
             COMMAND sh -c "rm -rf \"$1\" && mkdir -p \"$1\" && $2 keygen --out \"$1/k\" --id 4 && ! $2 keygen --out \"$1/k\" 2>/dev/null && $2 server --lcm-url memq:// --robots 2 --auth-key \"$1/k\" --check && chmod 644 \"$1/k\" && $2 server --lcm-url memq:// --robots 2 --auth-key \"$1/k\" --check"
@@ -298,6 +306,13 @@ cm_cli_test(NAME "run: tiny dataset, every mode, no pair merged is exit 1 with t
                     --out "${CM_CLI_OUT}/run-tiny")
 set_tests_properties("cli: run: tiny dataset, every mode, no pair merged is exit 1 with the reason" PROPERTIES
                      FIXTURES_REQUIRED sim_a)
+# run --profile paper: SOLiD and the paper's stage A for the sensor (vlp-16 spins: tau_inter 0.1), in one flag.
+cm_cli_test(NAME "run: --profile paper runs SOLiD and the paper's stage A" RC 1
+            REGEX "descriptor: SOLiD vlp-16[^;]*; stage A tau_inter 0\\.1 per cell, tau_area 10000 cells, stage B pairwise"
+            COMMAND ${CM_BIN} run "${CM_CLI_OUT}/sim-a/robot_0" "${CM_CLI_OUT}/sim-a/robot_1" --lidar vlp-16
+                    --keyframe-spacing-m 0.9 --no-report --scan-store-mb 16 --max-keyframes 100 --modes A+B+C
+                    --profile paper --out "${CM_CLI_OUT}/run-paper")
+set_tests_properties("cli: run: --profile paper runs SOLiD and the paper's stage A" PROPERTIES FIXTURES_REQUIRED sim_a)
 # The paper's protocol for one real sequence: two robots from two time ranges (KITTI 00 frames 0-9 and 5-15).
 set(CM_KITTI00 "${CM_SHARED_DATA_DIR}/kitti/kitti00_frames0-15")
 if(EXISTS "${CM_KITTI00}/velodyne")

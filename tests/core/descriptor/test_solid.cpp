@@ -540,6 +540,17 @@ TEST_CASE("Sensor scan traits: only the Livox Avia is non-repetitive, narrow sen
     CHECK(SolidParameterId(*SolidPresetFor(e.name)) == SolidParameterId(SolidPreset(*sensor)));
     CHECK(LidarSensorFor(LidarSensorName(*sensor)).value() == *sensor);
   }
+  // The paper's thresholds by scan pattern (its table: spinning 0.10 / 0.05, non-repetitive 0.05 / 0.01), and the
+  // heading tolerance of one place: the field of view, at most 180 deg; an unknown name is a spinning sensor.
+  CHECK(PaperTauInter(ScanTraitsFor("hdl-64e")) == 0.10);
+  CHECK(PaperTauIntra(ScanTraitsFor("hdl-64e")) == 0.05);
+  CHECK(PaperTauInter(ScanTraitsFor("avia")) == 0.05);
+  CHECK(PaperTauIntra(ScanTraitsFor("avia")) == 0.01);
+  CHECK(ColocationHeadingDeg(ScanTraitsFor("avia")) == 70.4);
+  CHECK(ColocationHeadingDeg(ScanTraitsFor("aeva")) == 120.0);
+  CHECK(ColocationHeadingDeg(ScanTraitsFor("vlp-16")) == 180.0);
+  CHECK(ColocationHeadingDeg(ScanTraitsFor("livox")) == 180.0);
+  CHECK_FALSE(ScanTraitsFor("livox").non_repetitive);
   const Result<LidarSensor> unknown = LidarSensorFor("livox");
   REQUIRE_FALSE(unknown.ok());
   CHECK(unknown.status().message().find("'livox'") != std::string::npos);
