@@ -103,7 +103,7 @@ std::unique_ptr<MergeServer> MakeInboxMergeServer() {
 }  // namespace
 
 InboxServer::InboxServer()
-    : server_(MakeInboxMergeServer()), link_(kInboxServerSession, InboxServerLinkParams(), server_->get()) {
+    : server_(MakeInboxMergeServer()), link_(kInboxServerSession, InboxServerLinkParams(), server_.get()) {
   const char* strict = std::getenv("CM_FUZZ_STRICT_REFUSALS");
   strict_refusals_ = strict == nullptr || std::strcmp(strict, "0") != 0;
 }
