@@ -89,7 +89,8 @@ struct PairEvidence {
   bool joined_elsewhere = false;
 };
 
-/// The cascade's part of the evidence (cascade_stop from its outcome and reason, tau_area, ambiguity, consensus).
+/// The cascade's part of the evidence: cascade_stop from its stages' results (stage A found no cluster, stage B had
+/// no cover, stage C selected nothing), tau_area, ambiguity, consensus.
 PairEvidence CascadeEvidence(const ExchangeCascadeResult& cascade);
 
 struct PairDecision {
@@ -101,8 +102,8 @@ struct PairDecision {
 /// (support < min_ambiguous_support), and no chain of third robots contradicts it. With what is measured so far
 /// (chains are known only after the round's cascades).
 PairDecision DecideRequest(const PairEvidence& evidence, const PairDecisionParams& params);
-/// The gap to the placement matters: the cluster is ambiguous, confirmed (support >= widen_ambiguous_support > 0)
-/// and its placement is valid.
+/// The cluster is ambiguous and the place consensus confirms it (support >= widen_ambiguous_support > 0): it may be
+/// widened, and its transform must lie at its placement (DecideAccept).
 bool AmbiguousPlaceConfirmed(const PairEvidence& evidence, const PairDecisionParams& params);
 /// Why a refused pair is not widened.
 enum class WidenStop : std::uint8_t {
