@@ -139,6 +139,38 @@ double PairStageATrueFraction(const RunJob& job, int a, int b) {
                             Span<const Eigen::Isometry3d>(job.trajectories[static_cast<std::size_t>(b)].ground_truth));
 }
 
+// Every placed cluster of the pair's cascade, one key each (pair.A-B.placed.K): its keyframe ranges, weight,
+// consensus support, whether it was passed on, the descriptor agreement at its placement (co-located, ranked,
+// agreeing, median chance) and, with ground truth, how far its placement is from the true one at its place.
+template <typename KV>
+void WritePlacedClusters(const RunJob& job, int a, int b, const std::string& k, const KV& kv) {
+  const ExchangeCascadeResult* c = job.server->cascade(a, b);
+  const PairEvidence* e = job.server->evidence(a, b);
+  if (!c || !e) return;
+  const Trajectories& ta = job.trajectories[static_cast<std::size_t>(a)];
+  const Trajectories& tb = job.trajectories[static_cast<std::size_t>(b)];
+  const bool has_gt = !ta.ground_truth.empty() && !tb.ground_truth.empty();
+  const Eigen::Isometry3d T_true = ta.T_gt_map.inverse() * tb.T_gt_map;
+  for (std::size_t i = 0; i < c->placed_clusters.size(); ++i) {
+    const PlacedCluster& pc = c->placed_clusters[i];
+    const SequentialCluster& cl = pc.cluster;
+    std::string v = std::to_string(cl.row_min) + "-" + std::to_string(cl.row_max) + " " + std::to_string(cl.col_min) +
+                    "-" + std::to_string(cl.col_max) + " weight " + Fmt("%.0f", pc.placement.weight) + " support " +
+                    Fmt("%.0f", pc.support) + " passed_on " + (pc.passed_on ? "1" : "0") + " mean " +
+                    Fmt("%.3f", cl.mean_distance());
+    if (i < e->placement_agreement.size() && e->placement_agreement[i].measured) {
+      const PlacementAgreement& g = e->placement_agreement[i];
+      v += " colocated " + std::to_string(g.colocated) + " ranked " + std::to_string(g.ranked) + " agreeing " +
+           std::to_string(g.agreeing) + " median_chance " + Fmt("%.3f", g.median_chance);
+    }
+    if (has_gt && pc.placement.valid) {
+      const PlacementGap gap = GapToPlacement(pc.placement, T_true);
+      v += " truth_gap_m " + Fmt("%.2f", gap.distance_m) + " truth_gap_deg " + Fmt("%.1f", gap.yaw_deg);
+    }
+    kv(k + "placed." + std::to_string(i), v);
+  }
+}
+
 // ---- stdout
 
 std::string ModeRow(const RunJob& job, const ModeOutcome& m) {
@@ -508,6 +540,7 @@ void WriteMetrics(const RunJob& job) {
         kv(k + "colocated_keyframes_chance", std::to_string(p.colocated_keyframes) + " " + Fmt("%.3f", p.colocated_chance));
       }
     }
+    WritePlacedClusters(job, p.alpha, p.beta, k, kv);
     if (shared.empty()) continue;
     if (const double f = PairStageATrueFraction(job, p.alpha, p.beta); f >= 0.0) kv(k + "stage_a_true_fraction", Fmt("%.2f", f));
     const DistanceQuantiles q = PairDescriptorSeparation(job, p.alpha, p.beta);

@@ -4,6 +4,7 @@
 #                                  [--worlds "urban campus indoor cave"] [--reuse-data] [--shared-data DIR]
 #                                  [--send-all] [--only REGEX] [--drop-data]
 #                                  [--baseline-commerge BIN] [--baseline-run-args "ARGS"]
+#                                  [--tune-seeds "11 23" --test-seeds "S1 S2 S3"] [--summarise ROWS.tsv]
 # Merge recall of `commerge run` with its default flags (only --lidar, and the data's own description:
 # keyframe spacing of generated data, odometry and reference files of real data), scenario by scenario:
 #   generated  every world x 2, 3 and 5 robots x complete / moderate / partial overlap x same / alternating
@@ -39,6 +40,12 @@
 # printed with " (baseline)" after the name, kept in WORK/baseline.tsv (reports in WORK/NAME/baseline), and a
 # second summary line says what the baseline measured: a before / after over the whole matrix without keeping
 # its data.
+# --tune-seeds / --test-seeds: the seeds run are both lists (instead of --seeds); after the summary line, one line
+# per seed set and world (the livox model counts as its own world, the real splits as "real"): recall, wrong
+# merges, median reductions. Tune seeds are those any threshold was chosen on; test seeds were never looked at
+# while choosing (core/agent/decisions/024-tune-and-test-seeds.md says which are which).
+# --summarise ROWS.tsv prints the summary lines of a rows file (WORK/rows.tsv of an earlier run) and runs nothing;
+# with --tune-seeds / --test-seeds the split lines too.
 set -euo pipefail
 bin=build/commerge
 work=${TMPDIR:-/tmp}/commerge-recall
@@ -56,6 +63,9 @@ drop_data=0
 base_bin=""
 base_args=""
 baseline=0
+tune_seeds=""
+test_seeds=""
+summarise_only=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --commerge) bin=$2; shift 2 ;;
@@ -73,10 +83,77 @@ while [ $# -gt 0 ]; do
     --baseline-commerge) base_bin=$2; baseline=1; shift 2 ;;
     --baseline-run-args) base_args=$2; baseline=1; shift 2 ;;
     --shared-data) shared=$2; shift 2 ;;
+    --tune-seeds) tune_seeds=$2; shift 2 ;;
+    --test-seeds) test_seeds=$2; shift 2 ;;
+    --summarise) summarise_only=$2; shift 2 ;;
     -h|--help) sed -n '2,/^set -euo/p' "$0" | sed '$d'; exit 0 ;;
     *) echo "bench_recall.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
+# One summary line of a rows file; $1 = what the line starts with.
+summarise() {
+  awk -F'\t' -v label="$1" '
+  NF >= 13 { reach += $3; merged += $4; wrong += $5; n++; red[n] = $10; raw[n] = $12
+             if ($1 ~ /^(hku|kitti)/) { real_robots += $2; real_merged += $4 } }
+  function median(a, k,   i, j, t) {
+    for (i = 1; i <= k; i++) for (j = i + 1; j <= k; j++) if (a[j] < a[i]) { t = a[i]; a[i] = a[j]; a[j] = t }
+    return k % 2 ? a[(k + 1) / 2] : (a[k / 2] + a[k / 2 + 1]) / 2
+  }
+  END {
+    if (n == 0) { print label ": no scenario ran"; exit }
+    printf "%s: %d scenarios; recall %d of %d robots that share a place (%.1f %%); real splits: %d of %d robots merged; %d wrong merges; median reduction %.2f %% vs stored send-all, %.3f %% vs raw scans\n",
+           label, n, merged, reach, reach ? 100 * merged / reach : 100, real_merged, real_robots, wrong, median(red, n), median(raw, n)
+  }' "$2"
+}
+# One line per seed set (tune / test, from the scenario name's -sSEED) and world (the name's first word; the
+# livox model's rows as "WORLD livox"; real splits as "real"). $1 = rows file.
+summarise_split() {
+  awk -F'\t' -v tune=" $tune_seeds " -v test=" $test_seeds " '
+  function median(a, key, k,   i, j, t, v) {
+    for (i = 1; i <= k; i++) v[i] = a[key, i]
+    for (i = 1; i <= k; i++) for (j = i + 1; j <= k; j++) if (v[j] < v[i]) { t = v[i]; v[i] = v[j]; v[j] = t }
+    return k % 2 ? v[(k + 1) / 2] : (v[k / 2] + v[k / 2 + 1]) / 2
+  }
+  NF >= 13 && $1 != "scenario" {
+    name = $1; world = name; sub(/-.*/, "", world)
+    if (name ~ /-livox-/) world = world " livox"
+    set = "real"
+    if (match(name, /-s[0-9]+$/)) {
+      seed = substr(name, RSTART + 2)
+      set = index(tune, " " seed " ") ? "tune" : (index(test, " " seed " ") ? "test" : "other")
+    }
+    key = set " " world
+    if (!(key in n)) order[++k] = key
+    n[key]++; reach[key] += $3; merged[key] += $4; wrong[key] += $5; red[key, n[key]] = $10; raw[key, n[key]] = $12
+  }
+  END {
+    for (s = 1; s <= 4; s++) {
+      setname = s == 1 ? "tune" : (s == 2 ? "test" : (s == 3 ? "other" : "real"))
+      label = setname == "real" ? "real splits" : setname " seeds"
+      for (i = 1; i <= k; i++) {
+        key = order[i]; if (substr(key, 1, length(setname) + 1) != setname " ") continue
+        printf "%s, %s: %d scenarios; recall %d of %d (%.1f %%); %d wrong merges; median reduction %.2f %% vs stored send-all, %.3f %% vs raw scans\n",
+               label, substr(key, length(setname) + 2), n[key], merged[key], reach[key],
+               reach[key] ? 100 * merged[key] / reach[key] : 100, wrong[key], median(red, key, n[key]), median(raw, key, n[key])
+      }
+    }
+  }' "$1"
+}
+if [ -n "$tune_seeds$test_seeds" ]; then
+  seeds=$(echo $tune_seeds $test_seeds)
+  for seed in $seeds; do
+    [[ "$seed" =~ ^[0-9]+$ ]] || { echo "bench_recall.sh: seed '$seed' is not a non-negative integer" >&2; exit 2; }
+  done
+  for seed in $tune_seeds; do
+    case " $test_seeds " in *" $seed "*) echo "bench_recall.sh: seed $seed is both a tune and a test seed" >&2; exit 2 ;; esac
+  done
+fi
+if [ -n "$summarise_only" ]; then
+  [ -f "$summarise_only" ] || { echo "bench_recall.sh: --summarise: no file $summarise_only" >&2; exit 2; }
+  summarise summary "$summarise_only"
+  [ -z "$tune_seeds$test_seeds" ] || summarise_split "$summarise_only"
+  exit 0
+fi
 case "$slice" in quick|generated|long|livox|real|all) ;; *) echo "bench_recall.sh: --slice: quick, generated, long, livox, real or all" >&2; exit 2 ;; esac
 [ -x "$bin" ] || { echo "bench_recall.sh: $bin is not an executable (use --commerge)" >&2; exit 2; }
 [ -n "$base_bin" ] || base_bin=$bin
@@ -229,21 +306,7 @@ if [ "$slice" = real ] || [ "$slice" = all ] || [ "$slice" = quick ]; then
     run_scenario kitti00-0-10-5-16 hdl-64e "$shared/kitti/kitti00_frames0-15:0-10" "$shared/kitti/kitti00_frames0-15:5-16"
   fi
 fi
-# One summary line of a rows file; $1 = what the line starts with.
-summarise() {
-  awk -F'\t' -v label="$1" '
-  NF >= 13 { reach += $3; merged += $4; wrong += $5; n++; red[n] = $10; raw[n] = $12
-             if ($1 ~ /^(hku|kitti)/) { real_robots += $2; real_merged += $4 } }
-  function median(a, k,   i, j, t) {
-    for (i = 1; i <= k; i++) for (j = i + 1; j <= k; j++) if (a[j] < a[i]) { t = a[i]; a[i] = a[j]; a[j] = t }
-    return k % 2 ? a[(k + 1) / 2] : (a[k / 2] + a[k / 2 + 1]) / 2
-  }
-  END {
-    if (n == 0) { print label ": no scenario ran"; exit }
-    printf "%s: %d scenarios; recall %d of %d robots that share a place (%.1f %%); real splits: %d of %d robots merged; %d wrong merges; median reduction %.2f %% vs stored send-all, %.3f %% vs raw scans\n",
-           label, n, merged, reach, reach ? 100 * merged / reach : 100, real_merged, real_robots, wrong, median(red, n), median(raw, n)
-  }' "$2"
-}
 summarise summary "$rows"
+[ -z "$tune_seeds$test_seeds" ] || summarise_split "$rows"
 [ "$baseline" = 0 ] || summarise "baseline summary" "$base_rows"
 [ "$failures" -eq 0 ] || { echo "bench_recall.sh: $failures run(s) failed" >&2; exit 1; }

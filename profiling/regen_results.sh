@@ -67,6 +67,7 @@ sections=(
   "recall-matrix-s23|2 h|-|Merge recall: The generated matrix, seed 23 (2 and 3 robots)"
   "recall-livox|1 h|-|Merge recall: A forward-looking sensor in the simulator"
   "recall-long|1 h (8 GB of data per scenario)|-|Merge recall: 3 000-keyframe subset"
+  "recall-evidence|30 min|-|Merge recall: Evidence at each placement (tune seeds)"
   "recall-distances|0 s (reads the reports of recall-matrix-s11, recall-livox, recall-real)|-|Merge recall: Descriptor distances: generated against real"
   "real-loops|1 min|real|Merge recall: Intra-robot loops on the real sequences"
   "recall-joint-cover|2 h|-|Merge recall: Stage B: joint cover against pairwise"
@@ -374,6 +375,22 @@ recall_world_table() {
     recall_groups "$work/$1/rows.tsv" '"all"'; } |
     awk -F'\t' "{ k = \$1; n = \$2; sh = \$3; ok = \$4; bad = \$5; mb = sprintf(\"%.2f MiB\", \$6 / 1048576); red = \$7; raw = \$8
                  if (k == \"all\") k = \"**all**\"; print $3 }"
+}
+
+sec_recall_evidence() {
+  echo "### Evidence at each placement (tune seeds)"
+  echo
+  local slice='-((2r|3r)-(moderate|partial)|5r-partial)-alternate-w0.5'
+  recall recall-evidence --slice generated --tune-seeds "11 23" --keyframes 400 --only "$slice" --drop-data \
+      || { fail "bench_recall.sh failed (see $work/recall-evidence.out, .err)"; return; }
+  grep -E '^tune seeds, ' "$work/recall-evidence.out" | sed 's/^/- /' || true
+  echo
+  echo "Every placed cluster of those runs, true (within 5 m and 5 deg of the ground truth at its place) or false;"
+  echo "10th percentile / median / 90th percentile. Command: \`profiling/placement_evidence.sh WORK\`."
+  echo
+  "$here/placement_evidence.sh" "$work/recall-evidence" || fail "placement_evidence.sh failed"
+  echo
+  recall_summary recall-evidence
 }
 
 sec_recall_livox() {

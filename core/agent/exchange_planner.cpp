@@ -43,6 +43,13 @@ std::string AmbiguousUnconfirmedText(const ExchangeCascadeResult& c, double min_
          " (min_ambiguous_support)";
 }
 
+// The cascade's part of the evidence after stage B and C; what the planner measured stays.
+void RefreshCascadeEvidence(PairEvidence* evidence, const ExchangeCascadeResult& cascade) {
+  std::vector<PlacementAgreement> measured = std::move(evidence->placement_agreement);
+  *evidence = CascadeEvidence(cascade);
+  evidence->placement_agreement = std::move(measured);
+}
+
 }  // namespace
 
 void AdoptSelections(Span<const PairSelection> adopted, std::vector<PairSelection>* pairs) {
@@ -117,6 +124,23 @@ Status ExchangePlanner::RunCascades(const KeyframeDatabase& db) {
   return Status::Ok();
 }
 
+Status ExchangePlanner::MeasurePlacements(const KeyframeDatabase& db, PairState* state) const {
+  const RobotKeyframeDb& A = db.robot(state->alpha);
+  const RobotKeyframeDb& B = db.robot(state->beta);
+  const KeyframeSetView alpha{Span<const float>(A.descriptors), Span<const std::uint8_t>(A.valid),
+                              Span<const Eigen::Isometry3d>(A.T_map_sensor)};
+  const KeyframeSetView beta{Span<const float>(B.descriptors), Span<const std::uint8_t>(B.valid),
+                             Span<const Eigen::Isometry3d>(B.T_map_sensor)};
+  state->evidence.placement_agreement.clear();
+  for (const PlacedCluster& c : state->cascade.placed_clusters) {
+    auto agreement = MeasurePlacementAgreement(alpha, beta, A.dim, c.placement, c.cluster, params_.colocation,
+                                               params_.decision.agree_chance, params_.cascade.metric);
+    if (!agreement.ok()) return agreement.status();
+    state->evidence.placement_agreement.push_back(*agreement);
+  }
+  return Status::Ok();
+}
+
 Status ExchangePlanner::RunPair(const KeyframeDatabase& db, int a, int b) {
   auto result = RunCascadeStageA(Input(db, a), Input(db, b), params_.cascade);
   if (!result.ok()) return CascadeError(a, b, result.status());
@@ -125,6 +149,7 @@ Status ExchangePlanner::RunPair(const KeyframeDatabase& db, int a, int b) {
   state.beta = b;
   state.cascade = std::move(*result);
   state.evidence = CascadeEvidence(state.cascade);
+  if (Status st = MeasurePlacements(db, &state); !st.ok()) return CascadeError(a, b, st);
   state.stop = DecideRequest(state.evidence, params_.decision).stop;
   if (state.stop == PairStop::kAmbiguousUnconfirmed) {
     state.cascade.no_candidate_reason = AmbiguousUnconfirmedText(state.cascade, params_.decision.min_ambiguous_support);
@@ -132,7 +157,7 @@ Status ExchangePlanner::RunPair(const KeyframeDatabase& db, int a, int b) {
     // Pairwise: the rest of the cascade here. Joint: stage B over every pair in RunJointStageB.
     Status st = RunCascadeFromStageB(Input(db, a), Input(db, b), params_.cascade, nullptr, 0, &state.cascade);
     if (!st.ok()) return CascadeError(a, b, st);
-    state.evidence = CascadeEvidence(state.cascade);
+    RefreshCascadeEvidence(&state.evidence, state.cascade);
     state.stop = DecideRequest(state.evidence, params_.decision).stop;
   }
   const auto& l_seq = state.cascade.stage_a.cells;
@@ -178,7 +203,7 @@ Status ExchangePlanner::RunJointStageB(const KeyframeDatabase& db) {
                                      joint ? static_cast<int>(cover->robots.size()) : 0, &state.cascade);
     if (!st.ok()) return CascadeError(state.alpha, state.beta, st);
     if (joint) state.cascade.stage_b_s += cover->seconds;  // the one joint solve, in every pair's time
-    state.evidence = CascadeEvidence(state.cascade);
+    RefreshCascadeEvidence(&state.evidence, state.cascade);
     state.stop = DecideRequest(state.evidence, params_.decision).stop;
   }
   return Status::Ok();
@@ -408,7 +433,9 @@ std::size_t ExchangePlanner::AffinityBytes() const {
   const auto held = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   std::size_t bytes = held(positions_);
   for (const std::vector<Eigen::Vector3d>& p : positions_) bytes += held(p);
-  for (const PairState& p : pairs_) bytes += held(p.cascade.stage_a.cells);
+  for (const PairState& p : pairs_) {
+    bytes += held(p.cascade.stage_a.cells) + held(p.cascade.placed_clusters) + held(p.evidence.placement_agreement);
+  }
   return bytes;
 }
 

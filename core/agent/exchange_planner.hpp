@@ -92,7 +92,7 @@ class ExchangePlanner {
   ExchangePlan RequestsFor(Span<const PairSelection> selections, std::int32_t first_request_id,
                            const KeyframeDatabase& db, const ScanInbox& inbox) const;
 
-  /// Bytes of the cascade inputs built here and each pair's L_seq (module "affinity"), and of each pair's stage
+  /// Bytes of the cascade inputs built here and each pair's L_seq and placed clusters (module "affinity"), and of each pair's stage
   /// B, C and policy results and the A+C run (module "solvers").
   std::size_t AffinityBytes() const;
   std::size_t SolverBytes() const;
@@ -108,6 +108,8 @@ class ExchangePlanner {
   };
   const PairState* FindPair(int alpha, int beta) const;
   CascadeRobotInput Input(const KeyframeDatabase& db, int robot) const;
+  // The descriptor agreement at each of the cascade's placed clusters (PairEvidence::placement_agreement).
+  Status MeasurePlacements(const KeyframeDatabase& db, PairState* state) const;
   // Stage A, DecideRequest, and (pairwise) stage B to the policy; the A+C ablation.
   Status RunPair(const KeyframeDatabase& db, int a, int b);
   Status RunJointStageB(const KeyframeDatabase& db);

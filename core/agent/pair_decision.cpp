@@ -35,6 +35,9 @@ Status ValidatePairDecisionParams(const PairDecisionParams& params) {
   if (Status s = support("min_ambiguous_support", params.min_ambiguous_support); !s.ok()) return s;
   if (Status s = support("widen_ambiguous_support", params.widen_ambiguous_support); !s.ok()) return s;
   if (Status s = support("chain_check_support", params.chain_check_support); !s.ok()) return s;
+  if (!(params.agree_chance >= 0.0) || params.agree_chance > 1.0) {
+    return InvalidArgument("agree_chance = " + std::to_string(params.agree_chance) + " must be in [0, 1]");
+  }
   if (!(params.max_colocated_chance >= 0.0) || params.max_colocated_chance > 1.0) {
     return InvalidArgument("max_colocated_chance = " + std::to_string(params.max_colocated_chance) +
                            " must be in [0, 1] (0 = off)");

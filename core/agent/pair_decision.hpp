@@ -10,9 +10,11 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 #include "core/common/status.hpp"
 #include "core/exchange/exchange_cascade.hpp"
 #include "core/exchange/place_consensus.hpp"
+#include "core/exchange/transform_agreement.hpp"
 #include "core/registration/submap_registration.hpp"
 
 namespace commerge {
@@ -57,6 +59,9 @@ struct PairDecisionParams {
   /// (decisions/010-descriptor-agreement.md).
   double max_colocated_chance = 0.2;
   std::size_t min_colocated_keyframes = 20;
+  /// A keyframe co-located by a cluster's placement agrees when its chance (transform_agreement.hpp) is at most
+  /// this (PairEvidence::placement_agreement; measured, no decision reads it yet). [0, 1]
+  double agree_chance = 0.05;
 };
 
 /// InvalidArgument naming the field when a threshold is negative, not finite, or a chance outside [0, 1].
@@ -87,6 +92,9 @@ struct PairEvidence {
   double colocated_chance = -1.0;
   /// For widening: the pair's robots are joined already through other pairs merged this round.
   bool joined_elsewhere = false;
+  /// Descriptor agreement at each of the cascade's placed clusters (ExchangeCascadeResult::placed_clusters, in
+  /// its order), measured from descriptors and poses before any scan is asked for.
+  std::vector<PlacementAgreement> placement_agreement;
 };
 
 /// The cascade's part of the evidence: cascade_stop from its stages' results (stage A found no cluster, stage B had

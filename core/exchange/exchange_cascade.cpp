@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -45,9 +46,47 @@ std::size_t IndexOfBest(const SequentialMatchResult& a) {
   return a.clusters.clusters.size();
 }
 
+// The cluster passed on (`passed`, or none when it is the set's size), then the valid others by support, weight,
+// index, max_placed in all.
+void KeepPlacedClusters(const SequentialClusterSet& set, const PlaceConsensus& consensus, std::size_t passed,
+                        std::size_t max_placed, ExchangeCascadeResult* result) {
+  std::vector<std::size_t> order;
+  for (std::size_t k = 0; k < set.clusters.size(); ++k) {
+    if (k != passed && consensus.placements[k].valid) order.push_back(k);
+  }
+  const auto better = [&](std::size_t x, std::size_t y) {
+    if (consensus.support[x] != consensus.support[y]) return consensus.support[x] > consensus.support[y];
+    if (consensus.placements[x].weight != consensus.placements[y].weight) {
+      return consensus.placements[x].weight > consensus.placements[y].weight;
+    }
+    return x < y;
+  };
+  const bool has_passed = passed < set.clusters.size();
+  const std::size_t others = std::min(order.size(), has_passed ? max_placed - 1 : max_placed);
+  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(others), order.end(), better);
+  order.resize(others);
+  if (has_passed) order.insert(order.begin(), passed);
+  result->placed_clusters.clear();
+  for (const std::size_t k : order) {
+    result->placed_clusters.push_back({set.clusters[k], consensus.placements[k], consensus.support[k], k == passed});
+  }
+}
+
+// Stage A passed nothing on: its clusters are still placed and kept, as evidence.
+Status PlaceClustersWithoutChoice(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                                  const PlaceConsensusParams& params, std::size_t max_placed,
+                                  ExchangeCascadeResult* result) {
+  const SequentialClusterSet& set = result->stage_a.clusters;
+  auto consensus = RunPlaceConsensus(set, 0, std::numeric_limits<std::uint64_t>::max(), alpha.positions_m,
+                                     beta.positions_m, params);
+  if (!consensus.ok()) return consensus.status();
+  KeepPlacedClusters(set, *consensus, set.clusters.size(), max_placed, result);
+  return Status::Ok();
+}
+
 // Runs the place consensus over stage A's cluster set and, when it switches, makes the chosen cluster S*.
 Status ApplyPlaceConsensus(const CascadeRobotInput& alpha, const CascadeRobotInput& beta, std::uint64_t min_span_area,
-                           const PlaceConsensusParams& params, ExchangeCascadeResult* result) {
+                           const PlaceConsensusParams& params, std::size_t max_placed, ExchangeCascadeResult* result) {
   SequentialMatchResult& a = result->stage_a;
   const std::size_t preferred = IndexOfBest(a);
   if (preferred == a.clusters.clusters.size()) {
@@ -60,6 +99,7 @@ Status ApplyPlaceConsensus(const CascadeRobotInput& alpha, const CascadeRobotInp
   result->consensus_support_chosen = consensus->support[consensus->chosen];
   result->consensus_placement = consensus->placements[consensus->chosen];
   for (const ClusterPlacement& p : consensus->placements) result->consensus_clusters_placed += p.valid ? 1 : 0;
+  KeepPlacedClusters(a.clusters, *consensus, consensus->chosen, max_placed, result);
   if (!consensus->switched) return Status::Ok();
   result->consensus_switched = true;
   result->consensus_reason = consensus->reason;
@@ -159,6 +199,7 @@ Status ValidateExchangeCascadeParams(const ExchangeCascadeParams& params) {
   }
   if (params.consensus_max_cells > 0) {
     if (Status s = ValidatePlaceConsensusParams(params.consensus); !s.ok()) return s;
+    if (params.max_placed_clusters == 0) return InvalidArgument("cascade max_placed_clusters must be >= 1, got 0");
   }
   if (!(params.verification_area_fraction >= 0.0 && params.verification_area_fraction <= 1.0)) {
     return InvalidArgument("cascade verification_area_fraction must be in [0, 1], got " +
@@ -245,7 +286,11 @@ Result<ExchangeCascadeResult> RunCascadeStageA(const CascadeRobotInput& alpha, c
     }
   }
   if (result.stage_a.found && !result.stage_a.clusters.clusters.empty()) {
-    if (Status s = ApplyPlaceConsensus(alpha, beta, candidate_area, params.consensus, &result); !s.ok()) return s;
+    Status s = ApplyPlaceConsensus(alpha, beta, candidate_area, params.consensus, params.max_placed_clusters, &result);
+    if (!s.ok()) return s;
+  } else if (!result.stage_a.clusters.clusters.empty()) {
+    Status s = PlaceClustersWithoutChoice(alpha, beta, params.consensus, params.max_placed_clusters, &result);
+    if (!s.ok()) return s;
   }
   result.stage_a.clusters = SequentialClusterSet{};
   result.stage_a_s = SecondsSince(t0);

@@ -47,6 +47,8 @@ struct ExchangeCascadeParams {
   /// (place_consensus.hpp; core/agent/decisions/004-place-consensus.md).
   std::size_t consensus_max_cells = 0;
   PlaceConsensusParams consensus;
+  /// At most this many placed clusters are kept in the result (ExchangeCascadeResult::placed_clusters); >= 1.
+  std::size_t max_placed_clusters = 16;
   /// How descriptors are compared: unit L2 (SOLiD, the ring descriptor; the tile kernel) or the Scan Context
   /// distance (ScanContextTileSource, sector-key shifts). The server derives it from the records it takes.
   DescriptorMetric metric;
@@ -71,6 +73,14 @@ enum class CascadeOutcome {
 
 const char* CascadeOutcomeName(CascadeOutcome outcome) noexcept;
 
+/// One of stage A's clusters with where it places robot beta's map in robot alpha's.
+struct PlacedCluster {
+  SequentialCluster cluster;
+  ClusterPlacement placement;  ///< invalid when its keyframes span less than the consensus' min_extent_m
+  double support = 0.0;        ///< summed weight of the valid clusters agreeing with it (itself included)
+  bool passed_on = false;      ///< the cluster stage A passed on (S*, or the one the consensus switched to)
+};
+
 struct ExchangeCascadeResult {
   CascadeOutcome outcome = CascadeOutcome::kNoCandidate;
   std::string no_candidate_reason;   ///< empty for kPolicy
@@ -94,6 +104,12 @@ struct ExchangeCascadeResult {
   ClusterPlacement consensus_placement;
   std::size_t consensus_clusters_placed = 0;  ///< clusters with a placement (the voters)
   std::string consensus_reason;
+  /// The clusters placed from stage A's cluster set (collected when consensus_max_cells > 0 and no more cells are
+  /// below threshold), at most ExchangeCascadeParams::max_placed_clusters: the one passed on first (none when
+  /// stage A passed nothing on), then the valid ones of most support (ties: more weight, then lower index).
+  /// Evidence about the places other than the one passed on (core/agent/pair_decision.hpp); nothing decides on
+  /// it yet.
+  std::vector<PlacedCluster> placed_clusters;
   SequentialMatchResult stage_a;     ///< L_seq = stage_a.cells (its cluster set is released after the consensus)
   BalancedCoverResult stage_b;       ///< selected keyframes (indices of the robots, not of the compacted graph)
   StageCResult stage_c;              ///< candidate loops (L_V as used) and L_K = stage_c.selected_loops

@@ -149,4 +149,34 @@ double MedianChance(Span<const ColocatedKeyframe> colocated, std::uint32_t exclu
   return static_cast<double>(chances[mid]);
 }
 
+Eigen::Isometry3d PlacementTransform(const ClusterPlacement& placement) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(placement.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = placement.t_alpha_beta_m;
+  return T;
+}
+
+Result<PlacementAgreement> MeasurePlacementAgreement(const KeyframeSetView& alpha, const KeyframeSetView& beta,
+                                                     std::size_t descriptor_dim, const ClusterPlacement& placement,
+                                                     const SequentialCluster& cluster,
+                                                     const TransformAgreementParams& params, double agree_chance,
+                                                     const DescriptorMetric& metric) {
+  if (!(agree_chance >= 0.0 && agree_chance <= 1.0)) {
+    return InvalidArgument("placement agreement: agree_chance must be in [0, 1], got " + std::to_string(agree_chance));
+  }
+  PlacementAgreement out;
+  if (!placement.valid) return out;
+  std::size_t colocated = 0;
+  auto ranked = ColocatedKeyframes(alpha, beta, descriptor_dim, PlacementTransform(placement), params,
+                                   static_cast<std::uint32_t>(cluster.col_min),
+                                   static_cast<std::uint32_t>(cluster.col_max), &colocated, metric);
+  if (!ranked.ok()) return ranked.status();
+  out.measured = true;
+  out.colocated = colocated;
+  out.ranked = ranked->size();
+  for (const ColocatedKeyframe& c : *ranked) out.agreeing += static_cast<double>(c.chance) <= agree_chance ? 1 : 0;
+  out.median_chance = MedianChance(Span<const ColocatedKeyframe>(*ranked), 1, 0, nullptr);
+  return out;
+}
+
 }  // namespace commerge

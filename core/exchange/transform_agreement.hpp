@@ -20,6 +20,7 @@
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 #include "core/exchange/affinity.hpp"
+#include "core/exchange/place_consensus.hpp"
 
 namespace commerge {
 
@@ -73,5 +74,26 @@ Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView&
 /// empty range, min > max, excludes nothing); -1 when none. *count receives how many entries it is over.
 double MedianChance(Span<const ColocatedKeyframe> colocated, std::uint32_t exclude_beta_min,
                           std::uint32_t exclude_beta_max, std::size_t* count);
+
+/// Descriptor agreement at a cluster's placement, before any scan is exchanged: the beta keyframes outside the
+/// cluster's columns that the placement (as a transform about the vertical) co-locates with alpha keyframes.
+struct PlacementAgreement {
+  bool measured = false;       ///< the placement is valid and the keyframes could be ranked
+  std::size_t colocated = 0;   ///< co-located beta keyframes outside the cluster (before max_ranked)
+  std::size_t ranked = 0;      ///< of them, ranked
+  std::size_t agreeing = 0;    ///< ranked ones of chance <= agree_chance
+  double median_chance = -1.0; ///< over the ranked; -1 when none
+};
+
+/// T_alpha_beta of a placement: R_z(yaw_rad), t_alpha_beta_m.
+Eigen::Isometry3d PlacementTransform(const ClusterPlacement& placement);
+
+/// PlacementAgreement of `placement` (of `cluster`, whose beta columns are left out); an invalid placement gives
+/// measured = false. `agree_chance` in [0, 1]. Errors: those of ColocatedKeyframes.
+Result<PlacementAgreement> MeasurePlacementAgreement(const KeyframeSetView& alpha, const KeyframeSetView& beta,
+                                                     std::size_t descriptor_dim, const ClusterPlacement& placement,
+                                                     const SequentialCluster& cluster,
+                                                     const TransformAgreementParams& params, double agree_chance,
+                                                     const DescriptorMetric& metric = {});
 
 }  // namespace commerge

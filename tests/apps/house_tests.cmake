@@ -39,3 +39,8 @@ add_test(NAME "house: README.md has at most 300 lines"
                  -P "${CMAKE_CURRENT_SOURCE_DIR}/apps/check_line_count.cmake")
 add_test(NAME "cli: run and server share the merge flags: same help, range and default, the documented defaults"
          COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/shared_flags_test.sh" $<TARGET_FILE:commerge>)
+if(NOT CMAKE_CROSSCOMPILING)
+  add_test(NAME "bench: recall benchmark summarises tune and test seeds per world as worked out by hand"
+           COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/recall_split_test.sh" "${PROJECT_SOURCE_DIR}/profiling/bench_recall.sh"
+                   "${CMAKE_CURRENT_BINARY_DIR}/recall-split")
+endif()

@@ -242,6 +242,22 @@ TEST_CASE("Merge server: a weakly supported pair that robots matched to both pla
   REQUIRE(lone->outcome == CascadeOutcome::kPolicy);  // without the check the look-alike goes on to registration
   REQUIRE(lone->consensus_measured);
   CHECK(lone->consensus_support_chosen < 40.0);
+  // Every placed cluster of every pair has its descriptor agreement measured, in the cascade's order; the one
+  // passed on comes first.
+  for (auto [a, b] : {std::pair<int, int>{0, 1}, std::pair<int, int>{0, 2}, std::pair<int, int>{1, 2}}) {
+    const ExchangeCascadeResult* c = off->cascade(a, b);
+    const PairEvidence* e = off->evidence(a, b);
+    REQUIRE(c != nullptr);
+    REQUIRE(e != nullptr);
+    REQUIRE_FALSE(c->placed_clusters.empty());
+    CHECK(c->placed_clusters[0].passed_on);
+    REQUIRE(e->placement_agreement.size() == c->placed_clusters.size());
+    for (std::size_t k = 0; k < c->placed_clusters.size(); ++k) {
+      CHECK(e->placement_agreement[k].measured == c->placed_clusters[k].placement.valid);
+      CHECK(e->placement_agreement[k].ranked <= e->placement_agreement[k].colocated);
+      CHECK(e->placement_agreement[k].agreeing <= e->placement_agreement[k].ranked);
+    }
+  }
   const ClusterPlacement& wrong = lone->consensus_placement;  // 230 m off where robots 0 and 1 really are
   CHECK((wrong.Apply(wrong.place_beta_m) - wrong.place_beta_m).norm() > 200.0);
   for (auto [a, b] : {std::pair<int, int>{0, 2}, std::pair<int, int>{1, 2}}) {

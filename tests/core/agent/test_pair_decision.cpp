@@ -233,6 +233,9 @@ TEST_CASE("ValidatePairDecisionParams names the field") {
   }
   for (double v : {-0.1, 1.1, nan}) {
     PairDecisionParams p;
+    p.agree_chance = v;
+    CHECK(ValidatePairDecisionParams(p).message().find("agree_chance") != std::string::npos);
+    p = PairDecisionParams{};
     p.max_colocated_chance = v;
     CHECK(ValidatePairDecisionParams(p).message().find("max_colocated_chance") != std::string::npos);
   }

@@ -255,11 +255,45 @@ TEST_CASE("Cascade: with place consensus, stage A passes on a true place instead
   }
   for (const SequentialLoopCell& l : on->stage_c.selected_loops) CHECK(l.alpha_index == 10 + l.beta_index);
   CHECK(on->stage_a.clusters.clusters.empty());  // released after use
+  // The placed clusters kept: the one passed on first, then the others by support (40, then 20), with the
+  // placements and supports the consensus computed.
+  REQUIRE(on->placed_clusters.size() == 3);
+  CHECK(on->placed_clusters[0].passed_on);
+  CHECK(on->placed_clusters[0].cluster.row_min == 10);
+  CHECK(on->placed_clusters[0].support == 40.0);
+  CHECK(on->placed_clusters[0].placement.valid);
+  CHECK_FALSE(on->placed_clusters[1].passed_on);
+  CHECK(on->placed_clusters[1].support == 40.0);  // the other true place
+  CHECK(on->placed_clusters[1].cluster.row_min != 35);
+  CHECK(on->placed_clusters[2].cluster.row_min == 35);  // the look-alike, supported by itself alone
+  CHECK(on->placed_clusters[2].support == 20.0);
+  CHECK_FALSE(PlacementsAgree(on->placed_clusters[0].placement, on->placed_clusters[2].placement, params.consensus));
+  CHECK(PlacementsAgree(on->placed_clusters[0].placement, on->placed_clusters[1].placement, params.consensus));
+  params.max_placed_clusters = 2;  // at most two: the passed-on one and the best supported other
+  auto two = RunExchangeCascade(a, b, params);
+  REQUIRE(two.ok());
+  REQUIRE(two->placed_clusters.size() == 2);
+  CHECK(two->placed_clusters[0].passed_on);
+  CHECK(two->placed_clusters[1].support == 40.0);
+  params.max_placed_clusters = 0;
+  CHECK(RunExchangeCascade(a, b, params).status().message().find("max_placed_clusters") != std::string::npos);
+  params.max_placed_clusters = 16;
+  params.stage_a.tau_area = 401;  // no cluster spans that: nothing is passed on, the clusters are still placed
+  auto none = RunExchangeCascade(a, b, params);
+  REQUIRE(none.ok());
+  CHECK_FALSE(none->stage_a.found);
+  CHECK_FALSE(none->consensus_measured);
+  REQUIRE(none->placed_clusters.size() == 3);
+  for (const PlacedCluster& c : none->placed_clusters) CHECK_FALSE(c.passed_on);
+  CHECK(none->placed_clusters[0].support == 40.0);
+  CHECK(none->placed_clusters[2].support == 20.0);
+  params.stage_a.tau_area = 100;
 
   params.consensus_max_cells = 59;  // 60 cells below threshold: over the cap, stage A's own choice stands
   auto capped = RunExchangeCascade(a, b, params);
   REQUIRE(capped.ok());
   CHECK_FALSE(capped->consensus_measured);
+  CHECK(capped->placed_clusters.empty());
   CHECK(capped->stage_a.best.row_min == 35);
 
   params.consensus_max_cells = 1000;

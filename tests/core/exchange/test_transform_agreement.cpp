@@ -289,3 +289,59 @@ TEST_CASE("Transform agreement: sizes that disagree, a non-finite transform and 
 }
 
 }  // namespace commerge
+
+namespace commerge {
+namespace {
+
+// The true transform as a cluster's placement (yaw about the vertical and a translation); `valid` as given.
+ClusterPlacement PlacementOf(const Eigen::Isometry3d& T, bool valid = true) {
+  ClusterPlacement p;
+  p.valid = valid;
+  p.yaw_rad = YawRad(T.linear());
+  p.t_alpha_beta_m = T.translation();
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("Placement agreement: a cluster's placement is ranked like a transform, without the cluster's own "
+          "beta keyframes; agreeing counts the ranked chances at most agree_chance") {
+  const Fixture f;
+  const TransformAgreementParams p;
+  SequentialCluster cluster;  // beta keyframes 10..29 were stage A's cluster
+  cluster.col_min = 10;
+  cluster.col_max = 29;
+  const ClusterPlacement truth = PlacementOf(TrueAlphaBeta());
+  CHECK(PlacementTransform(truth).isApprox(TrueAlphaBeta(), 1e-12));
+  for (const Eigen::Isometry3d& T : {TrueAlphaBeta(), Shifted(40.0)}) {
+    const ClusterPlacement placement = PlacementOf(T);
+    for (double agree_chance : {0.0, 0.05, 0.5, 1.0}) {
+      auto got = MeasurePlacementAgreement(f.alpha.View(), f.beta.View(), kDim, placement, cluster, p, agree_chance);
+      REQUIRE(got.ok());
+      // The reference: every co-located keyframe outside columns 10..29, brute force.
+      std::vector<ColocatedKeyframe> want;
+      for (const ColocatedKeyframe& c : Reference(f.alpha, f.beta, T, p)) {
+        if (c.beta < 10 || c.beta > 29) want.push_back(c);
+      }
+      CHECK(got->measured);
+      CHECK(got->colocated == want.size());
+      CHECK(got->ranked == want.size());
+      std::size_t agreeing = 0;
+      for (const ColocatedKeyframe& c : want) agreeing += static_cast<double>(c.chance) <= agree_chance ? 1 : 0;
+      CHECK(got->agreeing == agreeing);
+      CHECK(got->median_chance == doctest::Approx(MedianChance(Span<const ColocatedKeyframe>(want), 1, 0, nullptr)));
+    }
+  }
+  auto truth_agreement = MeasurePlacementAgreement(f.alpha.View(), f.beta.View(), kDim, truth, cluster, p, 0.05);
+  REQUIRE(truth_agreement.ok());
+  CHECK(truth_agreement->agreeing == 39);  // 59 beta keyframes with descriptors, 20 of them the cluster's
+  auto invalid = MeasurePlacementAgreement(f.alpha.View(), f.beta.View(), kDim, PlacementOf(TrueAlphaBeta(), false),
+                                           cluster, p, 0.05);
+  REQUIRE(invalid.ok());
+  CHECK_FALSE(invalid->measured);
+  CHECK(invalid->median_chance == -1.0);
+  CHECK_FALSE(MeasurePlacementAgreement(f.alpha.View(), f.beta.View(), kDim, truth, cluster, p, 1.5).ok());
+  CHECK_FALSE(MeasurePlacementAgreement(f.alpha.View(), f.beta.View(), kDim, truth, cluster, p, std::nan("")).ok());
+}
+
+}  // namespace commerge
