@@ -145,8 +145,9 @@ double PairStageATrueFraction(const RunJob& job, int a, int b) {
 template <typename KV>
 void WritePlacedClusters(const RunJob& job, int a, int b, const std::string& k, const KV& kv) {
   const ExchangeCascadeResult* c = job.server->cascade(a, b);
-  const PairEvidence* e = job.server->evidence(a, b);
-  if (!c || !e) return;
+  if (!c || c->placed_clusters.empty()) return;
+  auto agreement = job.server->MeasurePlacementAgreement(a, b);
+  if (!agreement.ok()) return;
   const Trajectories& ta = job.trajectories[static_cast<std::size_t>(a)];
   const Trajectories& tb = job.trajectories[static_cast<std::size_t>(b)];
   const bool has_gt = !ta.ground_truth.empty() && !tb.ground_truth.empty();
@@ -158,8 +159,8 @@ void WritePlacedClusters(const RunJob& job, int a, int b, const std::string& k, 
                     "-" + std::to_string(cl.col_max) + " weight " + Fmt("%.0f", pc.placement.weight) + " support " +
                     Fmt("%.0f", pc.support) + " passed_on " + (pc.passed_on ? "1" : "0") + " mean " +
                     Fmt("%.3f", cl.mean_distance());
-    if (i < e->placement_agreement.size() && e->placement_agreement[i].measured) {
-      const PlacementAgreement& g = e->placement_agreement[i];
+    if (i < agreement->size() && (*agreement)[i].measured) {
+      const PlacementAgreement& g = (*agreement)[i];
       v += " colocated " + std::to_string(g.colocated) + " ranked " + std::to_string(g.ranked) + " agreeing " +
            std::to_string(g.agreeing) + " median_chance " + Fmt("%.3f", g.median_chance);
     }

@@ -43,13 +43,6 @@ std::string AmbiguousUnconfirmedText(const ExchangeCascadeResult& c, double min_
          " (min_ambiguous_support)";
 }
 
-// The cascade's part of the evidence after stage B and C; what the planner measured stays.
-void RefreshCascadeEvidence(PairEvidence* evidence, const ExchangeCascadeResult& cascade) {
-  std::vector<PlacementAgreement> measured = std::move(evidence->placement_agreement);
-  *evidence = CascadeEvidence(cascade);
-  evidence->placement_agreement = std::move(measured);
-}
-
 }  // namespace
 
 void AdoptSelections(Span<const PairSelection> adopted, std::vector<PairSelection>* pairs) {
@@ -124,21 +117,27 @@ Status ExchangePlanner::RunCascades(const KeyframeDatabase& db) {
   return Status::Ok();
 }
 
-Status ExchangePlanner::MeasurePlacements(const KeyframeDatabase& db, PairState* state) const {
-  const RobotKeyframeDb& A = db.robot(state->alpha);
-  const RobotKeyframeDb& B = db.robot(state->beta);
-  const KeyframeSetView alpha{Span<const float>(A.descriptors), Span<const std::uint8_t>(A.valid),
-                              Span<const Eigen::Isometry3d>(A.T_map_sensor)};
-  const KeyframeSetView beta{Span<const float>(B.descriptors), Span<const std::uint8_t>(B.valid),
-                             Span<const Eigen::Isometry3d>(B.T_map_sensor)};
-  state->evidence.placement_agreement.clear();
-  for (const PlacedCluster& c : state->cascade.placed_clusters) {
-    auto agreement = MeasurePlacementAgreement(alpha, beta, A.dim, c.placement, c.cluster, params_.colocation,
-                                               params_.decision.agree_chance, params_.cascade.metric);
-    if (!agreement.ok()) return agreement.status();
-    state->evidence.placement_agreement.push_back(*agreement);
+Result<std::vector<PlacementAgreement>> ExchangePlanner::MeasurePlacementAgreement(const KeyframeDatabase& db,
+                                                                                  int alpha, int beta) const {
+  const PairState* p = FindPair(alpha, beta);
+  if (p == nullptr) {
+    return InvalidArgument("placement agreement: no cascade of robots " + std::to_string(alpha) + " and " +
+                           std::to_string(beta) + " in the last round");
   }
-  return Status::Ok();
+  const RobotKeyframeDb& A = db.robot(alpha);
+  const RobotKeyframeDb& B = db.robot(beta);
+  const KeyframeSetView a{Span<const float>(A.descriptors), Span<const std::uint8_t>(A.valid),
+                          Span<const Eigen::Isometry3d>(A.T_map_sensor)};
+  const KeyframeSetView b{Span<const float>(B.descriptors), Span<const std::uint8_t>(B.valid),
+                          Span<const Eigen::Isometry3d>(B.T_map_sensor)};
+  std::vector<PlacementAgreement> out;
+  for (const PlacedCluster& c : p->cascade.placed_clusters) {
+    auto agreement = commerge::MeasurePlacementAgreement(a, b, A.dim, c.placement, c.cluster, params_.colocation,
+                                                         params_.decision.agree_chance, params_.cascade.metric);
+    if (!agreement.ok()) return agreement.status();
+    out.push_back(*agreement);
+  }
+  return out;
 }
 
 Status ExchangePlanner::RunPair(const KeyframeDatabase& db, int a, int b) {
@@ -149,7 +148,6 @@ Status ExchangePlanner::RunPair(const KeyframeDatabase& db, int a, int b) {
   state.beta = b;
   state.cascade = std::move(*result);
   state.evidence = CascadeEvidence(state.cascade);
-  if (Status st = MeasurePlacements(db, &state); !st.ok()) return CascadeError(a, b, st);
   state.stop = DecideRequest(state.evidence, params_.decision).stop;
   if (state.stop == PairStop::kAmbiguousUnconfirmed) {
     state.cascade.no_candidate_reason = AmbiguousUnconfirmedText(state.cascade, params_.decision.min_ambiguous_support);
@@ -157,7 +155,7 @@ Status ExchangePlanner::RunPair(const KeyframeDatabase& db, int a, int b) {
     // Pairwise: the rest of the cascade here. Joint: stage B over every pair in RunJointStageB.
     Status st = RunCascadeFromStageB(Input(db, a), Input(db, b), params_.cascade, nullptr, 0, &state.cascade);
     if (!st.ok()) return CascadeError(a, b, st);
-    RefreshCascadeEvidence(&state.evidence, state.cascade);
+    state.evidence = CascadeEvidence(state.cascade);
     state.stop = DecideRequest(state.evidence, params_.decision).stop;
   }
   const auto& l_seq = state.cascade.stage_a.cells;
@@ -203,7 +201,7 @@ Status ExchangePlanner::RunJointStageB(const KeyframeDatabase& db) {
                                      joint ? static_cast<int>(cover->robots.size()) : 0, &state.cascade);
     if (!st.ok()) return CascadeError(state.alpha, state.beta, st);
     if (joint) state.cascade.stage_b_s += cover->seconds;  // the one joint solve, in every pair's time
-    RefreshCascadeEvidence(&state.evidence, state.cascade);
+    state.evidence = CascadeEvidence(state.cascade);
     state.stop = DecideRequest(state.evidence, params_.decision).stop;
   }
   return Status::Ok();
@@ -434,7 +432,7 @@ std::size_t ExchangePlanner::AffinityBytes() const {
   std::size_t bytes = held(positions_);
   for (const std::vector<Eigen::Vector3d>& p : positions_) bytes += held(p);
   for (const PairState& p : pairs_) {
-    bytes += held(p.cascade.stage_a.cells) + held(p.cascade.placed_clusters) + held(p.evidence.placement_agreement);
+    bytes += held(p.cascade.stage_a.cells) + held(p.cascade.placed_clusters);
   }
   return bytes;
 }

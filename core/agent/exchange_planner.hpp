@@ -18,6 +18,7 @@
 #include "core/agent/merge_server_params.hpp"
 #include "core/agent/pair_decision.hpp"
 #include "core/agent/scan_inbox.hpp"
+#include "core/exchange/transform_agreement.hpp"
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 #include "core/exchange/exchange_cascade.hpp"
@@ -74,6 +75,12 @@ class ExchangePlanner {
   const ExchangeCascadeResult* cascade(int alpha, int beta) const;
   /// The pair's evidence before registration (cascade and chains); nullptr when its cascade did not run.
   const PairEvidence* evidence(int alpha, int beta) const;
+  /// The descriptor agreement at each placed cluster of the pair's last cascade (ExchangeCascadeResult::
+  /// placed_clusters, in its order; transform_agreement.hpp), measured when asked: no decision reads it yet, and a
+  /// round should not pay 16 x 256 rankings against every keyframe of alpha per pair for it. Errors: the pair's
+  /// cascade did not run, MeasurePlacementAgreement's.
+  Result<std::vector<PlacementAgreement>> MeasurePlacementAgreement(const KeyframeDatabase& db, int alpha,
+                                                                    int beta) const;
   /// Stage C over all of L_seq (the A+C ablation) of the pair; nullptr when it did not run.
   const StageCResult* stage_ac(int alpha, int beta) const;
 
@@ -92,8 +99,8 @@ class ExchangePlanner {
   ExchangePlan RequestsFor(Span<const PairSelection> selections, std::int32_t first_request_id,
                            const KeyframeDatabase& db, const ScanInbox& inbox) const;
 
-  /// Bytes of the cascade inputs built here and each pair's L_seq and placed clusters (module "affinity"), and of each pair's stage
-  /// B, C and policy results and the A+C run (module "solvers").
+  /// Bytes of the cascade inputs built here and each pair's L_seq and placed clusters (module "affinity"), and
+  /// of each pair's stage B, C and policy results and the A+C run (module "solvers").
   std::size_t AffinityBytes() const;
   std::size_t SolverBytes() const;
 
@@ -108,8 +115,6 @@ class ExchangePlanner {
   };
   const PairState* FindPair(int alpha, int beta) const;
   CascadeRobotInput Input(const KeyframeDatabase& db, int robot) const;
-  // The descriptor agreement at each of the cascade's placed clusters (PairEvidence::placement_agreement).
-  Status MeasurePlacements(const KeyframeDatabase& db, PairState* state) const;
   // Stage A, DecideRequest, and (pairwise) stage B to the policy; the A+C ablation.
   Status RunPair(const KeyframeDatabase& db, int a, int b);
   Status RunJointStageB(const KeyframeDatabase& db);

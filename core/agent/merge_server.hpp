@@ -52,6 +52,10 @@ class MergeServer {
   const std::vector<std::pair<int, int>>& incomparable_pairs() const noexcept { return planner_.incomparable_pairs(); }
   const ExchangeCascadeResult* cascade(int alpha, int beta) const { return planner_.cascade(alpha, beta); }
   const PairEvidence* evidence(int alpha, int beta) const { return planner_.evidence(alpha, beta); }
+  /// ExchangePlanner::MeasurePlacementAgreement over this server's keyframes.
+  Result<std::vector<PlacementAgreement>> MeasurePlacementAgreement(int alpha, int beta) const {
+    return planner_.MeasurePlacementAgreement(db_, alpha, beta);
+  }
   const StageCResult* stage_ac(int alpha, int beta) const { return planner_.stage_ac(alpha, beta); }
 
   /// The plan of one mode from the last RunCascades() (ExchangePlanner::Plan).

@@ -10,11 +10,9 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <vector>
 #include "core/common/status.hpp"
 #include "core/exchange/exchange_cascade.hpp"
 #include "core/exchange/place_consensus.hpp"
-#include "core/exchange/transform_agreement.hpp"
 #include "core/registration/submap_registration.hpp"
 
 namespace commerge {
@@ -60,7 +58,7 @@ struct PairDecisionParams {
   double max_colocated_chance = 0.2;
   std::size_t min_colocated_keyframes = 20;
   /// A keyframe co-located by a cluster's placement agrees when its chance (transform_agreement.hpp) is at most
-  /// this (PairEvidence::placement_agreement; measured, no decision reads it yet). [0, 1]
+  /// this (ExchangePlanner::MeasurePlacementAgreement; measured, no decision reads it yet). [0, 1]
   double agree_chance = 0.05;
 };
 
@@ -92,9 +90,6 @@ struct PairEvidence {
   double colocated_chance = -1.0;
   /// For widening: the pair's robots are joined already through other pairs merged this round.
   bool joined_elsewhere = false;
-  /// Descriptor agreement at each of the cascade's placed clusters (ExchangeCascadeResult::placed_clusters, in
-  /// its order), measured from descriptors and poses before any scan is asked for.
-  std::vector<PlacementAgreement> placement_agreement;
 };
 
 /// The cascade's part of the evidence: cascade_stop from its stages' results (stage A found no cluster, stage B had

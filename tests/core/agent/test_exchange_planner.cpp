@@ -246,18 +246,20 @@ TEST_CASE("Merge server: a weakly supported pair that robots matched to both pla
   // passed on comes first.
   for (auto [a, b] : {std::pair<int, int>{0, 1}, std::pair<int, int>{0, 2}, std::pair<int, int>{1, 2}}) {
     const ExchangeCascadeResult* c = off->cascade(a, b);
-    const PairEvidence* e = off->evidence(a, b);
     REQUIRE(c != nullptr);
-    REQUIRE(e != nullptr);
     REQUIRE_FALSE(c->placed_clusters.empty());
     CHECK(c->placed_clusters[0].passed_on);
-    REQUIRE(e->placement_agreement.size() == c->placed_clusters.size());
+    auto agreement = off->MeasurePlacementAgreement(a, b);
+    REQUIRE(agreement.ok());
+    REQUIRE(agreement->size() == c->placed_clusters.size());
     for (std::size_t k = 0; k < c->placed_clusters.size(); ++k) {
-      CHECK(e->placement_agreement[k].measured == c->placed_clusters[k].placement.valid);
-      CHECK(e->placement_agreement[k].ranked <= e->placement_agreement[k].colocated);
-      CHECK(e->placement_agreement[k].agreeing <= e->placement_agreement[k].ranked);
+      CHECK((*agreement)[k].measured == c->placed_clusters[k].placement.valid);
+      CHECK((*agreement)[k].ranked <= (*agreement)[k].colocated);
+      CHECK((*agreement)[k].agreeing <= (*agreement)[k].ranked);
     }
   }
+  CHECK(off->MeasurePlacementAgreement(0, 7).status().message().find("no cascade of robots 0 and 7") !=
+        std::string::npos);
   const ClusterPlacement& wrong = lone->consensus_placement;  // 230 m off where robots 0 and 1 really are
   CHECK((wrong.Apply(wrong.place_beta_m) - wrong.place_beta_m).norm() > 200.0);
   for (auto [a, b] : {std::pair<int, int>{0, 2}, std::pair<int, int>{1, 2}}) {
