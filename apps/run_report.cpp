@@ -147,7 +147,10 @@ void WritePlacedClusters(const RunJob& job, int a, int b, const std::string& k, 
   const ExchangeCascadeResult* c = job.server->cascade(a, b);
   if (!c || c->placed_clusters.empty()) return;
   auto agreement = job.server->MeasurePlacementAgreement(a, b);
-  if (!agreement.ok()) return;
+  if (!agreement.ok()) {
+    kv(k + "placed_error", agreement.status().message());
+    return;
+  }
   const Trajectories& ta = job.trajectories[static_cast<std::size_t>(a)];
   const Trajectories& tb = job.trajectories[static_cast<std::size_t>(b)];
   const bool has_gt = !ta.ground_truth.empty() && !tb.ground_truth.empty();
