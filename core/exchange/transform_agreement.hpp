@@ -89,7 +89,7 @@ struct PlacementAgreement {
 Eigen::Isometry3d PlacementTransform(const ClusterPlacement& placement);
 
 /// PlacementAgreement of `placement` (of `cluster`, whose beta columns are left out); an invalid placement gives
-/// measured = false. `agree_chance` in [0, 1]. Errors: those of ColocatedKeyframes.
+/// measured = false. Errors: agree_chance outside [0, 1] (or NaN), those of ColocatedKeyframes.
 Result<PlacementAgreement> MeasurePlacementAgreement(const KeyframeSetView& alpha, const KeyframeSetView& beta,
                                                      std::size_t descriptor_dim, const ClusterPlacement& placement,
                                                      const SequentialCluster& cluster,
