@@ -91,6 +91,11 @@ const MergeFlag kMergeFlags[] = {
      "both finer, in steps of 1/sqrt(2) down to 0.25 m, while the smaller gains points (the robots' scans must hold "
      "the detail: --min-scan-points; try 4000 with 1000 there); 0 = always 1 m (the paper)",
      FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->min_submap_points; }},
+    {"--disagree-odds", "decision.disagree_odds", "odds", 0.0, 1e12, "ours",
+     "before asking for scans: do not request a pair when the keyframes that stage A's placement puts side by side "
+     "(outside its cluster) agree in descriptor as strangers' do at least this many times likelier than as at a "
+     "true place (a keyframe agrees: chance <= 0.05, strangers 5 %, a true place at least 25 %); 0 = off (the paper)",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.disagree_odds; }},
     {"--max-colocated-chance", "decision.max_colocated_chance", "", 0.0, 1.0, "ours",
      "refuse a registration that places keyframes of the two robots together (away from stage A's cluster; "
      "within 3 m and, for a forward-looking --lidar, its field of view of heading) whose descriptors rank among "

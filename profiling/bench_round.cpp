@@ -3,7 +3,7 @@
 // one thread. Goal: under 1 s on one core for the cascade of all ten pairs of 5 robots x 3 000 keyframes.
 //
 // Usage: bench_round [--robots R] [--keyframes N] [--more M] [--seed S] [--threads T] [--cover pairwise|joint]
-//                    [--direction alternate|same] [--no-breakdown] [--cache FILE]
+//                    [--direction alternate|same] [--no-breakdown] [--cache FILE] [--disagree-odds X]
 //   R robots (2..5, default 5), N keyframes each for the first round (default 3000), M more each for the second
 //   round (default 300; 0 = one round), mission seed S (default 1), T threads for the setup only (default 1;
 //   the timed rounds always run in the calling thread), stage B per pair (the server's default) or joint.
@@ -31,7 +31,8 @@
 // Timed: MergeServer::RunCascades(), the round's cascade step (ServerLink calls it through MergeRound::Begin,
 // `commerge run` directly). It recomputes every pair from the whole databases each round (pairs_ is cleared; nothing
 // is cached between rounds), and besides the cascade (affinity + stage A with place consensus and place
-// ambiguity, B, C, policy) it runs the place check across pairs, and with --stage-ac stage C over all of L_seq
+// ambiguity, the descriptor agreement at the passed-on placement (--disagree-odds 0 leaves it out), B, C, policy)
+// it runs the place check across pairs, and with --stage-ac stage C over all of L_seq
 // for the A+C ablation plan (MergeServerParams::stage_ac_ablation: off in `commerge server` unless --mode A+C,
 // so off here by default). Printed: the round's wall and CPU time, the per-stage times each pair's result records
 // (ExchangeCascadeResult::stage_*_s) summed over the pairs and per pair, and the remainder (total minus the
@@ -474,7 +475,8 @@ Status PrintBreakdown(const MergeServer& server) {
 int Usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--robots 2..5] [--keyframes N] [--more M] [--seed S] [--threads T] "
-               "[--cover pairwise|joint] [--direction alternate|same] [--stage-ac] [--no-breakdown] [--cache FILE]\n",
+               "[--cover pairwise|joint] [--direction alternate|same] [--stage-ac] [--no-breakdown] [--cache FILE] "
+               "[--disagree-odds X]\n",
                argv0);
   return 2;
 }
@@ -487,6 +489,7 @@ int main(int argc, char** argv) {
   bool breakdown = true, same_direction = false, stage_ac = false;
   const char* cache = nullptr;
   StageBCover cover = StageBCover::kPairwise;
+  double disagree_odds = PairDecisionParams{}.disagree_odds;
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
     if (std::strcmp(argv[i], "--robots") == 0 && has_value) {
@@ -512,6 +515,8 @@ int main(int argc, char** argv) {
       same_direction = d == "same";
     } else if (std::strcmp(argv[i], "--cache") == 0 && has_value) {
       cache = argv[++i];
+    } else if (std::strcmp(argv[i], "--disagree-odds") == 0 && has_value) {
+      disagree_odds = std::strtod(argv[++i], nullptr);
     } else if (std::strcmp(argv[i], "--stage-ac") == 0) {
       stage_ac = true;
     } else if (std::strcmp(argv[i], "--no-breakdown") == 0) {
@@ -595,6 +600,7 @@ int main(int argc, char** argv) {
   params.record_kind = KeyframeRecordKind::kUnit40;
   params.cover = cover;
   params.stage_ac_ablation = stage_ac;  // off: as `commerge server --mode A+B+C` (the default) runs it
+  params.decision.disagree_odds = disagree_odds;  // 0: no descriptor agreement at the placement (its cost apart)
   auto made = MergeServer::Create(robots, total, params);
   if (!made.ok()) {
     std::fprintf(stderr, "bench_round: %s\n", made.status().message().c_str());
@@ -602,11 +608,13 @@ int main(int argc, char** argv) {
   }
   MergeServer& server = **made;
   std::printf("server: MergeServerParams{} (stage A neighbour rank %zu, sequence half window %zu, tau_area %llu "
-              "scaled by %.2f, tau_inter %.2f; place consensus up to %zu cells; stage B %s; chain check %.0f)\n",
+              "scaled by %.2f, tau_inter %.2f; place consensus up to %zu cells; stage B %s; chain check %.0f; disagree odds "
+              "%g)\n",
               server.params().cascade.stage_a.neighbour_rank, server.params().cascade.stage_a.sequence_half_window,
               static_cast<unsigned long long>(server.params().cascade.stage_a.tau_area),
               server.params().cascade.stage_a.tau_area_fraction, server.params().cascade.stage_a.tau_inter,
-              server.params().cascade.consensus_max_cells, StageBCoverName(cover), server.params().decision.chain_check_support);
+              server.params().cascade.consensus_max_cells, StageBCoverName(cover), server.params().decision.chain_check_support,
+              server.params().decision.disagree_odds);
 
   std::vector<std::int32_t> sequence(static_cast<std::size_t>(robots), 0);
   const int num_pairs = robots * (robots - 1) / 2;

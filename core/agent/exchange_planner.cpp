@@ -2,6 +2,7 @@
 #include "core/agent/exchange_planner.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <string>
 #include <utility>
@@ -41,6 +42,27 @@ std::string AmbiguousUnconfirmedText(const ExchangeCascadeResult& c, double min_
   return "stage A: ambiguous place (" + c.ambiguity_reason + ") that other clusters do not confirm: place consensus " +
          "support " + FormatNumber(c.consensus_support_chosen, 4) + " keyframes < " + FormatNumber(min_support, 4) +
          " (min_ambiguous_support)";
+}
+
+// The words of a pair DecideRequest refused for the descriptors at its placement.
+std::string PlacementDisagreesText(const PairEvidence& e, const PairDecisionParams& params) {
+  const PlacementAgreement& a = e.placement_agreement;
+  return "stage A: at its cluster's placement " + std::to_string(a.agreeing) + " of " + std::to_string(a.ranked) +
+         " co-located keyframes agree (chance <= " + FormatNumber(params.agree_chance, 3) + "), " +
+         FormatNumber(std::exp(-PlacementLogOdds(e, params)), 3) +
+         " times likelier among strangers than at a true place (--disagree-odds " +
+         FormatNumber(params.disagree_odds, 4) + ")";
+}
+
+// A robot's keyframes as the descriptor agreement reads them.
+KeyframeSetView View(const RobotKeyframeDb& r) {
+  return {Span<const float>(r.descriptors), Span<const std::uint8_t>(r.valid), Span<const Eigen::Isometry3d>(r.T_map_sensor)};
+}
+
+// Stops after which no scan of the pair is asked for in any mode but send-all.
+bool RefusedForItsPlace(PairStop stop) {
+  return stop == PairStop::kAmbiguousUnconfirmed || stop == PairStop::kPlacementDisagrees ||
+         stop == PairStop::kPlaceCheck;
 }
 
 }  // namespace
@@ -125,15 +147,11 @@ Result<std::vector<PlacementAgreement>> ExchangePlanner::MeasurePlacementAgreeme
                            std::to_string(beta) + " in the last round");
   }
   const RobotKeyframeDb& A = db.robot(alpha);
-  const RobotKeyframeDb& B = db.robot(beta);
-  const KeyframeSetView a{Span<const float>(A.descriptors), Span<const std::uint8_t>(A.valid),
-                          Span<const Eigen::Isometry3d>(A.T_map_sensor)};
-  const KeyframeSetView b{Span<const float>(B.descriptors), Span<const std::uint8_t>(B.valid),
-                          Span<const Eigen::Isometry3d>(B.T_map_sensor)};
   std::vector<PlacementAgreement> out;
   for (const PlacedCluster& c : p->cascade.placed_clusters) {
-    auto agreement = commerge::MeasurePlacementAgreement(a, b, A.dim, c.placement, c.cluster, params_.colocation,
-                                                         params_.decision.agree_chance, params_.cascade.metric);
+    auto agreement = commerge::MeasurePlacementAgreement(View(A), View(db.robot(beta)), A.dim, c.placement, c.cluster,
+                                                         params_.colocation, params_.decision.agree_chance,
+                                                         params_.cascade.metric);
     if (!agreement.ok()) return agreement.status();
     out.push_back(*agreement);
   }
@@ -149,14 +167,19 @@ Status ExchangePlanner::RunPair(const KeyframeDatabase& db, int a, int b) {
   state.cascade = std::move(*result);
   state.evidence = CascadeEvidence(state.cascade);
   state.stop = DecideRequest(state.evidence, params_.decision).stop;
+  if (state.stop == PairStop::kNone && params_.decision.disagree_odds > 0.0) {
+    if (Status st = MeasurePassedOnPlacement(db, &state); !st.ok()) return CascadeError(a, b, st);
+    state.stop = DecideRequest(state.evidence, params_.decision).stop;
+  }
   if (state.stop == PairStop::kAmbiguousUnconfirmed) {
     state.cascade.no_candidate_reason = AmbiguousUnconfirmedText(state.cascade, params_.decision.min_ambiguous_support);
+  } else if (state.stop == PairStop::kPlacementDisagrees) {
+    state.cascade.no_candidate_reason = PlacementDisagreesText(state.evidence, params_.decision);
   } else if (params_.cover == StageBCover::kPairwise && CascadeAwaitsStageB(state.cascade)) {
     // Pairwise: the rest of the cascade here. Joint: stage B over every pair in RunJointStageB.
     Status st = RunCascadeFromStageB(Input(db, a), Input(db, b), params_.cascade, nullptr, 0, &state.cascade);
     if (!st.ok()) return CascadeError(a, b, st);
-    state.evidence = CascadeEvidence(state.cascade);
-    state.stop = DecideRequest(state.evidence, params_.decision).stop;
+    RefreshEvidence(&state);
   }
   const auto& l_seq = state.cascade.stage_a.cells;
   if (!l_seq.empty() && params_.stage_ac_ablation) {
@@ -175,6 +198,27 @@ Status ExchangePlanner::RunPair(const KeyframeDatabase& db, int a, int b) {
   }
   pairs_.push_back(std::move(state));
   return Status::Ok();
+}
+
+Status ExchangePlanner::MeasurePassedOnPlacement(const KeyframeDatabase& db, PairState* state) const {
+  for (const PlacedCluster& c : state->cascade.placed_clusters) {
+    if (!c.passed_on) continue;
+    const RobotKeyframeDb& A = db.robot(state->alpha);
+    auto agreement = commerge::MeasurePlacementAgreement(View(A), View(db.robot(state->beta)), A.dim, c.placement,
+                                                         c.cluster, params_.colocation, params_.decision.agree_chance,
+                                                         params_.cascade.metric);
+    if (!agreement.ok()) return agreement.status();
+    state->evidence.placement_agreement = *agreement;
+    return Status::Ok();
+  }
+  return Status::Ok();
+}
+
+void ExchangePlanner::RefreshEvidence(PairState* state) const {
+  const PlacementAgreement agreement = state->evidence.placement_agreement;
+  state->evidence = CascadeEvidence(state->cascade);
+  state->evidence.placement_agreement = agreement;
+  state->stop = DecideRequest(state->evidence, params_.decision).stop;
 }
 
 Status ExchangePlanner::RunJointStageB(const KeyframeDatabase& db) {
@@ -201,8 +245,7 @@ Status ExchangePlanner::RunJointStageB(const KeyframeDatabase& db) {
                                      joint ? static_cast<int>(cover->robots.size()) : 0, &state.cascade);
     if (!st.ok()) return CascadeError(state.alpha, state.beta, st);
     if (joint) state.cascade.stage_b_s += cover->seconds;  // the one joint solve, in every pair's time
-    state.evidence = CascadeEvidence(state.cascade);
-    state.stop = DecideRequest(state.evidence, params_.decision).stop;
+    RefreshEvidence(&state);
   }
   return Status::Ok();
 }
@@ -250,8 +293,7 @@ Result<ExchangePlan> ExchangePlanner::Plan(ExchangeMode mode, const KeyframeData
     s.alpha = p.alpha;
     s.beta = p.beta;
     const auto& l_seq = p.cascade.stage_a.cells;
-    const bool refused = p.stop == PairStop::kAmbiguousUnconfirmed || p.stop == PairStop::kPlaceCheck;
-    if (refused && mode != ExchangeMode::kSendAll) {
+    if (RefusedForItsPlace(p.stop) && mode != ExchangeMode::kSendAll) {
       s.stop = p.stop;
       s.no_selection_reason = p.cascade.no_candidate_reason;
       plan.pairs.push_back(std::move(s));

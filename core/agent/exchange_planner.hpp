@@ -76,8 +76,9 @@ class ExchangePlanner {
   /// The pair's evidence before registration (cascade and chains); nullptr when its cascade did not run.
   const PairEvidence* evidence(int alpha, int beta) const;
   /// The descriptor agreement at each placed cluster of the pair's last cascade (ExchangeCascadeResult::
-  /// placed_clusters, in its order; transform_agreement.hpp), measured when asked: no decision reads it yet, and a
-  /// round should not pay 16 x 256 rankings against every keyframe of alpha per pair for it. Errors: the pair's
+  /// placed_clusters, in its order; transform_agreement.hpp), measured when asked: a round measures only the
+  /// passed-on cluster's (PairEvidence::placement_agreement) and should not pay 16 x 256 rankings against every
+  /// keyframe of alpha per pair for the rest. Errors: the pair's
   /// cascade did not run, MeasurePlacementAgreement's.
   Result<std::vector<PlacementAgreement>> MeasurePlacementAgreement(const KeyframeDatabase& db, int alpha,
                                                                     int beta) const;
@@ -85,7 +86,8 @@ class ExchangePlanner {
   const StageCResult* stage_ac(int alpha, int beta) const;
 
   /// The plan of one mode from the last RunCascades(). A pair DecideRequest refused for its place (ambiguous and
-  /// unconfirmed, or the place check) selects nothing in any mode but send-all.
+  /// unconfirmed, descriptors that disagree at the placement, or the place check) selects nothing in any mode but
+  /// send-all.
   Result<ExchangePlan> Plan(ExchangeMode mode, const KeyframeDatabase& db) const;
   /// The next exchange for the pairs of `plan` whose registration was refused and DecideWiden allows: each robot's
   /// keyframes grow to twice their number with endpoints of the pair's L_seq nearest in index to those selected.
@@ -118,6 +120,10 @@ class ExchangePlanner {
   // Stage A, DecideRequest, and (pairwise) stage B to the policy; the A+C ablation.
   Status RunPair(const KeyframeDatabase& db, int a, int b);
   Status RunJointStageB(const KeyframeDatabase& db);
+  // The descriptor agreement at the placement of the cluster the cascade passed on, into state->evidence.
+  Status MeasurePassedOnPlacement(const KeyframeDatabase& db, PairState* state) const;
+  // The evidence from the cascade again (after stage B; the placement agreement kept), and DecideRequest.
+  void RefreshEvidence(PairState* state) const;
   // The place check across pairs (decision.chain_check_support) over pairs_, then DecideRequest once more.
   void ApplyPlaceCheck(int max_robots);
   // One request per robot with the keyframes of `wanted[r]` (sorted and de-duplicated here; without the scans

@@ -145,6 +145,7 @@ MergeServerParams MergeProfileParams(MergeProfile profile, const LidarScanTraits
   p.decision.widen_ambiguous_support = 0.0;
   p.decision.chain_check_support = 0.0;
   p.decision.max_colocated_chance = 0.0;
+  p.decision.disagree_odds = 0.0;
   p.max_widen_steps = 0;
   p.cover = StageBCover::kPairwise;
   p.min_submap_points = 0;

@@ -12,6 +12,7 @@ const char* PairStopName(PairStop stop) noexcept {
     case PairStop::kIncomparable: return "descriptor ids differ";
     case PairStop::kStageA: return "stage A";
     case PairStop::kAmbiguousUnconfirmed: return "ambiguous place";
+    case PairStop::kPlacementDisagrees: return "descriptors disagree at stage A's placement";
     case PairStop::kStageB: return "stage B";
     case PairStop::kStageC: return "stage C";
     case PairStop::kPlaceCheck: return "place check";
@@ -35,8 +36,15 @@ Status ValidatePairDecisionParams(const PairDecisionParams& params) {
   if (Status s = support("min_ambiguous_support", params.min_ambiguous_support); !s.ok()) return s;
   if (Status s = support("widen_ambiguous_support", params.widen_ambiguous_support); !s.ok()) return s;
   if (Status s = support("chain_check_support", params.chain_check_support); !s.ok()) return s;
-  if (!(params.agree_chance >= 0.0) || params.agree_chance > 1.0) {
-    return InvalidArgument("agree_chance = " + std::to_string(params.agree_chance) + " must be in [0, 1]");
+  if (!(params.agree_chance > 0.0) || params.agree_chance >= 1.0) {
+    return InvalidArgument("agree_chance = " + std::to_string(params.agree_chance) + " must be in (0, 1)");
+  }
+  if (!(params.true_agree_fraction > params.agree_chance) || params.true_agree_fraction >= 1.0) {
+    return InvalidArgument("true_agree_fraction = " + std::to_string(params.true_agree_fraction) +
+                           " must be above agree_chance (" + std::to_string(params.agree_chance) + ") and below 1");
+  }
+  if (!std::isfinite(params.disagree_odds) || (params.disagree_odds != 0.0 && !(params.disagree_odds >= 1.0))) {
+    return InvalidArgument("disagree_odds = " + std::to_string(params.disagree_odds) + " must be 0 (off) or >= 1");
   }
   if (!(params.max_colocated_chance >= 0.0) || params.max_colocated_chance > 1.0) {
     return InvalidArgument("max_colocated_chance = " + std::to_string(params.max_colocated_chance) +
@@ -75,11 +83,22 @@ bool AmbiguousBelow(const PairEvidence& e, double min_support) {
 
 }  // namespace
 
+double PlacementLogOdds(const PairEvidence& evidence, const PairDecisionParams& params) {
+  const PlacementAgreement& a = evidence.placement_agreement;
+  if (!a.measured || a.ranked == 0) return 0.0;
+  return AgreementLogOdds(a.ranked, a.agreeing, params.agree_chance, params.true_agree_fraction);
+}
+
 PairDecision DecideRequest(const PairEvidence& evidence, const PairDecisionParams& params) {
   if (evidence.cascade_stop != PairStop::kNone) return No(evidence.cascade_stop);
   // At a repeated place only other clusters that agree on the placement tell the true place from a look-alike;
   // registration's gates cannot (a corridor aligns well with another corridor).
   if (AmbiguousBelow(evidence, params.min_ambiguous_support)) return No(PairStop::kAmbiguousUnconfirmed);
+  // The placement puts beta's other keyframes beside alpha's: at a true place their descriptors agree; a cluster
+  // that matched strangers (a sensor that sees little of a place) leaves them as far as any two. Costs no bytes.
+  if (params.disagree_odds > 0.0 && PlacementLogOdds(evidence, params) <= -std::log(params.disagree_odds)) {
+    return No(PairStop::kPlacementDisagrees);
+  }
   if (evidence.chains.refused()) return No(PairStop::kPlaceCheck);
   return kYes;
 }

@@ -13,6 +13,7 @@
 #include "core/common/status.hpp"
 #include "core/exchange/exchange_cascade.hpp"
 #include "core/exchange/place_consensus.hpp"
+#include "core/exchange/transform_agreement.hpp"
 #include "core/registration/submap_registration.hpp"
 
 namespace commerge {
@@ -24,6 +25,7 @@ enum class PairStop : std::uint8_t {
   kIncomparable,          ///< the robots' descriptor parameter ids differ
   kStageA,                ///< stage A found no cluster
   kAmbiguousUnconfirmed,  ///< stage A's cluster is at an ambiguous place that the place consensus does not confirm
+  kPlacementDisagrees,    ///< at stage A's placement the robots' descriptors look like strangers' (before any scan)
   kStageB,                ///< stage B found no cover (a limit before any, or infeasible shares)
   kStageC,                ///< stage C or the policy selected nothing
   kPlaceCheck,            ///< the chains through third robots disagree with the pair's placement
@@ -35,7 +37,7 @@ enum class PairStop : std::uint8_t {
   kDescriptorsDisagree,   ///< where the transform joins the robots, their descriptors are no nearer than chance
   kInconsistent,          ///< the frame solver rejected the transform (inconsistent with the other pairs)
 };
-inline constexpr int kNumPairStops = 14;
+inline constexpr int kNumPairStops = 15;
 
 /// "merged", "descriptor ids differ", "stage A", ... (stable, for logs, tables and messages).
 const char* PairStopName(PairStop stop) noexcept;
@@ -58,8 +60,15 @@ struct PairDecisionParams {
   double max_colocated_chance = 0.2;
   std::size_t min_colocated_keyframes = 20;
   /// A keyframe co-located by a cluster's placement agrees when its chance (transform_agreement.hpp) is at most
-  /// this (ExchangePlanner::MeasurePlacementAgreement; measured, no decision reads it yet). [0, 1]
+  /// this: among strangers that happens with this probability. (0, 1)
   double agree_chance = 0.05;
+  /// At a true shared place at least this fraction of the co-located keyframes agrees, in the world where the
+  /// descriptor separates worst (decisions/025-descriptor-odds-at-the-placement.md). (agree_chance, 1)
+  double true_agree_fraction = 0.25;
+  /// [odds] The pair is not requested when the keyframes that stage A's placement co-locates (outside its cluster)
+  /// agree as strangers' do at least this many times likelier than as at a true place (AgreementLogOdds <=
+  /// -ln(disagree_odds)); 0 = off (the paper). 0 or >= 1.
+  double disagree_odds = 100.0;
 };
 
 /// InvalidArgument naming the field when a threshold is negative, not finite, or a chance outside [0, 1].
@@ -77,6 +86,9 @@ struct PairEvidence {
   bool consensus_measured = false;
   double consensus_support = 0.0;
   ClusterPlacement placement;
+  /// Descriptor agreement at the placement of the cluster stage A passed on (measured after stage A when the
+  /// cascade passed a cluster on and the decision uses it; measured = false otherwise).
+  PlacementAgreement placement_agreement;
   /// The chains through third robots (measured after every pair's cascade of the round).
   PlaceCheckVerdict chains;
   /// Registration ran: its geometry verdict; the gap to the consensus placement (when measured) and the descriptor
@@ -102,9 +114,12 @@ struct PairDecision {
 };
 
 /// Spend bytes on the pair: the cascade passed a selection on, its cluster is not an unconfirmed ambiguous place
-/// (support < min_ambiguous_support), and no chain of third robots contradicts it. With what is measured so far
-/// (chains are known only after the round's cascades).
+/// (support < min_ambiguous_support), the descriptors at its placement do not look like strangers' (PlacementOdds
+/// <= -ln(disagree_odds)), and no chain of third robots contradicts it. With what is measured so far (chains are
+/// known only after the round's cascades).
 PairDecision DecideRequest(const PairEvidence& evidence, const PairDecisionParams& params);
+/// AgreementLogOdds of the evidence's placement agreement (0 when it was not measured or ranked nothing).
+double PlacementLogOdds(const PairEvidence& evidence, const PairDecisionParams& params);
 /// The cluster is ambiguous and the place consensus confirms it (support >= widen_ambiguous_support > 0): it may be
 /// widened, and its transform must lie at its placement (DecideAccept).
 bool AmbiguousPlaceConfirmed(const PairEvidence& evidence, const PairDecisionParams& params);

@@ -149,6 +149,15 @@ double MedianChance(Span<const ColocatedKeyframe> colocated, std::uint32_t exclu
   return static_cast<double>(chances[mid]);
 }
 
+double AgreementLogOdds(std::size_t ranked, std::size_t agreeing, double agree_chance, double true_fraction) {
+  if (!(agree_chance > 0.0 && agree_chance < true_fraction && true_fraction < 1.0) || agreeing > ranked) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  const double k = static_cast<double>(agreeing);
+  const double rest = static_cast<double>(ranked - agreeing);
+  return k * std::log(true_fraction / agree_chance) + rest * std::log((1.0 - true_fraction) / (1.0 - agree_chance));
+}
+
 Eigen::Isometry3d PlacementTransform(const ClusterPlacement& placement) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = Eigen::AngleAxisd(placement.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();

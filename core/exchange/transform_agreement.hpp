@@ -85,6 +85,14 @@ struct PlacementAgreement {
   double median_chance = -1.0; ///< over the ranked; -1 when none
 };
 
+/// How much likelier `agreeing` of `ranked` co-located keyframes are at a true shared place than among strangers,
+/// as a natural log: each keyframe agrees (chance <= agree_chance) with probability agree_chance among strangers
+/// (chance is uniform there) and with probability true_fraction at a true place, independently, so
+/// ln odds = k ln(q / a) + (n - k) ln((1 - q) / (1 - a)) for n ranked, k agreeing, a = agree_chance,
+/// q = true_fraction. 0 when nothing is ranked; negative: the keyframes look like strangers. Requires
+/// 0 < agree_chance < true_fraction < 1 (ValidatePairDecisionParams) and agreeing <= ranked; NaN otherwise.
+double AgreementLogOdds(std::size_t ranked, std::size_t agreeing, double agree_chance, double true_fraction);
+
 /// T_alpha_beta of a placement: R_z(yaw_rad), t_alpha_beta_m.
 Eigen::Isometry3d PlacementTransform(const ClusterPlacement& placement);
 

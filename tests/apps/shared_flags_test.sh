@@ -21,7 +21,7 @@ server_help=$("$@" server --help)
 status=0
 flags=(--tau-inter --tau-area --sequence-half-window --neighbour-rank --tau-area-fraction --tau-con-m --min-submap-scans
        --max-widen-steps --min-ambiguous-support --widen-ambiguous-support --min-submap-points --chain-check-support
-       --max-colocated-chance --min-colocated-keyframes --stage-b-max-nodes --stage-c-max-nodes)
+       --max-colocated-chance --min-colocated-keyframes --disagree-odds --stage-b-max-nodes --stage-c-max-nodes)
 for flag in "${flags[@]}"; do
   a=$(entry "$run_help" "$flag")
   b=$(entry "$server_help" "$flag")
@@ -34,7 +34,7 @@ done
 for expect in "--tau-inter =0.5" "--tau-area =400" "--sequence-half-window =4" "--neighbour-rank =1" "--tau-area-fraction =0.3" \
               "--tau-con-m =5" "--min-ambiguous-support =40" \
               "--widen-ambiguous-support =100" "--min-submap-points =0" "--chain-check-support =40" \
-              "--max-colocated-chance =0.2" "--min-colocated-keyframes =20" \
+              "--max-colocated-chance =0.2" "--min-colocated-keyframes =20" "--disagree-odds =100" \
               "--stage-b-max-nodes =20000" "--stage-c-max-nodes =2000000"; do
   flag=${expect%% *}
   value=${expect#* }

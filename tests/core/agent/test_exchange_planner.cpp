@@ -300,6 +300,92 @@ TEST_CASE("Merge server: a weakly supported pair that robots matched to both pla
   }
 }
 
+TEST_CASE("Merge server: a cluster that matched strangers, whose placement lays the rest of the robots side by side "
+          "with unlike descriptors, asks for no scans") {
+  // Every map frame is the world frame. Robot 0 drives x = 0..199 (y = 0). Robot 1 never meets it (x = 400..599,
+  // y = 0), but its keyframes 90..111 look exactly like robot 0's 40..61 (the look-alike a forward-looking sensor
+  // sees driving the other way): stage A's only cluster. Its placement moves robot 1 by -350 m, on top of robot
+  // 0's keyframes 0..149 whose descriptors are unrelated: as many agree as chance lets (agree_chance), far fewer
+  // than at a true place. The true pair (robot 1 along robot 0's path, alike all the way) is the control.
+  std::mt19937 rng(47);
+  std::vector<std::array<float, kKeyframeDescriptorDim>> d0, d1, d_true;
+  std::vector<Eigen::Vector3d> p0, p1;
+  for (int i = 0; i < 200; ++i) {
+    d0.push_back(RandomDescriptor(&rng));
+    p0.emplace_back(i, 0.0, 0.0);
+  }
+  for (int j = 0; j < 200; ++j) {
+    d1.push_back(j >= 90 && j <= 111 ? d0[static_cast<std::size_t>(j - 50)] : RandomDescriptor(&rng));
+    p1.emplace_back(400.0 + j, 0.0, 0.0);
+    d_true.push_back(d0[static_cast<std::size_t>(j)]);
+  }
+  auto run = [&](double disagree_odds, const std::vector<std::array<float, kKeyframeDescriptorDim>>& d,
+                 const std::vector<Eigen::Vector3d>& p) {
+    MergeServerParams params;
+    params.decision.disagree_odds = disagree_odds;
+    auto server = commerge::test::MakeTestServer(2, 200, params);
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(0, 0, d0, p0, 2000)).ok());
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(1, 0, d, p, 2000)).ok());
+    REQUIRE(server->RunCascades().ok());
+    return server;
+  };
+  // The reference: the log of how much likelier k of n agreeing keyframes are at a true place (each agrees with
+  // probability 0.25) than among strangers (0.05), from the two binomial probabilities.
+  const auto log_odds = [](std::size_t n, std::size_t k) {
+    const auto log_binomial = [&](double q) {
+      return std::lgamma(n + 1.0) - std::lgamma(k + 1.0) - std::lgamma(n - k + 1.0) + k * std::log(q) +
+             (n - k) * std::log(1.0 - q);
+    };
+    return log_binomial(0.25) - log_binomial(0.05);
+  };
+
+  const auto off = run(0.0, d1, p1);
+  const ExchangeCascadeResult* lone = off->cascade(0, 1);
+  REQUIRE(lone != nullptr);
+  REQUIRE(lone->outcome == CascadeOutcome::kPolicy);  // without the check the look-alike goes on to registration
+  CHECK_FALSE(off->evidence(0, 1)->placement_agreement.measured);  // off: not measured either
+  const ClusterPlacement& wrong = lone->consensus_placement;
+  CHECK((wrong.Apply(wrong.place_beta_m) - wrong.place_beta_m).norm() > 300.0);
+
+  const auto on = run(100.0, d1, p1);
+  const PairEvidence* e = on->evidence(0, 1);
+  REQUIRE(e != nullptr);
+  REQUIRE(e->placement_agreement.measured);
+  const PlacementAgreement& a = e->placement_agreement;
+  CHECK(a.ranked >= 100);                 // robot 1's keyframes outside the cluster, on top of robot 0's
+  CHECK(a.agreeing * 10 <= a.ranked);     // strangers: about agree_chance of them
+  CHECK(PlacementLogOdds(*e, PairDecisionParams{}) == doctest::Approx(log_odds(a.ranked, a.agreeing)));
+  CHECK(log_odds(a.ranked, a.agreeing) < -std::log(100.0));
+  const ExchangeCascadeResult* refused = on->cascade(0, 1);
+  CHECK(refused->outcome != CascadeOutcome::kPolicy);  // stage B never ran
+  CHECK(refused->no_candidate_reason.find("at its cluster's placement " + std::to_string(a.agreeing) + " of " +
+                                          std::to_string(a.ranked) + " co-located keyframes agree") !=
+        std::string::npos);
+  for (ExchangeMode mode : {ExchangeMode::kStageA, ExchangeMode::kStageAB, ExchangeMode::kStageAC, ExchangeMode::kStageABC}) {
+    auto plan = on->Plan(mode);
+    REQUIRE(plan.ok());
+    REQUIRE(plan->pairs.size() == 1);
+    CHECK(plan->pairs[0].stop == PairStop::kPlacementDisagrees);
+    CHECK(plan->pairs[0].alpha_keyframes.empty());
+    CHECK(plan->pairs[0].beta_keyframes.empty());
+    CHECK(plan->requests.empty());
+  }
+  auto all = on->Plan(ExchangeMode::kSendAll);  // the send-all baseline still ships everything
+  REQUIRE(all.ok());
+  CHECK(all->pairs[0].alpha_keyframes.size() == 200);
+
+  // The control: robot 1 drives robot 0's path; its keyframes outside the cluster agree where they lie.
+  const auto truth = run(100.0, d_true, p0);
+  const PairEvidence* t = truth->evidence(0, 1);
+  REQUIRE(t != nullptr);
+  CHECK(truth->cascade(0, 1)->outcome == CascadeOutcome::kPolicy);
+  // Its cluster covers the whole shared path: nothing outside it to rank, no evidence against it.
+  REQUIRE(t->placement_agreement.measured);
+  CHECK(t->placement_agreement.ranked == 0);
+  CHECK(PlacementLogOdds(*t, PairDecisionParams{}) == 0.0);
+  CHECK(truth->Plan(ExchangeMode::kStageABC)->requests.size() == 2);
+}
+
 TEST_CASE("Merge server widens a refused pair with stage A's keyframes nearest its selection, asking only for scans it lacks") {
   const int n = 40, shift = 5;
   const std::unique_ptr<MergeServer> owned = ShiftedPairServer(n, shift);

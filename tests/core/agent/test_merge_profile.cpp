@@ -52,6 +52,7 @@ TEST_CASE("Merge profiles: commerge is the defaults, paper the paper's cascade w
     CHECK(paper.decision.widen_ambiguous_support == 0.0);
     CHECK(paper.decision.chain_check_support == 0.0);
     CHECK(paper.decision.max_colocated_chance == 0.0);
+    CHECK(paper.decision.disagree_odds == 0.0);
     CHECK(paper.max_widen_steps == 0);
     CHECK(paper.cover == StageBCover::kPairwise);
     CHECK(paper.min_submap_points == 0);

@@ -117,6 +117,50 @@ TEST_CASE("DecideRequest: the cascade's stop, an unconfirmed ambiguous place, th
   CHECK(DecideRequest(chained, params).stop == PairStop::kStageC);
 }
 
+TEST_CASE("DecideRequest: descriptors that look like strangers' at stage A's placement, as odds") {
+  const PairDecisionParams params;  // agree_chance 0.05, true_agree_fraction 0.25, disagree_odds 100
+  // ln odds = k ln(0.25 / 0.05) + (n - k) ln(0.75 / 0.95), by hand: 60 ranked, 3 agree -> -8.65 (refused);
+  // 34 ranked, 3 agree -> -2.50 (not); 20 ranked, 0 agree -> -4.73 (refused); 19 ranked, 0 agree -> -4.49 (not).
+  const auto with = [](std::size_t ranked, std::size_t agreeing) {
+    PairEvidence e = Good();
+    e.placement_agreement.measured = true;
+    e.placement_agreement.colocated = ranked;
+    e.placement_agreement.ranked = ranked;
+    e.placement_agreement.agreeing = agreeing;
+    return e;
+  };
+  CHECK(PlacementLogOdds(with(60, 3), params) == doctest::Approx(-8.6458).epsilon(1e-4));
+  CHECK(DecideRequest(with(60, 3), params).stop == PairStop::kPlacementDisagrees);
+  CHECK(PlacementLogOdds(with(34, 3), params) == doctest::Approx(-2.4997).epsilon(1e-4));
+  CHECK(DecideRequest(with(34, 3), params).yes);
+  CHECK(DecideRequest(with(20, 0), params).stop == PairStop::kPlacementDisagrees);
+  CHECK(DecideRequest(with(19, 0), params).yes);
+  CHECK(DecideRequest(with(200, 40), params).yes);  // a true place's share agrees
+  CHECK(DecideRequest(with(0, 0), params).yes);     // nothing co-located: no evidence either way
+  PairEvidence unmeasured = with(60, 3);
+  unmeasured.placement_agreement.measured = false;
+  CHECK(PlacementLogOdds(unmeasured, params) == 0.0);
+  CHECK(DecideRequest(unmeasured, params).yes);
+  PairDecisionParams off = params;
+  off.disagree_odds = 0.0;  // off (the paper)
+  CHECK(DecideRequest(with(60, 3), off).yes);
+  PairDecisionParams lax = params;
+  lax.disagree_odds = 10000.0;  // e^-8.65 = 1 / 5680: not 10 000 times likelier among strangers
+  CHECK(DecideRequest(with(60, 3), lax).yes);
+  // The cascade's stop and an unconfirmed ambiguous place come first; the chains after.
+  PairEvidence first = with(60, 3);
+  first.cascade_stop = PairStop::kStageA;
+  CHECK(DecideRequest(first, params).stop == PairStop::kStageA);
+  first = with(60, 3);
+  first.ambiguous = true;
+  first.consensus_support = 10.0;
+  CHECK(DecideRequest(first, params).stop == PairStop::kAmbiguousUnconfirmed);
+  first = with(60, 3);
+  first.chains.checked = true;
+  first.chains.chains = 1;
+  CHECK(DecideRequest(first, params).stop == PairStop::kPlacementDisagrees);
+}
+
 TEST_CASE("AmbiguousPlaceConfirmed and DecideWiden: joined elsewhere, below tau_area, an ambiguous place") {
   const PairDecisionParams params;  // widen_ambiguous_support 100
   PairEvidence refused = Good();
@@ -231,10 +275,26 @@ TEST_CASE("ValidatePairDecisionParams names the field") {
     p.chain_check_support = v;
     CHECK(ValidatePairDecisionParams(p).message().find("chain_check_support") != std::string::npos);
   }
-  for (double v : {-0.1, 1.1, nan}) {
+  for (double v : {0.0, 1.0, 0.3, nan}) {  // 0.3: not below true_agree_fraction 0.25
     PairDecisionParams p;
     p.agree_chance = v;
     CHECK(ValidatePairDecisionParams(p).message().find("agree_chance") != std::string::npos);
+    p = PairDecisionParams{};
+    p.true_agree_fraction = v == 0.3 ? 0.05 : v;  // at agree_chance
+    CHECK(ValidatePairDecisionParams(p).message().find("true_agree_fraction") != std::string::npos);
+  }
+  for (double v : {0.5, -1.0, nan, inf}) {
+    PairDecisionParams p;
+    p.disagree_odds = v;
+    CHECK(ValidatePairDecisionParams(p).message().find("disagree_odds") != std::string::npos);
+  }
+  {
+    PairDecisionParams p;
+    p.disagree_odds = 1.0;
+    CHECK(ValidatePairDecisionParams(p).ok());
+  }
+  for (double v : {-0.1, 1.1, nan}) {
+    PairDecisionParams p;
     p = PairDecisionParams{};
     p.max_colocated_chance = v;
     CHECK(ValidatePairDecisionParams(p).message().find("max_colocated_chance") != std::string::npos);

@@ -344,4 +344,34 @@ TEST_CASE("Placement agreement: a cluster's placement is ranked like a transform
   CHECK_FALSE(MeasurePlacementAgreement(f.alpha.View(), f.beta.View(), kDim, truth, cluster, p, std::nan("")).ok());
 }
 
+
+TEST_CASE("AgreementLogOdds: the log ratio of the binomial probabilities of k agreeing of n at a true place and "
+          "among strangers") {
+  for (double a : {0.01, 0.05, 0.2}) {
+    for (double q : {0.25, 0.5, 0.9}) {
+      for (std::size_t n : {0, 1, 7, 60, 256}) {
+        for (std::size_t k = 0; k <= n; k += (n > 20 ? 13 : 1)) {
+          // The reference: the logs of the two probabilities of one sequence of k agreeing and n - k not (the
+          // binomial coefficient is common), keyframe by keyframe.
+          double log_true = 0.0, log_strangers = 0.0;
+          for (std::size_t i = 0; i < n; ++i) {
+            log_true += std::log(i < k ? q : 1.0 - q);
+            log_strangers += std::log(i < k ? a : 1.0 - a);
+          }
+          const double want = log_true - log_strangers;
+          CHECK(AgreementLogOdds(n, k, a, q) == doctest::Approx(want).epsilon(1e-9));
+        }
+      }
+    }
+  }
+  CHECK(AgreementLogOdds(0, 0, 0.05, 0.25) == 0.0);
+  CHECK(AgreementLogOdds(40, 2, 0.05, 0.25) < 0.0);   // chance's share: strangers
+  CHECK(AgreementLogOdds(40, 10, 0.05, 0.25) > 0.0);  // a true place's share
+  CHECK(std::isnan(AgreementLogOdds(5, 6, 0.05, 0.25)));   // more agreeing than ranked
+  CHECK(std::isnan(AgreementLogOdds(5, 1, 0.25, 0.25)));   // a true place no likelier to agree than strangers
+  CHECK(std::isnan(AgreementLogOdds(5, 1, 0.0, 0.25)));
+  CHECK(std::isnan(AgreementLogOdds(5, 1, 0.05, 1.0)));
+  CHECK(std::isnan(AgreementLogOdds(5, 1, std::nan(""), 0.25)));
+}
+
 }  // namespace commerge
