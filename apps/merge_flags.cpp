@@ -68,7 +68,8 @@ const MergeFlag kMergeFlags[] = {
     {"--consensus-max-cells", "cascade.consensus_max_cells", "cells", 0.0, 1e7, "ours",
      "place every stage A cluster from the robots' keyframe positions and pass on the qualifying cluster the "
      "other clusters agree with when the lowest-mean one has less than half its support (repeated places); "
-     "skipped when more cells are below threshold; 0 = off (the paper)",
+     "over this many cells below threshold the cluster passed on is placed alone, its support its own weight "
+     "(said in the pair's reason); 0 = off (the paper)",
      FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->cascade.consensus_max_cells; }},
     {"--stage-b-max-nodes", "cascade.stage_b.max_nodes", "nodes", 1.0, 1e9, "ours",
      "stage B's branch-and-bound stops after this many nodes with the best cover and its proven gap (printed per "

@@ -41,7 +41,7 @@ Status CascadeError(int a, int b, const Status& st) {
 std::string AmbiguousUnconfirmedText(const ExchangeCascadeResult& c, double min_support) {
   return "stage A: ambiguous place (" + c.ambiguity_reason + ") that other clusters do not confirm: place consensus " +
          "support " + FormatNumber(c.consensus_support_chosen, 4) + " keyframes < " + FormatNumber(min_support, 4) +
-         " (min_ambiguous_support)";
+         " (min_ambiguous_support)" + (c.consensus_capped ? "; " + c.consensus_reason : "");
 }
 
 // The words of a pair DecideRequest refused for the descriptors at its placement.

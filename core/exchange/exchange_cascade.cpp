@@ -109,6 +109,28 @@ Status ApplyPlaceConsensus(const CascadeRobotInput& alpha, const CascadeRobotInp
   return Status::Ok();
 }
 
+// Stage A had more cells below threshold than the consensus may hold (consensus_max_cells): its cluster set was not
+// collected, so no other cluster can vote. The cluster passed on is placed alone: its support is its own weight,
+// the least the consensus could have found, and the reason says why.
+Status PlaceCappedCluster(const CascadeRobotInput& alpha, const CascadeRobotInput& beta,
+                          const ExchangeCascadeParams& params, ExchangeCascadeResult* result) {
+  const SequentialMatchResult& a = result->stage_a;
+  auto placement = PlaceCluster(Span<const SequentialLoopCell>(a.cells), a.best, alpha.positions_m, beta.positions_m,
+                                params.consensus);
+  if (!placement.ok()) return placement.status();
+  result->consensus_measured = true;
+  result->consensus_capped = true;
+  result->consensus_support_lowest_mean = placement->valid ? placement->weight : 0.0;
+  result->consensus_support_chosen = result->consensus_support_lowest_mean;
+  result->consensus_placement = *placement;
+  result->consensus_clusters_placed = placement->valid ? 1 : 0;
+  result->consensus_reason = "place consensus skipped: " + std::to_string(a.num_cells_below_threshold) +
+                             " cells below threshold > " + std::to_string(params.consensus_max_cells) +
+                             " (--consensus-max-cells); the cluster's own weight is its support";
+  result->placed_clusters.assign(1, PlacedCluster{a.best, *placement, result->consensus_support_chosen, true});
+  return Status::Ok();
+}
+
 }  // namespace
 
 const char* CascadeOutcomeName(CascadeOutcome outcome) noexcept {
@@ -288,6 +310,8 @@ Result<ExchangeCascadeResult> RunCascadeStageA(const CascadeRobotInput& alpha, c
   if (result.stage_a.found && !result.stage_a.clusters.clusters.empty()) {
     Status s = ApplyPlaceConsensus(alpha, beta, candidate_area, params.consensus, params.max_placed_clusters, &result);
     if (!s.ok()) return s;
+  } else if (result.stage_a.found && params.consensus_max_cells > 0 && !result.stage_a.cells.empty()) {
+    if (Status s = PlaceCappedCluster(alpha, beta, params, &result); !s.ok()) return s;
   } else if (!result.stage_a.clusters.clusters.empty()) {
     Status s = PlaceClustersWithoutChoice(alpha, beta, params.consensus, params.max_placed_clusters, &result);
     if (!s.ok()) return s;

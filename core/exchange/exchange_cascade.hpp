@@ -98,6 +98,9 @@ struct ExchangeCascadeResult {
   /// cluster passed on; `consensus_switched` when that is not S* (consensus_reason says why).
   bool consensus_measured = false;
   bool consensus_switched = false;
+  /// Stage A had more cells below threshold than consensus_max_cells: no other cluster voted, the cluster passed on
+  /// was placed alone and its support is its own weight (consensus_reason says so).
+  bool consensus_capped = false;
   double consensus_support_lowest_mean = 0.0;
   double consensus_support_chosen = 0.0;
   /// Where the cluster passed on places robot beta's map in robot alpha's (from the keyframe positions).

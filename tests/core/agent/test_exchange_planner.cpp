@@ -562,6 +562,53 @@ TEST_CASE("Merge server widens a refused pair at an ambiguous place only when th
   }
 }
 
+TEST_CASE("Merge server: a place consensus over its memory cap lowers an ambiguous pair's support to its own "
+          "weight and says so, it does not switch the check off") {
+  // AmbiguousShiftedPairBatches: stage A's cluster (25 x 25) is at a place alpha saw twice. With the consensus
+  // measured its support is at least its own 25 loops; with more cells below threshold than the cap allows no
+  // other cluster votes, so the support is the cluster's own weight, and 40 are asked of an ambiguous place. (A
+  // cap that left the support unmeasured would leave the rule nothing to judge, and the pair requested.)
+  const auto run = [](std::size_t consensus_max_cells) {
+    MergeServerParams params = PaperStageA(200);
+    params.cascade.max_ambiguous_fraction = 0.1;
+    params.cascade.consensus_max_cells = consensus_max_cells;
+    params.decision.min_ambiguous_support = 40.0;
+    auto server = commerge::test::MakeTestServer(2, 100, params);
+    for (const KeyframeBatch& b : AmbiguousShiftedPairBatches()) REQUIRE(server->OnKeyframeBatch(b).ok());
+    REQUIRE(server->RunCascades().ok());
+    return server;
+  };
+  const auto measured = run(50000);
+  const ExchangeCascadeResult* m = measured->cascade(0, 1);
+  REQUIRE(m != nullptr);
+  REQUIRE(m->ambiguous);
+  REQUIRE(m->consensus_measured);
+  CHECK_FALSE(m->consensus_capped);
+  const std::uint64_t cells = m->stage_a.num_cells_below_threshold;
+  REQUIRE(cells > 1);
+
+  const auto capped = run(static_cast<std::size_t>(cells - 1));  // one cell over the cap
+  const ExchangeCascadeResult* c = capped->cascade(0, 1);
+  REQUIRE(c != nullptr);
+  REQUIRE(c->ambiguous);
+  CHECK(c->consensus_capped);
+  CHECK(c->consensus_measured);
+  CHECK(c->consensus_support_chosen == c->consensus_placement.weight);  // its own weight, no other vote
+  CHECK(c->consensus_support_chosen <= m->consensus_support_chosen);
+  CHECK(c->consensus_support_chosen < 40.0);
+  const PairEvidence* e = capped->evidence(0, 1);
+  REQUIRE(e != nullptr);
+  CHECK(DecideRequest(*e, capped->params().decision).stop == PairStop::kAmbiguousUnconfirmed);
+  auto plan = capped->Plan(ExchangeMode::kStageABC);
+  REQUIRE(plan.ok());
+  REQUIRE(plan->pairs.size() == 1);
+  CHECK(plan->pairs[0].stop == PairStop::kAmbiguousUnconfirmed);
+  CHECK(plan->pairs[0].alpha_keyframes.empty());
+  CHECK(plan->pairs[0].no_selection_reason.find(std::to_string(cells) + " cells below threshold > " +
+                                                std::to_string(cells - 1) + " (--consensus-max-cells)") !=
+        std::string::npos);
+}
+
 TEST_CASE("Merge server does not widen a refused pair whose robots merged pairs already join") {
   MergeServerParams params = PaperStageA(100);
   std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(3, 100, params);

@@ -292,9 +292,22 @@ TEST_CASE("Cascade: with place consensus, stage A passes on a true place instead
   params.consensus_max_cells = 59;  // 60 cells below threshold: over the cap, stage A's own choice stands
   auto capped = RunExchangeCascade(a, b, params);
   REQUIRE(capped.ok());
-  CHECK_FALSE(capped->consensus_measured);
-  CHECK(capped->placed_clusters.empty());
   CHECK(capped->stage_a.best.row_min == 35);
+  // No other cluster votes: the look-alike is placed alone, its support its own weight (20 keyframes, the least
+  // the consensus could have found; 20 as well with the consensus, 40 for the true place), and the cap is said.
+  CHECK(capped->consensus_measured);
+  CHECK(capped->consensus_capped);
+  CHECK_FALSE(capped->consensus_switched);
+  CHECK(capped->consensus_support_chosen == 20.0);
+  CHECK(capped->consensus_support_chosen == on->placed_clusters[2].support);
+  CHECK(capped->consensus_clusters_placed == 1);
+  CHECK(capped->consensus_placement.valid);
+  CHECK(PlacementsAgree(capped->consensus_placement, on->placed_clusters[2].placement, params.consensus));
+  CHECK(capped->consensus_reason.find("60 cells below threshold > 59 (--consensus-max-cells)") != std::string::npos);
+  REQUIRE(capped->placed_clusters.size() == 1);
+  CHECK(capped->placed_clusters[0].passed_on);
+  CHECK(capped->placed_clusters[0].cluster.row_min == 35);
+  CHECK_FALSE(on->consensus_capped);
 
   params.consensus_max_cells = 1000;
   params.consensus.switch_ratio = 0.0;
