@@ -28,6 +28,32 @@ float UnitL2Distance(const float* a, const float* b, std::size_t dim) {
   return std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot));
 }
 
+// Alpha keyframes `ids` whose unit-L2 distance to `dj` is below `distance`: the same float sums, keyframe by
+// keyframe, as UnitL2Distance, four keyframes at a time so that their sums overlap in the pipeline.
+std::size_t CountNearerUnitL2(const float* alpha, const std::vector<std::uint32_t>& ids, const float* dj,
+                              std::size_t dim, float distance) {
+  std::size_t nearer = 0, k = 0;
+  const auto below = [&](float dot) { return std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot)) < distance ? 1 : 0; };
+  for (; k + 4 <= ids.size(); k += 4) {
+    const float* a0 = alpha + std::size_t{ids[k]} * dim;
+    const float* a1 = alpha + std::size_t{ids[k + 1]} * dim;
+    const float* a2 = alpha + std::size_t{ids[k + 2]} * dim;
+    const float* a3 = alpha + std::size_t{ids[k + 3]} * dim;
+    float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f, s3 = 0.0f;
+    for (std::size_t d = 0; d < dim; ++d) {
+      s0 += a0[d] * dj[d];
+      s1 += a1[d] * dj[d];
+      s2 += a2[d] * dj[d];
+      s3 += a3[d] * dj[d];
+    }
+    nearer += below(s0) + below(s1) + below(s2) + below(s3);
+  }
+  for (; k < ids.size(); ++k) {
+    nearer += UnitL2Distance(alpha + std::size_t{ids[k]} * dim, dj, dim) < distance ? 1 : 0;
+  }
+  return nearer;
+}
+
 double HeadingGapDeg(double yaw_a_rad, double yaw_b_rad) {
   double d = std::fmod(std::fabs(yaw_a_rad - yaw_b_rad), 2.0 * kPi);
   if (d > kPi) d = 2.0 * kPi - d;
@@ -123,9 +149,11 @@ Result<std::vector<ColocatedKeyframe>> ColocatedKeyframes(const KeyframeSetView&
   for (ColocatedKeyframe& c : out) {
     const float* dj = beta.descriptors.data() + std::size_t{c.beta} * descriptor_dim;
     std::size_t nearer = 0;
-    for (std::uint32_t i : alpha_valid) {
-      if (Distance(alpha.descriptors.data() + std::size_t{i} * descriptor_dim, dj) < c.distance) {
-        ++nearer;
+    if (metric.kind == DescriptorMetric::Kind::kUnitL2) {
+      nearer = CountNearerUnitL2(alpha.descriptors.data(), alpha_valid, dj, descriptor_dim, c.distance);
+    } else {
+      for (std::uint32_t i : alpha_valid) {
+        nearer += Distance(alpha.descriptors.data() + std::size_t{i} * descriptor_dim, dj) < c.distance ? 1 : 0;
       }
     }
     const double r = static_cast<double>(nearer) / static_cast<double>(alpha_valid.size());
