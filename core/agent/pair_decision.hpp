@@ -71,7 +71,8 @@ struct PairDecisionParams {
   double disagree_odds = 100.0;
 };
 
-/// InvalidArgument naming the field when a threshold is negative, not finite, or a chance outside [0, 1].
+/// InvalidArgument naming the field when a threshold is negative, not finite, or a chance outside [0, 1];
+/// agree_chance outside (0, 1), true_agree_fraction not in (agree_chance, 1), disagree_odds neither 0 nor >= 1.
 Status ValidatePairDecisionParams(const PairDecisionParams& params);
 
 /// What has been measured about one pair so far; each part is filled where it is measured and says whether it was.
@@ -114,8 +115,8 @@ struct PairDecision {
 };
 
 /// Spend bytes on the pair: the cascade passed a selection on, its cluster is not an unconfirmed ambiguous place
-/// (support < min_ambiguous_support), the descriptors at its placement do not look like strangers' (PlacementOdds
-/// <= -ln(disagree_odds)), and no chain of third robots contradicts it. With what is measured so far (chains are
+/// (support < min_ambiguous_support), the descriptors at its placement do not look like strangers' (refused when
+/// PlacementLogOdds <= -ln(disagree_odds)), and no chain of third robots contradicts it. With what is measured so far (chains are
 /// known only after the round's cascades).
 PairDecision DecideRequest(const PairEvidence& evidence, const PairDecisionParams& params);
 /// AgreementLogOdds of the evidence's placement agreement (0 when it was not measured or ranked nothing).
