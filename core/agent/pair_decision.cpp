@@ -94,7 +94,7 @@ PairDecision DecideRequest(const PairEvidence& evidence, const PairDecisionParam
   // At a repeated place only other clusters that agree on the placement tell the true place from a look-alike;
   // registration's gates cannot (a corridor aligns well with another corridor).
   if (AmbiguousBelow(evidence, params.min_ambiguous_support)) return No(PairStop::kAmbiguousUnconfirmed);
-  // The placement puts beta's other keyframes beside alpha's: at a true place their descriptors agree; a cluster
+  // The placement lays beta's other keyframes beside alpha's: at a true place their descriptors agree; a cluster
   // that matched strangers (a sensor that sees little of a place) leaves them as far as any two. Costs no bytes.
   if (params.disagree_odds > 0.0 && PlacementLogOdds(evidence, params) <= -std::log(params.disagree_odds)) {
     return No(PairStop::kPlacementDisagrees);

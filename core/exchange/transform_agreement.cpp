@@ -21,11 +21,14 @@ Status CheckSet(const KeyframeSetView& set, std::size_t dim, const char* name) {
   return Status::Ok();
 }
 
+// Unit-L2 distance of two unit vectors from their dot product, in float.
+float UnitL2FromDot(float dot) { return std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot)); }
+
 // Unit-L2 distance of two unit vectors, in float (the metric's other kinds go through DescriptorDistance).
 float UnitL2Distance(const float* a, const float* b, std::size_t dim) {
   float dot = 0.0f;
   for (std::size_t k = 0; k < dim; ++k) dot += a[k] * b[k];
-  return std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot));
+  return UnitL2FromDot(dot);
 }
 
 // Alpha keyframes `ids` whose unit-L2 distance to `dj` is below `distance`: the same float sums, keyframe by
@@ -33,7 +36,7 @@ float UnitL2Distance(const float* a, const float* b, std::size_t dim) {
 std::size_t CountNearerUnitL2(const float* alpha, const std::vector<std::uint32_t>& ids, const float* dj,
                               std::size_t dim, float distance) {
   std::size_t nearer = 0, k = 0;
-  const auto below = [&](float dot) { return std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot)) < distance ? 1 : 0; };
+  const auto below = [&](float dot) { return UnitL2FromDot(dot) < distance ? 1 : 0; };
   for (; k + 4 <= ids.size(); k += 4) {
     const float* a0 = alpha + std::size_t{ids[k]} * dim;
     const float* a1 = alpha + std::size_t{ids[k + 1]} * dim;
