@@ -146,12 +146,9 @@ Result<std::vector<PlacementAgreement>> ExchangePlanner::MeasurePlacementAgreeme
     return InvalidArgument("placement agreement: no cascade of robots " + std::to_string(alpha) + " and " +
                            std::to_string(beta) + " in the last round");
   }
-  const RobotKeyframeDb& A = db.robot(alpha);
   std::vector<PlacementAgreement> out;
   for (const PlacedCluster& c : p->cascade.placed_clusters) {
-    auto agreement = commerge::MeasurePlacementAgreement(View(A), View(db.robot(beta)), A.dim, c.placement, c.cluster,
-                                                         params_.colocation, params_.decision.agree_chance,
-                                                         params_.cascade.metric);
+    auto agreement = AgreementAt(db, alpha, beta, c);
     if (!agreement.ok()) return agreement.status();
     out.push_back(*agreement);
   }
@@ -200,13 +197,17 @@ Status ExchangePlanner::RunPair(const KeyframeDatabase& db, int a, int b) {
   return Status::Ok();
 }
 
+Result<PlacementAgreement> ExchangePlanner::AgreementAt(const KeyframeDatabase& db, int alpha, int beta,
+                                                        const PlacedCluster& c) const {
+  const RobotKeyframeDb& A = db.robot(alpha);
+  return commerge::MeasurePlacementAgreement(View(A), View(db.robot(beta)), A.dim, c.placement, c.cluster,
+                                             params_.colocation, params_.decision.agree_chance, params_.cascade.metric);
+}
+
 Status ExchangePlanner::MeasurePassedOnPlacement(const KeyframeDatabase& db, PairState* state) const {
   for (const PlacedCluster& c : state->cascade.placed_clusters) {
     if (!c.passed_on) continue;
-    const RobotKeyframeDb& A = db.robot(state->alpha);
-    auto agreement = commerge::MeasurePlacementAgreement(View(A), View(db.robot(state->beta)), A.dim, c.placement,
-                                                         c.cluster, params_.colocation, params_.decision.agree_chance,
-                                                         params_.cascade.metric);
+    auto agreement = AgreementAt(db, state->alpha, state->beta, c);
     if (!agreement.ok()) return agreement.status();
     state->evidence.placement_agreement = *agreement;
     return Status::Ok();

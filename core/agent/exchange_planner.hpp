@@ -120,6 +120,8 @@ class ExchangePlanner {
   // Stage A, DecideRequest, and (pairwise) stage B to the policy; the A+C ablation.
   Status RunPair(const KeyframeDatabase& db, int a, int b);
   Status RunJointStageB(const KeyframeDatabase& db);
+  // The descriptor agreement at placed cluster c of pair (alpha, beta).
+  Result<PlacementAgreement> AgreementAt(const KeyframeDatabase& db, int alpha, int beta, const PlacedCluster& c) const;
   // The descriptor agreement at the placement of the cluster the cascade passed on, into state->evidence.
   Status MeasurePassedOnPlacement(const KeyframeDatabase& db, PairState* state) const;
   // The evidence from the cascade again (after stage B; the placement agreement kept), and DecideRequest.
