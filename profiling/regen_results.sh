@@ -68,6 +68,7 @@ sections=(
   "recall-livox|1 h|-|Merge recall: A forward-looking sensor in the simulator"
   "recall-long|1 h (8 GB of data per scenario)|-|Merge recall: 3 000-keyframe subset"
   "recall-evidence|30 min|-|Merge recall: Evidence at each placement (tune seeds)"
+  "recall-indoor-pairs|10 min|-|Merge recall: Why indoor pairs stay unmerged (tune seeds)"
   "recall-distances|0 s (reads the reports of recall-matrix-s11, recall-livox, recall-real)|-|Merge recall: Descriptor distances: generated against real"
   "real-loops|1 min|real|Merge recall: Intra-robot loops on the real sequences"
   "recall-joint-cover|2 h|-|Merge recall: Stage B: joint cover against pairwise"
@@ -391,6 +392,23 @@ sec_recall_evidence() {
   "$here/placement_evidence.sh" "$work/recall-evidence" || fail "placement_evidence.sh failed"
   echo
   recall_summary recall-evidence
+}
+
+sec_recall_indoor_pairs() {
+  echo "### Why indoor pairs stay unmerged (tune seeds)"
+  echo
+  local slice='-((2r|3r)-(moderate|partial)|5r-partial)-alternate-w0.5'
+  recall recall-indoor-pairs --slice generated --worlds indoor --tune-seeds "11 23 31" --keyframes 400 \
+      --only "$slice" --drop-data \
+      || { fail "bench_recall.sh failed (see $work/recall-indoor-pairs.out, .err)"; return; }
+  grep -E '^tune seeds, ' "$work/recall-indoor-pairs.out" | sed 's/^/- /' || true
+  echo
+  echo "Every pair that shares a place and did not merge, with what its evidence points at. Command:"
+  echo "\`profiling/placement_evidence.sh --pairs --world indoor WORK\`."
+  echo
+  "$here/placement_evidence.sh" --pairs --world indoor "$work/recall-indoor-pairs" \
+      || fail "placement_evidence.sh failed"
+  echo
 }
 
 sec_recall_livox() {
