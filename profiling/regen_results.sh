@@ -378,13 +378,20 @@ recall_world_table() {
                  if (k == \"all\") k = \"**all**\"; print $3 }"
 }
 
+# The recall benchmark NAME with ARGS (recall), then its tune-seed lines as a list; false when it failed.
+recall_tune() {
+  local name=$1
+  shift
+  recall "$name" "$@" || { fail "bench_recall.sh failed (see $work/$name.out, .err)"; return 1; }
+  grep -E '^tune seeds, ' "$work/$name.out" | sed 's/^/- /' || true
+}
+
 sec_recall_evidence() {
   echo "### Evidence at each placement (tune seeds)"
   echo
   local slice='-((2r|3r)-(moderate|partial)|5r-partial)-alternate-w0.5'
-  recall recall-evidence --slice generated --tune-seeds "11 23" --keyframes 400 --only "$slice" --drop-data \
-      || { fail "bench_recall.sh failed (see $work/recall-evidence.out, .err)"; return; }
-  grep -E '^tune seeds, ' "$work/recall-evidence.out" | sed 's/^/- /' || true
+  recall_tune recall-evidence --slice generated --tune-seeds "11 23" --keyframes 400 --only "$slice" --drop-data \
+      || return
   echo
   echo "Every placed cluster of those runs, true (within 5 m and 5 deg of the ground truth at its place) or false;"
   echo "10th percentile / median / 90th percentile. Command: \`profiling/placement_evidence.sh WORK\`."
@@ -398,10 +405,8 @@ sec_recall_indoor_pairs() {
   echo "### Why indoor pairs stay unmerged (tune seeds)"
   echo
   local slice='-((2r|3r)-(moderate|partial)|5r-partial)-alternate-w0.5'
-  recall recall-indoor-pairs --slice generated --worlds indoor --tune-seeds "11 23 31" --keyframes 400 \
-      --only "$slice" --drop-data \
-      || { fail "bench_recall.sh failed (see $work/recall-indoor-pairs.out, .err)"; return; }
-  grep -E '^tune seeds, ' "$work/recall-indoor-pairs.out" | sed 's/^/- /' || true
+  recall_tune recall-indoor-pairs --slice generated --worlds indoor --tune-seeds "11 23 31" --keyframes 400 \
+      --only "$slice" --drop-data || return
   echo
   echo "Every pair that shares a place and did not merge, with what its evidence points at. Command:"
   echo "\`profiling/placement_evidence.sh --pairs --world indoor WORK\`."
