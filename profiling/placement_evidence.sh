@@ -11,10 +11,11 @@
 # the fraction of co-located keyframes whose descriptors agree (chance <= 0.05; placements with ranked keyframes
 # only) and their median chance. The world is the scenario name's first word (its livox model as "WORLD livox").
 # --pairs: instead, one row per robot pair that shares a place (shared_path_m > 0, not stopped at "no shared
-# place") and did not merge (--world: of that world only), with the evidence that says why: where it stopped,
-# whether the placement of the cluster stage A passed on is true and its consensus support, the best support of a
-# true and of a false placement among stage A's clusters, the descriptor distances of truly co-located keyframe
-# pairs (median) against those of the rest (5th percentile), and which part of the cascade the evidence points at:
+# place") and did not merge (--world: of scenarios whose name starts with that world, the Livox model's too), with
+# the evidence that says why: where it stopped, whether the placement of the cluster stage A passed on is true and
+# its consensus support, the best support of a true and of a false placement among stage A's clusters, the
+# descriptor distances of truly co-located keyframe pairs (median) against those of the rest (5th percentile), and
+# which part of the cascade the evidence points at:
 #   "no true cluster": none of stage A's clusters lies at the true place (stage A and the descriptor);
 #   "look-alike outweighs": a false placement has more support than every true one (the decision cannot tell
 #     them apart by support; equal support means they agree with each other within the consensus tolerance);
