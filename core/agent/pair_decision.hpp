@@ -116,8 +116,8 @@ struct PairDecision {
 
 /// Spend bytes on the pair: the cascade passed a selection on, its cluster is not an unconfirmed ambiguous place
 /// (support < min_ambiguous_support), the descriptors at its placement do not look like strangers' (refused when
-/// PlacementLogOdds <= -ln(disagree_odds)), and no chain of third robots contradicts it. With what is measured so far (chains are
-/// known only after the round's cascades).
+/// PlacementLogOdds <= -ln(disagree_odds)), and no chain of third robots contradicts it. With what is measured so
+/// far (chains are known only after the round's cascades).
 PairDecision DecideRequest(const PairEvidence& evidence, const PairDecisionParams& params);
 /// AgreementLogOdds of the evidence's placement agreement (0 when it was not measured or ranked nothing).
 double PlacementLogOdds(const PairEvidence& evidence, const PairDecisionParams& params);
