@@ -106,7 +106,8 @@ summarise() {
   }' "$2"
 }
 # One line per seed set (tune / test, from the scenario name's -sSEED) and world (the name's first word; the
-# livox model's rows as "WORLD livox"; real splits as "real"). $1 = rows file.
+# livox model's rows as "WORLD livox"; real splits as "real"). $1 = rows file (WORK/rows.tsv, or WORK/baseline.tsv
+# whose names end in " (baseline)").
 summarise_split() {
   awk -F'\t' -v tune=" $tune_seeds " -v test=" $test_seeds " '
   function median(a, key, k,   i, j, t, v) {
@@ -115,7 +116,7 @@ summarise_split() {
     return k % 2 ? v[(k + 1) / 2] : (v[k / 2] + v[k / 2 + 1]) / 2
   }
   NF >= 13 && $1 != "scenario" {
-    name = $1; world = name; sub(/-.*/, "", world)
+    name = $1; sub(/ \(baseline\)$/, "", name); world = name; sub(/-.*/, "", world)
     if (name ~ /-livox-/) world = world " livox"
     set = "real"
     if (match(name, /-s[0-9]+$/)) {

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # profiling/bench_recall.sh --summarise with --tune-seeds / --test-seeds on hand-made rows: the per seed set and
 # world lines must count the rows of each seed set (from the names' -sSEED) and world (the livox model apart, real
-# splits apart) as worked out by hand below; a seed in both sets and a seed that is not a number are usage errors.
+# splits apart) as worked out by hand below, also for a baseline's rows (names ending in " (baseline)"); a seed in
+# both sets and a seed that is not a number are usage errors.
 # Usage: recall_split_test.sh BENCH_RECALL_SH WORKDIR
 set -euo pipefail
 bench=$1
@@ -43,5 +44,9 @@ word=$("$bench" --summarise "$rows" --tune-seeds "11 x" 2>&1); rc_word=$?
 set -e
 [[ $rc_both -eq 2 && $both == *"seed 101 is both a tune and a test seed"* ]] || { echo "both sets: rc $rc_both: $both"; status=1; }
 [[ $rc_word -eq 2 && $word == *"seed 'x' is not a non-negative integer"* ]] || { echo "not a number: rc $rc_word: $word"; status=1; }
+# The baseline's rows (WORK/baseline.tsv) carry " (baseline)" after the name: the same seed sets and worlds.
+sed 's/^\([^\t]*\)\t/\1 (baseline)\t/' "$rows" > "$work/baseline.tsv"
+base=$("$bench" --summarise "$work/baseline.tsv" --tune-seeds "11" --test-seeds "101 102")
+[[ "$base" == "$out" ]] || { echo "baseline rows summarised differently:"; diff <(echo "$out") <(echo "$base"); status=1; }
 [[ $status -eq 0 ]] && echo "tune and test seeds summarised per world as worked out by hand"
 exit $status
