@@ -17,8 +17,10 @@
 #   real       ../shared/data/real/{hku_mb,hku2} split in halves, thirds and two overlapping windows (odometry
 #              from odom_poses.txt, reference from poses.txt), and KITTI 00 frames 0-10 / 5-16;
 #   quick      a CI slice (the `heavy` test "recall: quick slice ..."): the simulator's default setting on the
-#              campus with five robots (moderate overlap, both ways, wobble 0.5 deg, 400 keyframes, seed 5; --seeds
-#              and --keyframes do not apply) and the hku2 halves;
+#              campus with five robots (moderate overlap, both ways, wobble 0.5 deg, 400 keyframes, seed 5, a tune
+#              seed), the indoor world with three robots (the same setting, seed 59, a test seed:
+#              core/agent/decisions/024-tune-and-test-seeds.md; --seeds and --keyframes do not apply) and the hku2
+#              halves;
 #   all        generated + long + livox + real.
 # Per scenario one row: robots that truly share a place with robot 0's component (from ground truth,
 # core/eval/shared_place.hpp), robots merged (right and wrong: > 1 m or > 3 deg from the truth where the
@@ -263,7 +265,7 @@ real_splits() {  # $1 = folder under real/, $2 = scans
 }
 
 if [ "$slice" = quick ]; then
-  echo "commerge recall benchmark: slice quick (campus, 5 robots, 400 keyframes, seed 5; hku2 halves)${run_args:+, run options: $run_args}"
+  echo "commerge recall benchmark: slice quick (campus, 5 robots, seed 5; indoor, 3 robots, test seed 59; 400 keyframes; hku2 halves)${run_args:+, run options: $run_args}"
 else
   echo "commerge recall benchmark: slice $slice, seeds $seeds, $keyframes keyframes (long: $long_keyframes)${run_args:+, run options: $run_args}"
 fi
@@ -272,7 +274,10 @@ printf 'scenario\tother robots\tsharing robots\tmerged\twrong\tworst transform e
 for seed in $seeds; do
   case "$slice" in
     quick)
-      [ "$seed" = "${seeds%% *}" ] && generated 400 5 campus 5 moderate alternate 0.5 ;;
+      if [ "$seed" = "${seeds%% *}" ]; then
+        generated 400 5 campus 5 moderate alternate 0.5
+        generated 400 59 indoor 3 moderate alternate 0.5
+      fi ;;
     generated|all)
       for world in $worlds; do
         for robots in 2 3 5; do

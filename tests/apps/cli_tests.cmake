@@ -327,14 +327,15 @@ endif()
 
 # The recall benchmark's quick slice with the default flags (profiling/bench_recall.sh --slice quick): the
 # simulator's default setting on the campus with five robots (the case of issue "Merge recall": 0 of 10 pairs
-# merged by the paper's stage A) and the real hku2 halves. Every robot that shares a place is merged and none is
+# merged by the paper's stage A), the indoor world with three robots on a test seed (59, never tuned on) and the
+# real hku2 halves. Every robot that shares a place is merged and none is
 # wrong; the hku2 half lands within 0.3 m / 2 deg of the reference poses, judged where the robots met and by
 # the start poses.
 set(CM_HKU2 "${CM_SHARED_DATA_DIR}/real/hku2")
 if(EXISTS "${CM_HKU2}/poses.txt" AND NOT CMAKE_CROSSCOMPILING)
-  set(recall_quick "recall: quick slice (campus 5 robots with the simulator's defaults, hku2 halves) merges every robot that shares a place, none wrong")
+  set(recall_quick "recall: quick slice (campus 5 robots with the simulator's defaults, indoor 3 robots on a test seed, hku2 halves) merges every robot that shares a place, none wrong")
   cm_cli_test(NAME "${recall_quick}" RC 0 LABELS heavy
-              REGEX "summary: 2 scenarios; recall 5 of 5 robots that share a place \\(100\\.0 %\\); real splits: 1 of 1 robots merged; 0 wrong merges"
+              REGEX "summary: 3 scenarios; recall 7 of 7 robots that share a place \\(100\\.0 %\\); real splits: 1 of 1 robots merged; 0 wrong merges"
               COMMAND bash "${PROJECT_SOURCE_DIR}/profiling/bench_recall.sh" --commerge $<TARGET_FILE:commerge> --slice quick
                       --work "${CM_CLI_OUT}/recall-quick" --shared-data "${CM_SHARED_DATA_DIR}")
   set_tests_properties("cli: ${recall_quick}" PROPERTIES FIXTURES_SETUP recall_quick)
