@@ -45,22 +45,26 @@ const MergeFlag kMergeFlags[] = {
      "below tau_area is passed on)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.verification_area_fraction; }},
     {"--max-ambiguous-fraction", "cascade.max_ambiguous_fraction", "", 0.0, 1.0, "ours",
-     "a pair is at an ambiguous place, one step lower on the evidence ladder (--weak-support), when more than "
-     "this fraction of its stage A cluster's keyframes of either robot look as alike to another place of the "
-     "robot's own map (more than 20 m away) as to the other robot (repeated structure); 1 = off (the paper)",
+     "register a pair once, never widened (unless --widen-ambiguous-support), when more than this fraction of "
+     "its stage A cluster's keyframes of either robot look as alike to another place of the robot's own map "
+     "(more than 20 m away) as to the other robot (repeated structure); 1 = off (the paper)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->cascade.max_ambiguous_fraction; }},
-    {"--weak-support", "decision.weak_support_kf", "keyframes", 0.0, 1e7, "ours",
-     "the evidence ladder's first step (core/agent/decisions/026-evidence-ladder.md): a pair whose stage A cluster "
-     "the place consensus (--consensus-max-cells) supports with at least this summed weight of agreeing clusters is "
-     "strong (may be widened, --max-widen-steps; links the check across pairs); below it, weak (asked once, and "
-     "not when a third robot places the two maps elsewhere through strong pairs and none agrees); at an ambiguous "
-     "place (--max-ambiguous-fraction) one step lower: below it, not asked at all; 0 = every pair strong (the paper)",
-     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.weak_support_kf; }},
-    {"--strong-support", "decision.strong_support_kf", "keyframes", 0.0, 1e7, "ours",
-     "the ladder's second step, for a pair at an ambiguous place: from this support on its evidence is strong, and "
-     "it is merged only where the place consensus places it (within the tolerances by which two clusters agree); "
-     "0 = off: an ambiguous pair is never strong",
-     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.strong_support_kf; }},
+    {"--min-ambiguous-support", "decision.min_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
+     "a stage A cluster at an ambiguous place (--max-ambiguous-fraction) is passed on only when the place "
+     "consensus (--consensus-max-cells) confirms it with at least this summed weight of agreeing clusters, its "
+     "own included; 0 = off (the paper)",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.min_ambiguous_support; }},
+    {"--widen-ambiguous-support", "decision.widen_ambiguous_support", "keyframes", 0.0, 1e7, "ours",
+     "a pair at an ambiguous place (--max-ambiguous-fraction) whose stage A cluster the place consensus confirms "
+     "with at least this summed weight may be widened like any other (--max-widen-steps), and is merged only "
+     "where that consensus places it (within the tolerances by which two clusters agree); 0 = off: an ambiguous "
+     "pair is never widened",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.widen_ambiguous_support; }},
+    {"--chain-check-support", "decision.chain_check_support", "keyframes", 0.0, 1e7, "ours",
+     "a pair whose stage A cluster has less place-consensus support than this is not passed on when a third "
+     "robot, through two pairs supported at least this much, places the two maps elsewhere and no such robot "
+     "agrees; 0 = off (the paper)",
+     FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.chain_check_support; }},
     {"--consensus-max-cells", "cascade.consensus_max_cells", "cells", 0.0, 1e7, "ours",
      "place every stage A cluster from the robots' keyframe positions and pass on the qualifying cluster the "
      "other clusters agree with when the lowest-mean one has less than half its support (repeated places); "
@@ -89,10 +93,9 @@ const MergeFlag kMergeFlags[] = {
      "the detail: --min-scan-points; try 4000 with 1000 there); 0 = always 1 m (the paper)",
      FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->min_submap_points; }},
     {"--disagree-odds", "decision.disagree_odds", "odds", 0.0, 1e12, "ours",
-     "the evidence ladder's descriptor veto, before asking for scans: do not request a pair when the keyframes that "
-     "stage A's placement puts side by side (outside its cluster) agree in descriptor as strangers' do at least this "
-     "many times likelier than as at a true place (a keyframe agrees: chance <= 0.05, strangers 5 %, a true place at "
-     "least 25 %); 0 = off (the paper)",
+     "before asking for scans: do not request a pair when the keyframes that stage A's placement puts side by side "
+     "(outside its cluster) agree in descriptor as strangers' do at least this many times likelier than as at a "
+     "true place (a keyframe agrees: chance <= 0.05, strangers 5 %, a true place at least 25 %); 0 = off (the paper)",
      FlagType::kDouble, [](MergeServerParams* p) -> void* { return &p->decision.disagree_odds; }},
     {"--max-colocated-chance", "decision.max_colocated_chance", "", 0.0, 1.0, "ours",
      "refuse a registration that places keyframes of the two robots together (away from stage A's cluster; "

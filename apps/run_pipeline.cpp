@@ -463,7 +463,7 @@ int RunCascades(RunJob* job) {
       if (AmbiguousPlaceConfirmed(CascadeEvidence(*c), job->server->params().decision)) {
         padded += " (ambiguous place: " + c->ambiguity_reason + ", --max-ambiguous-fraction; confirmed by " +
                   FormatNumber(c->consensus_support_chosen, 4) + " keyframes of place consensus, may be widened, " +
-                  "--strong-support)";
+                  "--widen-ambiguous-support)";
       } else if (c->ambiguous) {
         padded += " (ambiguous place, registered once: " + c->ambiguity_reason + ", --max-ambiguous-fraction)";
       }

@@ -542,7 +542,6 @@ void WriteMetrics(const RunJob& job) {
       }
       if (p.attempted && p.colocated_chance >= 0.0) {
         kv(k + "colocated_keyframes_chance", std::to_string(p.colocated_keyframes) + " " + Fmt("%.3f", p.colocated_chance));
-        kv(k + "colocated_ranked_agreeing", std::to_string(p.colocated_ranked) + " " + std::to_string(p.colocated_agreeing));
       }
     }
     WritePlacedClusters(job, p.alpha, p.beta, k, kv);

@@ -608,12 +608,12 @@ int main(int argc, char** argv) {
   }
   MergeServer& server = **made;
   std::printf("server: MergeServerParams{} (stage A neighbour rank %zu, sequence half window %zu, tau_area %llu "
-              "scaled by %.2f, tau_inter %.2f; place consensus up to %zu cells; stage B %s; weak support %.0f kf; disagree odds "
+              "scaled by %.2f, tau_inter %.2f; place consensus up to %zu cells; stage B %s; chain check %.0f; disagree odds "
               "%g)\n",
               server.params().cascade.stage_a.neighbour_rank, server.params().cascade.stage_a.sequence_half_window,
               static_cast<unsigned long long>(server.params().cascade.stage_a.tau_area),
               server.params().cascade.stage_a.tau_area_fraction, server.params().cascade.stage_a.tau_inter,
-              server.params().cascade.consensus_max_cells, StageBCoverName(cover), server.params().decision.weak_support_kf,
+              server.params().cascade.consensus_max_cells, StageBCoverName(cover), server.params().decision.chain_check_support,
               server.params().decision.disagree_odds);
 
   std::vector<std::int32_t> sequence(static_cast<std::size_t>(robots), 0);

@@ -294,7 +294,7 @@ sec_main_long_urban() {
 
 # ---------------------------------------------------------------------------------------------------------------
 # Merge recall
-paper_flags="--neighbour-rank 0 --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1 --verify-area-fraction 0 --max-ambiguous-fraction 1 --consensus-max-cells 0 --weak-support 0 --strong-support 0 --disagree-odds 0 --max-colocated-chance 0 --descriptor solid"
+paper_flags="--neighbour-rank 0 --sequence-half-window 0 --tau-area 10000 --tau-area-fraction 0 --tau-inter 0.1 --verify-area-fraction 0 --max-ambiguous-fraction 1 --consensus-max-cells 0 --min-ambiguous-support 0 --chain-check-support 0 --max-colocated-chance 0 --descriptor solid"
 
 sec_recall_quick() {
   echo "### Quick slice (the CI test)"

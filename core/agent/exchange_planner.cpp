@@ -37,13 +37,11 @@ Status CascadeError(int a, int b, const Status& st) {
 }
 
 // The words of a pair DecideRequest refused after stage A: its cluster is at an ambiguous place that the place
-// consensus does not confirm (no evidence worth a request).
-std::string AmbiguousUnconfirmedText(const ExchangeCascadeResult& c, double weak_support_kf) {
-  const std::string support = c.consensus_measured ? FormatNumber(c.consensus_support_chosen, 4) + " keyframes"
-                                                   : "not measured, counted as 0";
+// consensus does not confirm.
+std::string AmbiguousUnconfirmedText(const ExchangeCascadeResult& c, double min_support) {
   return "stage A: ambiguous place (" + c.ambiguity_reason + ") that other clusters do not confirm: place consensus " +
-         "support " + support + " < " + FormatNumber(weak_support_kf, 4) + " (--weak-support)" +
-         (c.consensus_capped ? "; " + c.consensus_reason : "");
+         "support " + FormatNumber(c.consensus_support_chosen, 4) + " keyframes < " + FormatNumber(min_support, 4) +
+         " (min_ambiguous_support)" + (c.consensus_capped ? "; " + c.consensus_reason : "");
 }
 
 // The words of a pair DecideRequest refused for the descriptors at its placement.
@@ -171,7 +169,7 @@ Status ExchangePlanner::RunPair(const KeyframeDatabase& db, int a, int b) {
     state.stop = DecideRequest(state.evidence, params_.decision).stop;
   }
   if (state.stop == PairStop::kAmbiguousUnconfirmed) {
-    state.cascade.no_candidate_reason = AmbiguousUnconfirmedText(state.cascade, params_.decision.weak_support_kf);
+    state.cascade.no_candidate_reason = AmbiguousUnconfirmedText(state.cascade, params_.decision.min_ambiguous_support);
   } else if (state.stop == PairStop::kPlacementDisagrees) {
     state.cascade.no_candidate_reason = PlacementDisagreesText(state.evidence, params_.decision);
   } else if (params_.cover == StageBCover::kPairwise && CascadeAwaitsStageB(state.cascade)) {
@@ -254,15 +252,17 @@ Status ExchangePlanner::RunJointStageB(const KeyframeDatabase& db) {
 }
 
 void ExchangePlanner::ApplyPlaceCheck(int max_robots) {
+  const double min_support = params_.decision.chain_check_support;
+  if (min_support <= 0.0) return;
   std::vector<PairPlacement> places;
   places.reserve(pairs_.size());
   for (const PairState& p : pairs_) {
     const ExchangeCascadeResult& c = p.cascade;
     places.push_back({p.alpha, p.beta, c.outcome == CascadeOutcome::kPolicy && c.consensus_measured,
-                      PlaceEvidence(p.evidence, params_.decision) == EvidenceLevel::kStrong, c.consensus_placement});
+                      c.consensus_support_chosen, c.consensus_placement});
   }
   const std::vector<PlaceCheckVerdict> verdicts =
-      CheckPlacesAcrossPairs(Span<const PairPlacement>(places), max_robots, params_.chain_agreement);
+      CheckPlacesAcrossPairs(Span<const PairPlacement>(places), max_robots, min_support, params_.chain_agreement);
   for (std::size_t i = 0; i < pairs_.size(); ++i) {
     PairState& p = pairs_[i];
     p.evidence.chains = verdicts[i];
@@ -273,10 +273,9 @@ void ExchangePlanner::ApplyPlaceCheck(int max_robots) {
     for (int c : v.via) via += (via.empty() ? "" : ", ") + std::to_string(c);
     p.cascade.outcome = CascadeOutcome::kNoCandidate;
     p.cascade.no_candidate_reason =
-        "place check: stage A's place (weak evidence: consensus support " +
-        FormatNumber(p.cascade.consensus_support_chosen, 4) + " keyframes, --weak-support " +
-        FormatNumber(params_.decision.weak_support_kf, 4) + ") disagrees with where robot" + (v.chains > 1 ? "s " : " ") +
-        via + " place" + (v.chains > 1 ? "" : "s") + " the two maps through strong pairs";
+        "place check: stage A's place (consensus support " + FormatNumber(places[i].support, 4) + " keyframes < " +
+        FormatNumber(min_support, 4) + ") disagrees with where robot" + (v.chains > 1 ? "s " : " ") + via + " place" +
+        (v.chains > 1 ? "" : "s") + " the two maps (--chain-check-support)";
     p.cascade.policy = ExchangePolicy{};
   }
 }

@@ -126,7 +126,7 @@ class ExchangePlanner {
   Status MeasurePassedOnPlacement(const KeyframeDatabase& db, PairState* state) const;
   // The evidence from the cascade again (after stage B; the placement agreement kept), and DecideRequest.
   void RefreshEvidence(PairState* state) const;
-  // The place check across pairs (weak pairs against chains of strong ones) over pairs_, then DecideRequest once more.
+  // The place check across pairs (decision.chain_check_support) over pairs_, then DecideRequest once more.
   void ApplyPlaceCheck(int max_robots);
   // One request per robot with the keyframes of `wanted[r]` (sorted and de-duplicated here; without the scans
   // `inbox` holds when given), ids from `request_id` upwards; adds their predicted bytes to the plan.

@@ -141,10 +141,11 @@ MergeServerParams MergeProfileParams(MergeProfile profile, const LidarScanTraits
   p.cascade.max_ambiguous_fraction = 1.0;
   p.cascade.consensus_max_cells = 0;
   p.cascade.policy.min_scans_per_robot = 0;
-  p.decision.weak_support_kf = 0.0;
-  p.decision.strong_support_kf = 0.0;
-  p.decision.disagree_odds = 0.0;
+  p.decision.min_ambiguous_support = 0.0;
+  p.decision.widen_ambiguous_support = 0.0;
+  p.decision.chain_check_support = 0.0;
   p.decision.max_colocated_chance = 0.0;
+  p.decision.disagree_odds = 0.0;
   p.max_widen_steps = 0;
   p.cover = StageBCover::kPairwise;
   p.min_submap_points = 0;

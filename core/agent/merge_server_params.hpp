@@ -99,11 +99,11 @@ struct MergeServerParams {
   /// The A+C ablation (Plan(kStageAC)): stage C over every loop of L_seq, run with each pair's cascade. Off
   /// when no one plans mode A+C: it costs a clique solve per pair and round.
   bool stage_ac_ablation = true;
-  /// The place check across pairs: which chains through a third robot agree with a pair's placement (a pair of
-  /// weak evidence is checked against chains of strong pairs; PlaceEvidence).
+  /// The place check across pairs: which chains through a third robot agree with a pair's placement (the
+  /// support below which a pair is checked is decision.chain_check_support).
   PlaceConsensusParams chain_agreement = ChainAgreementDefaults();
-  /// Colocation of keyframes at a placement or a registered transform (transform_agreement.hpp), for the
-  /// descriptor checks (decision.disagree_odds, decision.max_colocated_chance).
+  /// Colocation of keyframes under a registered transform (transform_agreement.hpp), for the descriptor check
+  /// (decision.max_colocated_chance).
   TransformAgreementParams colocation;
 };
 

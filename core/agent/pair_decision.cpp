@@ -27,28 +27,15 @@ const char* PairStopName(PairStop stop) noexcept {
   return "unknown";
 }
 
-const char* EvidenceLevelName(EvidenceLevel level) noexcept {
-  switch (level) {
-    case EvidenceLevel::kNone: return "none";
-    case EvidenceLevel::kWeak: return "weak";
-    case EvidenceLevel::kStrong: return "strong";
-  }
-  return "unknown";
-}
-
 Status ValidatePairDecisionParams(const PairDecisionParams& params) {
   const auto support = [](const char* name, double v) {
     return std::isfinite(v) && v >= 0.0
                ? Status::Ok()
                : InvalidArgument(std::string(name) + " = " + std::to_string(v) + " must be finite and >= 0");
   };
-  if (Status s = support("weak_support_kf", params.weak_support_kf); !s.ok()) return s;
-  if (Status s = support("strong_support_kf", params.strong_support_kf); !s.ok()) return s;
-  if (params.strong_support_kf > 0.0 && params.strong_support_kf < params.weak_support_kf) {
-    return InvalidArgument("strong_support_kf = " + std::to_string(params.strong_support_kf) +
-                           " must be 0 (off) or at least weak_support_kf (" + std::to_string(params.weak_support_kf) +
-                           ")");
-  }
+  if (Status s = support("min_ambiguous_support", params.min_ambiguous_support); !s.ok()) return s;
+  if (Status s = support("widen_ambiguous_support", params.widen_ambiguous_support); !s.ok()) return s;
+  if (Status s = support("chain_check_support", params.chain_check_support); !s.ok()) return s;
   if (!(params.agree_chance > 0.0) || params.agree_chance >= 1.0) {
     return InvalidArgument("agree_chance = " + std::to_string(params.agree_chance) + " must be in (0, 1)");
   }
@@ -89,50 +76,36 @@ namespace {
 PairDecision No(PairStop stop) { return {false, stop}; }
 constexpr PairDecision kYes{true, PairStop::kNone};
 
-double Support(const PairEvidence& e) { return e.consensus_measured ? e.consensus_support : 0.0; }
-
-// The descriptors veto stage A's placement: its co-located keyframes look like strangers'.
-bool Vetoed(const PlacementAgreement& a, const PairDecisionParams& params) {
-  return params.disagree_odds > 0.0 && LogOddsOf(a, params) <= -std::log(params.disagree_odds);
+// An ambiguous cluster that the place consensus supports less than `min_support` (> 0, else never).
+bool AmbiguousBelow(const PairEvidence& e, double min_support) {
+  return e.ambiguous && e.consensus_measured && min_support > 0.0 && e.consensus_support < min_support;
 }
 
 }  // namespace
 
-double LogOddsOf(const PlacementAgreement& a, const PairDecisionParams& params) {
+double PlacementLogOdds(const PairEvidence& evidence, const PairDecisionParams& params) {
+  const PlacementAgreement& a = evidence.placement_agreement;
   if (!a.measured || a.ranked == 0) return 0.0;
   return AgreementLogOdds(a.ranked, a.agreeing, params.agree_chance, params.true_agree_fraction);
 }
 
-double PlacementLogOdds(const PairEvidence& evidence, const PairDecisionParams& params) {
-  return LogOddsOf(evidence.placement_agreement, params);
-}
-
-EvidenceLevel PlaceEvidence(const PairEvidence& evidence, const PairDecisionParams& params) {
-  if (evidence.cascade_stop != PairStop::kNone || Vetoed(evidence.placement_agreement, params)) {
-    return EvidenceLevel::kNone;
-  }
-  const double support = Support(evidence);
-  // At a repeated place a corridor registers well onto another corridor: only other clusters agreeing on the
-  // placement (the support) tell the true place from a look-alike, so the same support is worth one level less.
-  if (!evidence.ambiguous) return support >= params.weak_support_kf ? EvidenceLevel::kStrong : EvidenceLevel::kWeak;
-  if (support < params.weak_support_kf) return EvidenceLevel::kNone;
-  return params.strong_support_kf > 0.0 && support >= params.strong_support_kf ? EvidenceLevel::kStrong
-                                                                                : EvidenceLevel::kWeak;
-}
-
 PairDecision DecideRequest(const PairEvidence& evidence, const PairDecisionParams& params) {
   if (evidence.cascade_stop != PairStop::kNone) return No(evidence.cascade_stop);
+  // At a repeated place only other clusters that agree on the placement tell the true place from a look-alike;
+  // registration's gates cannot (a corridor aligns well with another corridor).
+  if (AmbiguousBelow(evidence, params.min_ambiguous_support)) return No(PairStop::kAmbiguousUnconfirmed);
   // The placement lays beta's other keyframes beside alpha's: at a true place their descriptors agree; a cluster
   // that matched strangers (a sensor that sees little of a place) leaves them as far as any two. Costs no bytes.
-  if (Vetoed(evidence.placement_agreement, params)) return No(PairStop::kPlacementDisagrees);
-  const EvidenceLevel level = PlaceEvidence(evidence, params);
-  if (level == EvidenceLevel::kNone) return No(PairStop::kAmbiguousUnconfirmed);
-  if (level == EvidenceLevel::kWeak && evidence.chains.refused()) return No(PairStop::kPlaceCheck);
+  if (params.disagree_odds > 0.0 && PlacementLogOdds(evidence, params) <= -std::log(params.disagree_odds)) {
+    return No(PairStop::kPlacementDisagrees);
+  }
+  if (evidence.chains.refused()) return No(PairStop::kPlaceCheck);
   return kYes;
 }
 
 bool AmbiguousPlaceConfirmed(const PairEvidence& evidence, const PairDecisionParams& params) {
-  return evidence.ambiguous && PlaceEvidence(evidence, params) == EvidenceLevel::kStrong;
+  return evidence.ambiguous && params.widen_ambiguous_support > 0.0 && evidence.consensus_measured &&
+         evidence.consensus_support >= params.widen_ambiguous_support;
 }
 
 const char* WidenStopName(WidenStop stop) noexcept {
@@ -140,7 +113,7 @@ const char* WidenStopName(WidenStop stop) noexcept {
     case WidenStop::kNone: return "widened";
     case WidenStop::kJoinedElsewhere: return "joined elsewhere";
     case WidenStop::kBelowTauArea: return "below tau_area";
-    case WidenStop::kWeakEvidence: return "weak evidence";
+    case WidenStop::kAmbiguousPlace: return "ambiguous place";
   }
   return "unknown";
 }
@@ -148,10 +121,10 @@ const char* WidenStopName(WidenStop stop) noexcept {
 WidenDecision DecideWiden(const PairEvidence& evidence, const PairDecisionParams& params) {
   // Widening connects robots; its scans cost bytes.
   if (evidence.joined_elsewhere) return {false, WidenStop::kJoinedElsewhere};
-  // A cluster below tau_area or of weak evidence gets one registration: asking again until something aligns is
-  // how a look-alike gets merged.
+  // A cluster below tau_area or at an unconfirmed ambiguous place gets one registration: asking again until
+  // something aligns is how a repeated structure gets merged.
   if (evidence.below_tau_area) return {false, WidenStop::kBelowTauArea};
-  if (PlaceEvidence(evidence, params) != EvidenceLevel::kStrong) return {false, WidenStop::kWeakEvidence};
+  if (evidence.ambiguous && !AmbiguousPlaceConfirmed(evidence, params)) return {false, WidenStop::kAmbiguousPlace};
   return {true, WidenStop::kNone};
 }
 
@@ -162,9 +135,9 @@ PairDecision DecideAccept(const PairEvidence& evidence, const PairDecisionParams
       !(evidence.gap.distance_m <= placement_agreement.agree_m && evidence.gap.yaw_deg <= placement_agreement.agree_deg)) {
     return No(PairStop::kOffConfirmedPlace);
   }
-  const PlacementAgreement& t = evidence.transform_agreement;
-  if (t.measured && params.max_colocated_chance > 0.0 && t.colocated >= params.min_colocated_keyframes &&
-      t.median_chance >= params.max_colocated_chance) {
+  if (evidence.colocation_measured && params.max_colocated_chance > 0.0 &&
+      evidence.colocated_keyframes >= params.min_colocated_keyframes &&
+      evidence.colocated_chance >= params.max_colocated_chance) {
     return No(PairStop::kDescriptorsDisagree);
   }
   return kYes;

@@ -42,43 +42,37 @@ inline constexpr int kNumPairStops = 15;
 /// "merged", "descriptor ids differ", "stage A", ... (stable, for logs, tables and messages).
 const char* PairStopName(PairStop stop) noexcept;
 
-/// How much the evidence says that beta's map lies in alpha's at the placement P of stage A's cluster: kNone (not
-/// worth a byte), kWeak (worth one request, checked against the chains through third robots), kStrong (worth
-/// widening after a refusal; a link of those chains). EvidenceLevel says how it is read from the evidence.
-enum class EvidenceLevel : std::uint8_t { kNone = 0, kWeak, kStrong };
-/// "none", "weak", "strong".
-const char* EvidenceLevelName(EvidenceLevel level) noexcept;
-
-/// The evidence ladder's steps and the descriptor checks (ours, not the paper's; decisions/026-evidence-ladder.md).
+/// The thresholds of the three decisions (ours, not the paper's; 0 switches each off).
 struct PairDecisionParams {
-  /// [keyframes] Place consensus support at which the evidence rises from weak to strong: at or above it a pair
-  /// may be widened and links the chains through third robots; below it, it is checked against them. An
-  /// ambiguous cluster (repeated structure) is one level lower: below this it is not worth a request. 0 = every
-  /// plain pair strong, every ambiguous one at least weak (the paper).
-  double weak_support_kf = 40.0;
-  /// [keyframes] Support at which an ambiguous cluster is strong again; it is then accepted only at its placement
-  /// (within the cascade consensus's agree_m / agree_deg). 0 = off: an ambiguous cluster is never strong.
-  double strong_support_kf = 100.0;
-  /// [odds] The descriptors veto stage A's placement before any request: the keyframes it lays side by side
-  /// outside its cluster agree as strangers' do at least this many times likelier than as at a true place
-  /// (PlacementLogOdds <= -ln(disagree_odds)). 0 = off (the paper), else >= 1.
-  double disagree_odds = 100.0;
-  /// The descriptor model the veto reads: a co-located keyframe agrees when its chance (transform_agreement.hpp)
-  /// is at most agree_chance, which among strangers happens with that probability; at a true shared place at
-  /// least true_agree_fraction of them agree, in the world where the descriptor separates worst
-  /// (decisions/025-descriptor-odds-at-the-placement.md). 0 < agree_chance < true_agree_fraction < 1.
-  double agree_chance = 0.05;
-  double true_agree_fraction = 0.25;
-  /// After registration: a transform that co-locates at least min_colocated_keyframes beta keyframes outside stage
-  /// A's cluster with alpha's, at a median chance of max_colocated_chance or more, is refused. [0, 1], 0 = off
-  /// (decisions/010-descriptor-agreement.md; why these are not the veto's odds: decisions/026-evidence-ladder.md).
+  /// [keyframes] An ambiguous cluster whose place consensus support is below this is not requested
+  /// (decisions/005-ambiguous-places-without-consensus.md).
+  double min_ambiguous_support = 40.0;
+  /// [keyframes] An ambiguous cluster of at least this support may be widened, and is accepted only at its
+  /// consensus placement (within cascade consensus agree_m / agree_deg; decisions/008 and 009).
+  double widen_ambiguous_support = 100.0;
+  /// [keyframes] A pair below this support is checked against the chains through third robots whose pairs with
+  /// both reach it (the measurement: ExchangePlanner's place check); refused when chains exist and none agrees
+  /// (decisions/006-place-check-across-pairs.md).
+  double chain_check_support = 40.0;
+  /// A transform that co-locates at least min_colocated_keyframes beta keyframes outside stage A's cluster with
+  /// alpha's, at a median chance of max_colocated_chance or more, is refused. [0, 1]
+  /// (decisions/010-descriptor-agreement.md).
   double max_colocated_chance = 0.2;
   std::size_t min_colocated_keyframes = 20;
+  /// A keyframe co-located by a cluster's placement agrees when its chance (transform_agreement.hpp) is at most
+  /// this: among strangers that happens with this probability. (0, 1)
+  double agree_chance = 0.05;
+  /// At a true shared place at least this fraction of the co-located keyframes agrees, in the world where the
+  /// descriptor separates worst (decisions/025-descriptor-odds-at-the-placement.md). (agree_chance, 1)
+  double true_agree_fraction = 0.25;
+  /// [odds] The pair is not requested when the keyframes that stage A's placement co-locates (outside its cluster)
+  /// agree as strangers' do at least this many times likelier than as at a true place (AgreementLogOdds <=
+  /// -ln(disagree_odds)); 0 = off (the paper). 0 or >= 1.
+  double disagree_odds = 100.0;
 };
 
-/// InvalidArgument naming the field when a support is negative or not finite, strong_support_kf (when on) below
-/// weak_support_kf, agree_chance outside (0, 1), true_agree_fraction not in (agree_chance, 1), disagree_odds neither
-/// 0 nor >= 1, max_colocated_chance outside [0, 1].
+/// InvalidArgument naming the field when a threshold is negative, not finite, or a chance outside [0, 1];
+/// agree_chance outside (0, 1), true_agree_fraction not in (agree_chance, 1), disagree_odds neither 0 nor >= 1.
 Status ValidatePairDecisionParams(const PairDecisionParams& params);
 
 /// What has been measured about one pair so far; each part is filled where it is measured and says whether it was.
@@ -99,12 +93,14 @@ struct PairEvidence {
   /// The chains through third robots (measured after every pair's cascade of the round).
   PlaceCheckVerdict chains;
   /// Registration ran: its geometry verdict; the gap to the consensus placement (when measured) and the descriptor
-  /// agreement at the registered transform (measured = false when it was not measured).
+  /// agreement (colocation_measured; chance -1 when it could not be measured).
   bool registered = false;
   RegistrationVerdict verdict = RegistrationVerdict::kTooFewPoints;
   bool gap_measured = false;
   PlacementGap gap;
-  PlacementAgreement transform_agreement;
+  bool colocation_measured = false;
+  std::size_t colocated_keyframes = 0;
+  double colocated_chance = -1.0;
   /// For widening: the pair's robots are joined already through other pairs merged this round.
   bool joined_elsewhere = false;
 };
@@ -118,44 +114,35 @@ struct PairDecision {
   PairStop stop = PairStop::kNone;  ///< why not (kNone when yes)
 };
 
-/// The ladder: none when the cascade passed nothing on, when the descriptors at stage A's placement veto it
-/// (PlacementLogOdds <= -ln(disagree_odds)) or when an ambiguous cluster's support is below weak_support_kf; else
-/// strong when the support reaches weak_support_kf (strong_support_kf for an ambiguous cluster), else weak. A
-/// support that was not measured (no place consensus, or its memory cap) counts as 0: it lowers the evidence,
-/// and the pair's reason says why.
-EvidenceLevel PlaceEvidence(const PairEvidence& evidence, const PairDecisionParams& params);
-/// AgreementLogOdds of a measured agreement (0 when it was not measured or ranked nothing).
-double LogOddsOf(const PlacementAgreement& agreement, const PairDecisionParams& params);
-/// AgreementLogOdds of the evidence's placement agreement.
-double PlacementLogOdds(const PairEvidence& evidence, const PairDecisionParams& params);
-/// Spend bytes on the pair: the evidence is at least weak and, when it is only weak, no chain of third robots
-/// contradicts it (chains are known only after the round's cascades). The stop names the first reason: the
-/// cascade's, kPlacementDisagrees (the descriptor veto), kAmbiguousUnconfirmed (an ambiguous place below
-/// weak_support_kf), kPlaceCheck.
+/// Spend bytes on the pair: the cascade passed a selection on, its cluster is not an unconfirmed ambiguous place
+/// (support < min_ambiguous_support), the descriptors at its placement do not look like strangers' (refused when
+/// PlacementLogOdds <= -ln(disagree_odds)), and no chain of third robots contradicts it. With what is measured so
+/// far (chains are known only after the round's cascades).
 PairDecision DecideRequest(const PairEvidence& evidence, const PairDecisionParams& params);
-/// The cluster is ambiguous and its evidence strong: it may be widened, and its transform must lie at its
-/// placement (DecideAccept).
+/// AgreementLogOdds of the evidence's placement agreement (0 when it was not measured or ranked nothing).
+double PlacementLogOdds(const PairEvidence& evidence, const PairDecisionParams& params);
+/// The cluster is ambiguous and the place consensus confirms it (support >= widen_ambiguous_support > 0): it may be
+/// widened, and its transform must lie at its placement (DecideAccept).
 bool AmbiguousPlaceConfirmed(const PairEvidence& evidence, const PairDecisionParams& params);
 /// Why a refused pair is not widened.
 enum class WidenStop : std::uint8_t {
   kNone = 0,          ///< widened
   kJoinedElsewhere,   ///< its robots are joined already through other pairs merged this round
   kBelowTauArea,      ///< its cluster is below tau_area: its one registration decides
-  kWeakEvidence,      ///< the evidence for its placement is not strong
+  kAmbiguousPlace,    ///< its cluster is at an ambiguous place not confirmed for widening
 };
-/// "widened", "joined elsewhere", "below tau_area", "weak evidence".
+/// "widened", "joined elsewhere", "below tau_area", "ambiguous place".
 const char* WidenStopName(WidenStop stop) noexcept;
 struct WidenDecision {
   bool yes = false;
   WidenStop stop = WidenStop::kNone;
 };
 /// Spend more after a refused registration: its robots not joined through other merged pairs, not below tau_area,
-/// and the evidence strong.
+/// not an ambiguous place unless AmbiguousPlaceConfirmed.
 WidenDecision DecideWiden(const PairEvidence& evidence, const PairDecisionParams& params);
 /// Accept a registered transform: the gates passed, it lies at the confirmed placement (when AmbiguousPlaceConfirmed
 /// and the gap is measured: within `placement_agreement`'s agree_m and agree_deg, the tolerances by which two
-/// clusters agree) and the descriptors agree where it joins the robots (transform_agreement, when measured:
-/// refused at a median chance of max_colocated_chance or more over min_colocated_keyframes or more).
+/// clusters agree) and the descriptors agree where it joins the robots (when measured).
 PairDecision DecideAccept(const PairEvidence& evidence, const PairDecisionParams& params,
                           const PlaceConsensusParams& placement_agreement);
 

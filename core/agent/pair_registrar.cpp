@@ -164,12 +164,9 @@ Result<PairMergeResult> PairRegistrar::MergePair(const KeyframeDatabase& db, con
   }
   if (cascade != nullptr) {
     MeasureColocation(db, *cascade, &out);
-    PlacementAgreement& t = e.transform_agreement;
-    t.measured = out.colocated_chance >= 0.0;
-    t.colocated = out.colocated_keyframes;
-    t.ranked = out.colocated_ranked;
-    t.agreeing = out.colocated_agreeing;
-    t.median_chance = out.colocated_chance;
+    e.colocation_measured = true;
+    e.colocated_keyframes = out.colocated_keyframes;
+    e.colocated_chance = out.colocated_chance;
   }
   out.stop = DecideAccept(e, params_.decision, agreement).stop;
   if (out.stop == PairStop::kDescriptorsDisagree) {
@@ -198,11 +195,6 @@ void PairRegistrar::MeasureColocation(const KeyframeDatabase& db, const Exchange
       params_.cascade.metric);
   if (!colocated.ok()) return;
   result->colocated_keyframes = colocated_keyframes;
-  result->colocated_ranked = colocated->size();
-  result->colocated_agreeing = 0;
-  for (const ColocatedKeyframe& c : *colocated) {
-    result->colocated_agreeing += static_cast<double>(c.chance) <= params_.decision.agree_chance ? 1 : 0;
-  }
   result->colocated_chance = MedianChance(Span<const ColocatedKeyframe>(*colocated), 1, 0, nullptr);
 }
 

@@ -44,11 +44,8 @@ struct PairMergeResult {
   /// that round verified for the same two robot sessions (ServerLink keeps it; see KeepVerifiedPairs).
   int kept_from_round = 0;
   /// Descriptor agreement of a registered transform (decision.max_colocated_chance): beta keyframes outside stage
-  /// A's cluster it places on top of alpha's, how many of them were ranked and agree (chance <= agree_chance), and
-  /// their median chance (-1 when not measured).
+  /// A's cluster it places on top of alpha's, and their median chance (-1 when not measured).
   std::size_t colocated_keyframes = 0;
-  std::size_t colocated_ranked = 0;
-  std::size_t colocated_agreeing = 0;
   double colocated_chance = -1.0;
   /// Registered and accepted (DecideAccept): the transform joins the two maps.
   bool merged() const noexcept { return attempted && stop == PairStop::kNone; }
@@ -88,7 +85,7 @@ class PairRegistrar {
   std::size_t RegistrationBytes() const { return registration_.workspace_bytes(); }
 
  private:
-  // Fills result's colocated_* for its registered transform.
+  // Fills result's colocated_keyframes / colocated_chance for its registered transform.
   void MeasureColocation(const KeyframeDatabase& db, const ExchangeCascadeResult& cascade,
                          PairMergeResult* result) const;
 

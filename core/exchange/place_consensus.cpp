@@ -146,14 +146,14 @@ ClusterPlacement ComposePlacements(const ClusterPlacement& a_b, const ClusterPla
 }
 
 std::vector<PlaceCheckVerdict> CheckPlacesAcrossPairs(Span<const PairPlacement> pairs, int num_robots,
-                                                      const PlaceConsensusParams& agreement) {
+                                                      double min_support, const PlaceConsensusParams& agreement) {
   std::vector<PlaceCheckVerdict> out(pairs.size());
-  // Robot `to`'s map in robot `from`'s from a strong pair; invalid when there is none.
+  // Robot `to`'s map in robot `from`'s from a strongly supported pair; invalid when there is none.
   auto strong = [&](int from, int to) {
     const int a = std::min(from, to), b = std::max(from, to);
     for (const PairPlacement& p : pairs) {
       if (p.alpha != a || p.beta != b) continue;
-      if (!p.placed || !p.placement.valid || !p.strong) break;
+      if (!p.placed || !p.placement.valid || p.support < min_support) break;
       return from < to ? p.placement : InvertPlacement(p.placement);
     }
     return ClusterPlacement{};
@@ -161,7 +161,7 @@ std::vector<PlaceCheckVerdict> CheckPlacesAcrossPairs(Span<const PairPlacement> 
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const PairPlacement& p = pairs[i];
     PlaceCheckVerdict& v = out[i];
-    v.checked = p.placed && p.placement.valid && !p.strong;
+    v.checked = p.placed && p.placement.valid && p.support < min_support;
     if (!v.checked) continue;
     for (int c = 0; c < num_robots; ++c) {
       if (c == p.alpha || c == p.beta) continue;

@@ -79,30 +79,29 @@ struct PlacementGap {
 PlacementGap GapToPlacement(const ClusterPlacement& placement, const Eigen::Isometry3d& T_alpha_beta);
 
 /// One robot pair's place for the check across pairs: robot beta's map in robot alpha's (alpha < beta), from the
-/// cluster stage A passes on, and whether the evidence for it is strong (a link of chains; else it is checked);
-/// `placed` false when there is none.
+/// cluster stage A passes on, and that cluster's consensus support; `placed` false when there is none.
 struct PairPlacement {
   int alpha = 0, beta = 0;
   bool placed = false;
-  bool strong = false;
+  double support = 0.0;
   ClusterPlacement placement;
 };
 
 struct PlaceCheckVerdict {
-  bool checked = false;  ///< placed, and not strong
-  int chains = 0;        ///< third robots joined to both by strong pairs
+  bool checked = false;  ///< placed and support < min_support
+  int chains = 0;        ///< third robots joined to both by pairs of support >= min_support
   int agreeing = 0;      ///< of those, the chains that agree with the pair's placement
   std::vector<int> via;  ///< the third robots of the chains
   bool refused() const { return checked && chains > 0 && agreeing == 0; }
 };
 
-/// The place check across pairs (ours): for each placed pair that is not strong, every third robot c whose pairs
-/// with both robots are placed and strong gives a chain, alpha_c after c_beta
+/// The place check across pairs (ours): for each placed pair of support below min_support, every third robot c
+/// whose pairs with both robots are placed with support >= min_support gives a chain, alpha_c after c_beta
 /// (ComposePlacements, InvertPlacement for pairs stored the other way round); the pair is refused when it has
 /// a chain and agrees (PlacementsAgree with `agreement`) with none. Pairs of one (alpha, beta) appear at most
 /// once; robots are 0..num_robots-1. One verdict per pair, in order.
 std::vector<PlaceCheckVerdict> CheckPlacesAcrossPairs(Span<const PairPlacement> pairs, int num_robots,
-                                                      const PlaceConsensusParams& agreement);
+                                                      double min_support, const PlaceConsensusParams& agreement);
 
 struct PlaceConsensus {
   std::vector<ClusterPlacement> placements;  ///< per cluster of the set

@@ -2,11 +2,11 @@
 # `commerge run` and `commerge server` share the merge server's flags (apps/merge_flags.hpp): each flag's help
 # entry (type, range, default, help text) must be the same in both, and the defaults must be the documented ones:
 # stage A ours (core/agent/merge_server.hpp ServerStageADefaults: neighbour rank 1, half window 4, tau_area 400
-# cells scaled by 0.3 for short missions, tau_inter 0.5 as a cap), the evidence ladder's steps at 40 and 100
-# keyframes of consensus support (--weak-support, --strong-support) and its descriptor veto at odds of 100
-# (--disagree-odds), a registration refused when the keyframes it places together (at least 20) rank no better
-# than a median chance of 0.2, submaps at one voxel size unless asked (--min-submap-points 0), tau_con the
-# paper's 5 m.
+# cells scaled by 0.3 for short missions, tau_inter 0.5 as a cap), an ambiguous place needs a consensus support of
+# 40 keyframes to be registered and 100 to be widened (--widen-ambiguous-support 100), a pair checked against
+# chains through a third robot 40, submaps at one voxel size unless asked (--min-submap-points 0), a registration
+# refused when the keyframes it places together (at least 20) rank no better than a median chance of 0.2 by
+# descriptor, tau_con the paper's 5 m.
 # Usage: shared_flags_test.sh COMMERGE [EMULATOR...]   (the command that runs the commerge executable)
 set -euo pipefail
 entry() {  # $1 = help text, $2 = flag: the flag's line and its indented continuation lines
@@ -20,8 +20,8 @@ run_help=$("$@" run --help)
 server_help=$("$@" server --help)
 status=0
 flags=(--tau-inter --tau-area --sequence-half-window --neighbour-rank --tau-area-fraction --tau-con-m --min-submap-scans
-       --max-widen-steps --weak-support --strong-support --min-submap-points --disagree-odds --max-colocated-chance
-       --min-colocated-keyframes --stage-b-max-nodes --stage-c-max-nodes)
+       --max-widen-steps --min-ambiguous-support --widen-ambiguous-support --min-submap-points --chain-check-support
+       --max-colocated-chance --min-colocated-keyframes --disagree-odds --stage-b-max-nodes --stage-c-max-nodes)
 for flag in "${flags[@]}"; do
   a=$(entry "$run_help" "$flag")
   b=$(entry "$server_help" "$flag")
@@ -32,8 +32,9 @@ for flag in "${flags[@]}"; do
   fi
 done
 for expect in "--tau-inter =0.5" "--tau-area =400" "--sequence-half-window =4" "--neighbour-rank =1" "--tau-area-fraction =0.3" \
-              "--tau-con-m =5" "--weak-support =40" "--strong-support =100" "--min-submap-points =0" \
-              "--disagree-odds =100" "--max-colocated-chance =0.2" "--min-colocated-keyframes =20" \
+              "--tau-con-m =5" "--min-ambiguous-support =40" \
+              "--widen-ambiguous-support =100" "--min-submap-points =0" "--chain-check-support =40" \
+              "--max-colocated-chance =0.2" "--min-colocated-keyframes =20" "--disagree-odds =100" \
               "--stage-b-max-nodes =20000" "--stage-c-max-nodes =2000000"; do
   flag=${expect%% *}
   value=${expect#* }

@@ -25,13 +25,6 @@ inline MergeServerParams PaperStageA(std::uint64_t tau_area) {
   return params;
 }
 
-// Every pair that is not ambiguous strong on the evidence ladder (its first step off), so that it may be widened:
-// the widening tests' fixtures have a few dozen keyframes, below the default step of 40 keyframes of support.
-inline MergeServerParams AnySupportWidens(MergeServerParams params) {
-  params.decision.weak_support_kf = 0.0;
-  return params;
-}
-
 // ShiftedPairBatches(40, 5) with alpha's keyframes 30..39 made copies of 5..14 and moved 100 m on: stage A's
 // cluster (alpha 5..29 with beta 0..24) then holds 10 places alpha saw twice, far apart, of 25.
 inline std::vector<KeyframeBatch> AmbiguousShiftedPairBatches() {

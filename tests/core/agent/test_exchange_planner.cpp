@@ -44,7 +44,7 @@ namespace {
 
 // A server (stage A's tau_area 100) holding ShiftedPairBatches(n, shift), its cascades run.
 std::unique_ptr<MergeServer> ShiftedPairServer(int n, int shift) {
-  MergeServerParams params = test::AnySupportWidens(PaperStageA(100));
+  MergeServerParams params = PaperStageA(100);
   auto server = commerge::test::MakeTestServer(2, 100, params);
   for (const KeyframeBatch& b : ShiftedPairBatches(n, shift)) REQUIRE(server->OnKeyframeBatch(b).ok());
   REQUIRE(server->RunCascades().ok());
@@ -226,9 +226,9 @@ TEST_CASE("Merge server: a weakly supported pair that robots matched to both pla
     d1.push_back(i < 50 ? d2[static_cast<std::size_t>(50 + i)] : d0[static_cast<std::size_t>(20 + i)]);
     p1.push_back(i < 50 ? p2[static_cast<std::size_t>(50 + i)] : Eigen::Vector3d(250.0 + i, 100.0, 0.0));
   }
-  auto run = [&](double weak_support_kf) {  // 0: every plain pair strong, none checked against chains
+  auto run = [&](double chain_check_support) {
     MergeServerParams params;
-    params.decision.weak_support_kf = weak_support_kf;
+    params.decision.chain_check_support = chain_check_support;
     auto server = commerge::test::MakeTestServer(3, 100, params);
     REQUIRE(server->OnKeyframeBatch(MakeBatch(0, 0, d0, p0, 2000)).ok());
     REQUIRE(server->OnKeyframeBatch(MakeBatch(1, 0, d1, p1, 2000)).ok());
@@ -282,8 +282,8 @@ TEST_CASE("Merge server: a weakly supported pair that robots matched to both pla
   CHECK(on->cascade(0, 2)->outcome == CascadeOutcome::kPolicy);
   CHECK(on->cascade(1, 2)->outcome == CascadeOutcome::kPolicy);
   MergeServerParams bad;
-  bad.decision.weak_support_kf = -1.0;
-  CHECK(ValidateMergeServerParams(bad).message().find("weak_support_kf") != std::string::npos);
+  bad.decision.chain_check_support = -1.0;
+  CHECK(ValidateMergeServerParams(bad).message().find("chain_check_support") != std::string::npos);
   bad = MergeServerParams{};
   bad.chain_agreement.agree_deg = std::nan("");
   CHECK(ValidateMergeServerParams(bad).message().find("chain_agreement: place consensus: agree_deg") !=
@@ -479,7 +479,7 @@ TEST_CASE("Merge server widens a refused pair with stage A's keyframes nearest i
 TEST_CASE("Merge server does not widen a refused pair whose stage A cluster was below tau_area (verification)") {
   // ShiftedPairBatches(40, 5): stage A's cluster spans 35 x 35 = 1225 cells.
   const auto widened_pairs = [](std::uint64_t tau_area) {
-    MergeServerParams params = test::AnySupportWidens(PaperStageA(tau_area));
+    MergeServerParams params = PaperStageA(tau_area);
     params.cascade.verification_area_fraction = 0.5;
     std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, params);
     MergeServer& server = *server_owner;
@@ -502,8 +502,7 @@ TEST_CASE("Merge server does not widen a refused pair whose stage A cluster was 
   CHECK(widened_pairs(2000) == 0);  // 1225 of 2000 cells: verified once, never widened
 }
 
-TEST_CASE("Merge server widens a refused pair only on strong evidence: the place consensus's support, one step "
-          "higher at an ambiguous place") {
+TEST_CASE("Merge server widens a refused pair at an ambiguous place only when the place consensus confirms it") {
   // AmbiguousShiftedPairBatches: 10 of the cluster's 25 alpha keyframes are places alpha saw twice.
   struct Outcome {
     bool ambiguous = false;
@@ -511,11 +510,11 @@ TEST_CASE("Merge server widens a refused pair only on strong evidence: the place
     double support = 0.0;
     std::size_t widened = 0;
   };
-  const auto run = [](double max_ambiguous_fraction, double strong_support_kf, double weak_support_kf = 0.0) {
+  const auto run = [](double max_ambiguous_fraction, double widen_ambiguous_support) {
     MergeServerParams params = PaperStageA(200);  // the copies' own cluster with beta (10 x 10) does not qualify
     params.cascade.max_ambiguous_fraction = max_ambiguous_fraction;
-    params.decision.weak_support_kf = weak_support_kf;
-    params.decision.strong_support_kf = strong_support_kf;
+    params.decision.min_ambiguous_support = 0.0;
+    params.decision.widen_ambiguous_support = widen_ambiguous_support;
     REQUIRE(ValidateMergeServerParams(params).ok());
     std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, params);
     MergeServer& server = *server_owner;
@@ -528,7 +527,7 @@ TEST_CASE("Merge server widens a refused pair only on strong evidence: the place
     o.ambiguous = c->ambiguous;
     o.support = c->consensus_measured ? c->consensus_support_chosen : -1.0;
     CHECK(AmbiguousPlaceConfirmed(CascadeEvidence(*c), params.decision) ==
-          (c->ambiguous && strong_support_kf > 0.0 && o.support >= strong_support_kf));
+          (c->ambiguous && widen_ambiguous_support > 0.0 && o.support >= widen_ambiguous_support));
     auto plan = server.Plan(ExchangeMode::kStageABC);
     REQUIRE(plan.ok());
     REQUIRE(plan->pairs.size() == 1);
@@ -542,7 +541,7 @@ TEST_CASE("Merge server widens a refused pair only on strong evidence: the place
   const Outcome plain = run(1.0, 0.0);
   CHECK_FALSE(plain.ambiguous);
   REQUIRE(plain.selected);
-  CHECK(plain.widened == 1);  // not ambiguous, the first step off: strong, widened
+  CHECK(plain.widened == 1);  // not measured: widened as any refused pair
 
   // 10 of alpha's 25 cluster keyframes ambiguous, above 0.1: registered once unless the consensus confirms it.
   const Outcome once = run(0.1, 0.0);
@@ -554,13 +553,11 @@ TEST_CASE("Merge server widens a refused pair only on strong evidence: the place
   REQUIRE(once.support >= 25.0);
   CHECK(run(0.1, once.support).widened == 1);        // confirmed at exactly the support asked
   CHECK(run(0.1, once.support + 1.0).widened == 0);  // one keyframe short
-  CHECK(run(1.0, once.support + 1.0).widened == 1);  // not ambiguous: strong from the first step on
-  CHECK(run(1.0, 0.0, once.support).widened == 1);                       // at the first step
-  CHECK(run(1.0, once.support + 1.0, once.support + 1.0).widened == 0);  // below it: weak, registered once
+  CHECK(run(1.0, once.support + 1.0).widened == 1);  // not ambiguous: the support is not asked for
 
   MergeServerParams bad = PaperStageA(200);
   for (double v : {-1.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
-    bad.decision.strong_support_kf = v;
+    bad.decision.widen_ambiguous_support = v;
     CHECK_FALSE(ValidateMergeServerParams(bad).ok());
   }
 }
@@ -575,7 +572,7 @@ TEST_CASE("Merge server: a place consensus over its memory cap lowers an ambiguo
     MergeServerParams params = PaperStageA(200);
     params.cascade.max_ambiguous_fraction = 0.1;
     params.cascade.consensus_max_cells = consensus_max_cells;
-    params.decision.weak_support_kf = 40.0;
+    params.decision.min_ambiguous_support = 40.0;
     auto server = commerge::test::MakeTestServer(2, 100, params);
     for (const KeyframeBatch& b : AmbiguousShiftedPairBatches()) REQUIRE(server->OnKeyframeBatch(b).ok());
     REQUIRE(server->RunCascades().ok());
@@ -613,7 +610,7 @@ TEST_CASE("Merge server: a place consensus over its memory cap lowers an ambiguo
 }
 
 TEST_CASE("Merge server does not widen a refused pair whose robots merged pairs already join") {
-  MergeServerParams params = test::AnySupportWidens(PaperStageA(100));
+  MergeServerParams params = PaperStageA(100);
   std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(3, 100, params);
   MergeServer& server = *server_owner;
   for (const KeyframeBatch& b : ShiftedPairBatches(40, 5)) REQUIRE(server.OnKeyframeBatch(b).ok());

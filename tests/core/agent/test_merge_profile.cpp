@@ -30,8 +30,7 @@ TEST_CASE("Merge profiles: commerge is the defaults, paper the paper's cascade w
   const MergeServerParams defaults;
   CHECK(ours.cascade.stage_a.neighbour_rank == defaults.cascade.stage_a.neighbour_rank);
   CHECK(ours.cascade.stage_a.tau_area == defaults.cascade.stage_a.tau_area);
-  CHECK(ours.decision.weak_support_kf == defaults.decision.weak_support_kf);
-  CHECK(ours.decision.strong_support_kf == defaults.decision.strong_support_kf);
+  CHECK(ours.decision.min_ambiguous_support == defaults.decision.min_ambiguous_support);
   CHECK(ours.max_widen_steps == defaults.max_widen_steps);
   CHECK(ValidateMergeServerParams(ours).ok());
 
@@ -49,10 +48,11 @@ TEST_CASE("Merge profiles: commerge is the defaults, paper the paper's cascade w
     CHECK(paper.cascade.max_ambiguous_fraction == 1.0);
     CHECK(paper.cascade.consensus_max_cells == 0);
     CHECK(paper.cascade.policy.min_scans_per_robot == 0);
-    CHECK(paper.decision.weak_support_kf == 0.0);
-    CHECK(paper.decision.strong_support_kf == 0.0);
-    CHECK(paper.decision.disagree_odds == 0.0);
+    CHECK(paper.decision.min_ambiguous_support == 0.0);
+    CHECK(paper.decision.widen_ambiguous_support == 0.0);
+    CHECK(paper.decision.chain_check_support == 0.0);
     CHECK(paper.decision.max_colocated_chance == 0.0);
+    CHECK(paper.decision.disagree_odds == 0.0);
     CHECK(paper.max_widen_steps == 0);
     CHECK(paper.cover == StageBCover::kPairwise);
     CHECK(paper.min_submap_points == 0);

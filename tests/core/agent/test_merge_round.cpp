@@ -43,7 +43,6 @@ std::unique_ptr<MergeServer> ShiftedServer(int max_widen_steps) {
   params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   params.cascade.stage_a.tau_area = 100;
   params.max_widen_steps = max_widen_steps;
-  params.decision.weak_support_kf = 0.0;  // the 35-keyframe cluster strong on the evidence ladder: widened
   auto server = commerge::test::MakeTestServer(2, 100, params);
   for (const KeyframeBatch& b : ShiftedPairBatches(kN, kShift)) REQUIRE(server->OnKeyframeBatch(b).ok());
   return server;
@@ -517,7 +516,6 @@ TEST_CASE("Server link emits the merge result the direct round makes on the same
     mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
     mp.cascade.stage_a.tau_area = 100;
     mp.max_widen_steps = steps;
-    mp.decision.weak_support_kf = 0.0;  // as ShiftedServer
     std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, mp);
     MergeServer& server = *server_owner;
     ServerLinkParams lp;

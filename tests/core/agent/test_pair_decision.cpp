@@ -14,8 +14,7 @@ namespace commerge {
 namespace {
 
 // A pair every decision says yes to: the cascade passed a policy on, the cluster is not ambiguous, no chain
-// contradicts it, registration passed its gates, and the descriptors agree under the transform (median chance 0.1
-// over 30 keyframes).
+// contradicts it, registration passed its gates, and the descriptors agree (chance 0.1 over 30 keyframes).
 PairEvidence Good() {
   PairEvidence e;
   e.consensus_measured = true;
@@ -24,11 +23,9 @@ PairEvidence Good() {
   e.placement.place_beta_m = Eigen::Vector3d(10.0, 0.0, 0.0);
   e.registered = true;
   e.verdict = RegistrationVerdict::kSuccess;
-  e.transform_agreement.measured = true;
-  e.transform_agreement.colocated = 30;
-  e.transform_agreement.ranked = 30;
-  e.transform_agreement.agreeing = 12;
-  e.transform_agreement.median_chance = 0.1;
+  e.colocation_measured = true;
+  e.colocated_keyframes = 30;
+  e.colocated_chance = 0.1;
   return e;
 }
 
@@ -39,7 +36,7 @@ PlaceConsensusParams Agreement() {
   return p;
 }
 
-TEST_CASE("PairStop, WidenStop and EvidenceLevel: every value has its own name") {
+TEST_CASE("PairStop and WidenStop: every value has its own name") {
   std::set<std::string> names;
   for (int s = 0; s < kNumPairStops; ++s) names.insert(PairStopName(static_cast<PairStop>(s)));
   CHECK(names.size() == static_cast<std::size_t>(kNumPairStops));
@@ -47,69 +44,11 @@ TEST_CASE("PairStop, WidenStop and EvidenceLevel: every value has its own name")
   CHECK(std::string(PairStopName(PairStop::kNone)) == "merged");
   CHECK(std::string(PairStopName(static_cast<PairStop>(kNumPairStops))) == "unknown");
   std::set<std::string> widen;
-  for (int s = 0; s <= static_cast<int>(WidenStop::kWeakEvidence); ++s) {
+  for (int s = 0; s <= static_cast<int>(WidenStop::kAmbiguousPlace); ++s) {
     widen.insert(WidenStopName(static_cast<WidenStop>(s)));
   }
   CHECK(widen.size() == 4);
   CHECK(widen.count("unknown") == 0);
-  std::set<std::string> levels;
-  for (int l = 0; l <= static_cast<int>(EvidenceLevel::kStrong); ++l) {
-    levels.insert(EvidenceLevelName(static_cast<EvidenceLevel>(l)));
-  }
-  CHECK(levels.size() == 3);
-  CHECK(levels.count("unknown") == 0);
-}
-
-TEST_CASE("PlaceEvidence: the ladder over support, ambiguity and the descriptor veto, against its table") {
-  // The ladder written out by hand for weak_support_kf 40 and strong_support_kf 100: support below / at / above
-  // each step, plain and ambiguous.
-  const PairDecisionParams params;
-  struct Row {
-    bool ambiguous;
-    double support;
-    EvidenceLevel want;
-  };
-  const Row rows[] = {
-      {false, 0.0, EvidenceLevel::kWeak},    {false, 39.0, EvidenceLevel::kWeak},
-      {false, 40.0, EvidenceLevel::kStrong}, {false, 99.0, EvidenceLevel::kStrong},
-      {false, 500.0, EvidenceLevel::kStrong}, {true, 0.0, EvidenceLevel::kNone},
-      {true, 39.0, EvidenceLevel::kNone},    {true, 40.0, EvidenceLevel::kWeak},
-      {true, 99.0, EvidenceLevel::kWeak},    {true, 100.0, EvidenceLevel::kStrong},
-      {true, 500.0, EvidenceLevel::kStrong},
-  };
-  for (const Row& r : rows) {
-    PairEvidence e = Good();
-    e.ambiguous = r.ambiguous;
-    e.consensus_support = r.support;
-    CAPTURE(r.ambiguous);
-    CAPTURE(r.support);
-    CHECK(PlaceEvidence(e, params) == r.want);
-    // Each decision follows the level: a request from weak on, widening only when strong.
-    CHECK(DecideRequest(e, params).yes == (r.want != EvidenceLevel::kNone));
-    e.verdict = RegistrationVerdict::kOverlapTooLow;
-    CHECK(DecideWiden(e, params).yes == (r.want == EvidenceLevel::kStrong));
-    // A support that was not measured (the consensus's memory cap) counts as 0: lower evidence, never higher.
-    e.consensus_measured = false;
-    CHECK(PlaceEvidence(e, params) == (r.ambiguous ? EvidenceLevel::kNone : EvidenceLevel::kWeak));
-  }
-  // The descriptor veto and the cascade's stop give none at any support.
-  PairEvidence vetoed = Good();
-  vetoed.placement_agreement.measured = true;
-  vetoed.placement_agreement.ranked = 60;
-  vetoed.placement_agreement.agreeing = 3;
-  CHECK(PlaceEvidence(vetoed, params) == EvidenceLevel::kNone);
-  PairEvidence stopped = Good();
-  stopped.cascade_stop = PairStop::kStageB;
-  CHECK(PlaceEvidence(stopped, params) == EvidenceLevel::kNone);
-  // The paper's profile: both steps off. Every plain pair is strong, an ambiguous one weak (asked, never widened).
-  PairDecisionParams paper = params;
-  paper.weak_support_kf = 0.0;
-  paper.strong_support_kf = 0.0;
-  PairEvidence plain = Good();
-  plain.consensus_measured = false;
-  CHECK(PlaceEvidence(plain, paper) == EvidenceLevel::kStrong);
-  plain.ambiguous = true;
-  CHECK(PlaceEvidence(plain, paper) == EvidenceLevel::kWeak);
 }
 
 TEST_CASE("CascadeEvidence: the stage that stopped the cascade, from its results") {
@@ -138,8 +77,8 @@ TEST_CASE("CascadeEvidence: the stage that stopped the cascade, from its results
   CHECK_FALSE(e.registered);
 }
 
-TEST_CASE("DecideRequest: the cascade's stop, an unconfirmed ambiguous place, the chains against weak evidence") {
-  const PairDecisionParams params;  // weak_support_kf 40
+TEST_CASE("DecideRequest: the cascade's stop, an unconfirmed ambiguous place, the chains") {
+  const PairDecisionParams params;  // min_ambiguous_support 40
   CHECK(DecideRequest(Good(), params).yes);
   CHECK(DecideRequest(Good(), params).stop == PairStop::kNone);
   for (PairStop s : {PairStop::kStageA, PairStop::kStageB, PairStop::kStageC}) {
@@ -155,27 +94,21 @@ TEST_CASE("DecideRequest: the cascade's stop, an unconfirmed ambiguous place, th
   ambiguous.consensus_support = 39.0;  // below it
   CHECK(DecideRequest(ambiguous, params).stop == PairStop::kAmbiguousUnconfirmed);
   PairDecisionParams off = params;
-  off.weak_support_kf = 0.0;  // off
+  off.min_ambiguous_support = 0.0;  // off
   CHECK(DecideRequest(ambiguous, off).yes);
-  ambiguous.consensus_measured = false;  // no support measured: counted as 0
-  CHECK(DecideRequest(ambiguous, params).stop == PairStop::kAmbiguousUnconfirmed);
+  ambiguous.consensus_measured = false;  // no support measured: the rule cannot apply
+  CHECK(DecideRequest(ambiguous, params).yes);
   PairEvidence plain = Good();
-  plain.consensus_support = 1.0;  // not ambiguous: weak, still asked
+  plain.consensus_support = 1.0;  // not ambiguous: support is not asked for
   CHECK(DecideRequest(plain, params).yes);
 
   PairEvidence chained = Good();
-  chained.consensus_support = 39.0;  // weak: the chains may refuse it
   chained.chains.checked = true;
   chained.chains.chains = 2;
   chained.chains.agreeing = 1;  // one chain agrees
   CHECK(DecideRequest(chained, params).yes);
   chained.chains.agreeing = 0;  // chains, none agrees
   CHECK(DecideRequest(chained, params).stop == PairStop::kPlaceCheck);
-  PairEvidence strong = chained;
-  strong.consensus_support = 40.0;  // strong evidence is a link of chains, not checked against them
-  CHECK(DecideRequest(strong, params).yes);
-  strong.ambiguous = true;  // the same support at an ambiguous place is weak again
-  CHECK(DecideRequest(strong, params).stop == PairStop::kPlaceCheck);
   chained.chains.chains = 0;  // no chain: nothing contradicts it
   CHECK(DecideRequest(chained, params).yes);
   // The cascade's stop comes first.
@@ -214,26 +147,22 @@ TEST_CASE("DecideRequest: descriptors that look like strangers' at stage A's pla
   PairDecisionParams lax = params;
   lax.disagree_odds = 10000.0;  // e^-8.65 = 1 / 5680: not 10 000 times likelier among strangers
   CHECK(DecideRequest(with(60, 3), lax).yes);
-  // The cascade's stop comes first, then the veto (it names the descriptors, also at an ambiguous place), the
-  // chains after.
+  // The cascade's stop and an unconfirmed ambiguous place come first; the chains after.
   PairEvidence first = with(60, 3);
   first.cascade_stop = PairStop::kStageA;
   CHECK(DecideRequest(first, params).stop == PairStop::kStageA);
   first = with(60, 3);
   first.ambiguous = true;
   first.consensus_support = 10.0;
-  CHECK(DecideRequest(first, params).stop == PairStop::kPlacementDisagrees);
-  first.placement_agreement.agreeing = 20;
   CHECK(DecideRequest(first, params).stop == PairStop::kAmbiguousUnconfirmed);
   first = with(60, 3);
-  first.consensus_support = 10.0;
   first.chains.checked = true;
   first.chains.chains = 1;
   CHECK(DecideRequest(first, params).stop == PairStop::kPlacementDisagrees);
 }
 
-TEST_CASE("AmbiguousPlaceConfirmed and DecideWiden: joined elsewhere, below tau_area, weak evidence") {
-  const PairDecisionParams params;  // weak_support_kf 40, strong_support_kf 100
+TEST_CASE("AmbiguousPlaceConfirmed and DecideWiden: joined elsewhere, below tau_area, an ambiguous place") {
+  const PairDecisionParams params;  // widen_ambiguous_support 100
   PairEvidence refused = Good();
   refused.verdict = RegistrationVerdict::kOverlapTooLow;
   CHECK(DecideWiden(refused, params).yes);
@@ -252,25 +181,21 @@ TEST_CASE("AmbiguousPlaceConfirmed and DecideWiden: joined elsewhere, below tau_
   ambiguous.ambiguous = true;
   ambiguous.consensus_support = 99.0;
   CHECK_FALSE(AmbiguousPlaceConfirmed(ambiguous, params));
-  CHECK(DecideWiden(ambiguous, params).stop == WidenStop::kWeakEvidence);
+  CHECK(DecideWiden(ambiguous, params).stop == WidenStop::kAmbiguousPlace);
   ambiguous.consensus_support = 100.0;  // confirmed at exactly the support asked
   CHECK(AmbiguousPlaceConfirmed(ambiguous, params));
   CHECK(DecideWiden(ambiguous, params).yes);
   ambiguous.consensus_measured = false;
   CHECK_FALSE(AmbiguousPlaceConfirmed(ambiguous, params));
-  CHECK(DecideWiden(ambiguous, params).stop == WidenStop::kWeakEvidence);
+  CHECK(DecideWiden(ambiguous, params).stop == WidenStop::kAmbiguousPlace);
   ambiguous.consensus_measured = true;
   PairDecisionParams off = params;
-  off.strong_support_kf = 0.0;  // off: an ambiguous place is never strong, never widened
+  off.widen_ambiguous_support = 0.0;  // off: an ambiguous place is never widened
   CHECK_FALSE(AmbiguousPlaceConfirmed(ambiguous, off));
-  CHECK(DecideWiden(ambiguous, off).stop == WidenStop::kWeakEvidence);
+  CHECK(DecideWiden(ambiguous, off).stop == WidenStop::kAmbiguousPlace);
   PairEvidence plain = refused;
   plain.consensus_support = 100.0;
   CHECK_FALSE(AmbiguousPlaceConfirmed(plain, params));  // not ambiguous: nothing to confirm
-  plain.consensus_support = 39.0;  // weak: one registration, never widened
-  CHECK(DecideWiden(plain, params).stop == WidenStop::kWeakEvidence);
-  plain.consensus_support = 40.0;
-  CHECK(DecideWiden(plain, params).yes);
 }
 
 TEST_CASE("DecideAccept: the gates, the confirmed placement, the descriptors where the transform joins the robots") {
@@ -314,29 +239,24 @@ TEST_CASE("DecideAccept: the gates, the confirmed placement, the descriptors whe
 
   // The descriptors under the transform.
   PairEvidence strangers = Good();
-  strangers.transform_agreement.median_chance = 0.2;  // at the threshold: refused
+  strangers.colocated_chance = 0.2;  // at the threshold: refused
   CHECK(DecideAccept(strangers, params, agreement).stop == PairStop::kDescriptorsDisagree);
-  strangers.transform_agreement.median_chance = 0.19;
+  strangers.colocated_chance = 0.19;
   CHECK(DecideAccept(strangers, params, agreement).yes);
-  strangers.transform_agreement.median_chance = 0.5;
-  strangers.transform_agreement.colocated = 19;  // too few keyframes to judge
+  strangers.colocated_chance = 0.5;
+  strangers.colocated_keyframes = 19;  // too few keyframes to judge
   CHECK(DecideAccept(strangers, params, agreement).yes);
-  strangers.transform_agreement.colocated = 20;
+  strangers.colocated_keyframes = 20;
   CHECK(DecideAccept(strangers, params, agreement).stop == PairStop::kDescriptorsDisagree);
-  strangers.transform_agreement.measured = false;
+  strangers.colocation_measured = false;
   CHECK(DecideAccept(strangers, params, agreement).yes);
-  strangers.transform_agreement.measured = true;
+  strangers.colocation_measured = true;
   PairDecisionParams off = params;
   off.max_colocated_chance = 0.0;
   CHECK(DecideAccept(strangers, off, agreement).yes);
-  // The veto's odds are for the placement before the request: they do not judge the transform.
-  PairEvidence odds = Good();
-  odds.transform_agreement.ranked = 60;
-  odds.transform_agreement.agreeing = 3;
-  CHECK(DecideAccept(odds, params, agreement).yes);
   // The placement is checked before the descriptors.
   PairEvidence both = placed;
-  both.transform_agreement.median_chance = 0.5;
+  both.colocated_chance = 0.5;
   CHECK(DecideAccept(both, params, agreement).stop == PairStop::kOffConfirmedPlace);
 }
 
@@ -346,18 +266,14 @@ TEST_CASE("ValidatePairDecisionParams names the field") {
   const double inf = std::numeric_limits<double>::infinity();
   for (double v : {-1.0, nan, inf}) {
     PairDecisionParams p;
-    p.weak_support_kf = v;
-    CHECK(ValidatePairDecisionParams(p).message().find("weak_support_kf") != std::string::npos);
+    p.min_ambiguous_support = v;
+    CHECK(ValidatePairDecisionParams(p).message().find("min_ambiguous_support") != std::string::npos);
     p = PairDecisionParams{};
-    p.strong_support_kf = v;
-    CHECK(ValidatePairDecisionParams(p).message().find("strong_support_kf") != std::string::npos);
-  }
-  {
-    PairDecisionParams p;
-    p.strong_support_kf = 39.0;  // below weak_support_kf 40
-    CHECK(ValidatePairDecisionParams(p).message().find("strong_support_kf") != std::string::npos);
-    p.strong_support_kf = 0.0;  // off
-    CHECK(ValidatePairDecisionParams(p).ok());
+    p.widen_ambiguous_support = v;
+    CHECK(ValidatePairDecisionParams(p).message().find("widen_ambiguous_support") != std::string::npos);
+    p = PairDecisionParams{};
+    p.chain_check_support = v;
+    CHECK(ValidatePairDecisionParams(p).message().find("chain_check_support") != std::string::npos);
   }
   for (double v : {0.0, 1.0, 0.3, nan}) {  // 0.3: not below true_agree_fraction 0.25
     PairDecisionParams p;
@@ -379,6 +295,7 @@ TEST_CASE("ValidatePairDecisionParams names the field") {
   }
   for (double v : {-0.1, 1.1, nan}) {
     PairDecisionParams p;
+    p = PairDecisionParams{};
     p.max_colocated_chance = v;
     CHECK(ValidatePairDecisionParams(p).message().find("max_colocated_chance") != std::string::npos);
   }

@@ -162,15 +162,13 @@ TEST_CASE("Merge server voxelises a small pair's submaps finer while the scans h
 
 TEST_CASE("Place check of a confirmed ambiguous pair: a transform is accepted within the tolerances of agreement") {
   MergeServerParams params;
-  REQUIRE(params.decision.strong_support_kf > 0.0);
+  REQUIRE(params.decision.widen_ambiguous_support > 0.0);
   const double tol_m = params.cascade.consensus.agree_m;
   const double tol_deg = params.cascade.consensus.agree_deg;
   ExchangeCascadeResult c;
-  c.stage_a.found = true;
-  c.outcome = CascadeOutcome::kPolicy;
   c.ambiguous = true;
   c.consensus_measured = true;
-  c.consensus_support_chosen = params.decision.strong_support_kf;
+  c.consensus_support_chosen = params.decision.widen_ambiguous_support;
   c.consensus_placement.valid = true;
   c.consensus_placement.yaw_rad = 30.0 * kDegToRad;
   c.consensus_placement.t_alpha_beta_m = Eigen::Vector3d(5.0, 3.0, 0.0);
@@ -224,13 +222,13 @@ TEST_CASE("Place check of a confirmed ambiguous pair: a transform is accepted wi
   CHECK(accepted(other, params, T_off, &gap));
   CHECK(gap.yaw_deg == 0.0);
   other = c;
-  other.consensus_support_chosen = params.decision.strong_support_kf - 1.0;
+  other.consensus_support_chosen = params.decision.widen_ambiguous_support - 1.0;
   CHECK(accepted(other, params, T_off));
   other = c;
   other.consensus_placement.valid = false;
   CHECK(accepted(other, params, T_off));
   MergeServerParams off = params;
-  off.decision.strong_support_kf = 0.0;
+  off.decision.widen_ambiguous_support = 0.0;
   CHECK(accepted(c, off, T_off));
 }
 
@@ -243,12 +241,12 @@ TEST_CASE("Merge server refuses a registration at a confirmed ambiguous place th
   Eigen::Isometry3d T_fixture = Eigen::Isometry3d::Identity();
   T_fixture.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T_fixture.translation() = Eigen::Vector3d(5.0, 3.0, 0.0);
-  const auto merge = [&](const Eigen::Isometry3d& T_alpha_beta, double strong_support_kf,
+  const auto merge = [&](const Eigen::Isometry3d& T_alpha_beta, double widen_ambiguous_support,
                          Eigen::Isometry3d* T_placement) {
     MergeServerParams params = PaperStageA(200);
     params.cascade.max_ambiguous_fraction = 0.1;
-    params.decision.weak_support_kf = 0.0;
-    params.decision.strong_support_kf = strong_support_kf;
+    params.decision.min_ambiguous_support = 0.0;
+    params.decision.widen_ambiguous_support = widen_ambiguous_support;
     std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, params);
     MergeServer& server = *server_owner;
     for (const KeyframeBatch& b : AmbiguousShiftedPairBatches()) REQUIRE(server.OnKeyframeBatch(b).ok());
@@ -257,7 +255,7 @@ TEST_CASE("Merge server refuses a registration at a confirmed ambiguous place th
     REQUIRE(c != nullptr);
     REQUIRE(c->ambiguous);
     REQUIRE(c->consensus_placement.valid);
-    CHECK(AmbiguousPlaceConfirmed(CascadeEvidence(*c), params.decision) == (strong_support_kf > 0.0));
+    CHECK(AmbiguousPlaceConfirmed(CascadeEvidence(*c), params.decision) == (widen_ambiguous_support > 0.0));
     T_placement->setIdentity();
     T_placement->linear() = Eigen::AngleAxisd(c->consensus_placement.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     T_placement->translation() = c->consensus_placement.t_alpha_beta_m;

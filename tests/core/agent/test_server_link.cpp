@@ -289,7 +289,7 @@ TEST_CASE("Server link: a refused pair is widened, the extra scans are asked for
   for (int j = 0; j + shift < n; ++j) pool_b.push_back(static_cast<std::uint32_t>(j));
   for (int steps : {0, 1, 2}) {
     CAPTURE(steps);
-    MergeServerParams mp = test::AnySupportWidens(PaperStageA(100));
+    MergeServerParams mp = PaperStageA(100);
     mp.max_widen_steps = steps;
     std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, mp);
     MergeServer& server = *server_owner;

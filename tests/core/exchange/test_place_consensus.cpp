@@ -393,9 +393,8 @@ TEST_CASE("Place check across pairs: a weak pair is refused only when strong cha
   const std::vector<PlanarPose> world = {{0.0, {0, 0, 0}}, {90.0, {60, 20, 0}}, {-30.0, {-10, 80, 0}},
                                          {180.0, {120, -40, 0}}};
   const Eigen::Vector3d place(5.0, 5.0, 0.0);
-  // A pair is strong at a consensus support of 40 keyframes or more (the ladder's weak_support_kf).
   auto pair = [&](int a, int b, double support, bool wrong = false) {
-    PairPlacement p{a, b, true, support >= 40.0, TruePlacement(world[static_cast<std::size_t>(a)],
+    PairPlacement p{a, b, true, support, TruePlacement(world[static_cast<std::size_t>(a)],
                                                        world[static_cast<std::size_t>(b)], place)};
     if (wrong) {
       p.placement.yaw_rad += 90.0 * kDegToRad;
@@ -410,7 +409,7 @@ TEST_CASE("Place check across pairs: a weak pair is refused only when strong cha
     return p;
   }();
   auto check = [&](const std::vector<PairPlacement>& pairs) {
-    return CheckPlacesAcrossPairs(Span<const PairPlacement>(pairs), 4, agreement);
+    return CheckPlacesAcrossPairs(Span<const PairPlacement>(pairs), 4, 40.0, agreement);
   };
 
   // The weak pair 0-1 is right: the chain through robot 2 (pairs 0-2 and 1-2, stored alpha < beta) agrees.
