@@ -328,9 +328,8 @@ endif()
 # The recall benchmark's quick slice with the default flags (profiling/bench_recall.sh --slice quick): the
 # simulator's default setting on the campus with five robots (the case of issue "Merge recall": 0 of 10 pairs
 # merged by the paper's stage A), the indoor world with three robots on a test seed (59, never tuned on) and the
-# real hku2 halves. Every robot that shares a place is merged and none is
-# wrong; the hku2 half lands within 0.3 m / 2 deg of the reference poses, judged where the robots met and by
-# the start poses.
+# real hku2 halves. Every robot that shares a place is merged and none is wrong; the hku2 half lands within
+# 0.3 m / 2 deg of the reference poses, judged where the robots met and by the start poses.
 set(CM_HKU2 "${CM_SHARED_DATA_DIR}/real/hku2")
 if(EXISTS "${CM_HKU2}/poses.txt" AND NOT CMAKE_CROSSCOMPILING)
   set(recall_quick "recall: quick slice (campus 5 robots with the simulator's defaults, indoor 3 robots on a test seed, hku2 halves) merges every robot that shares a place, none wrong")
