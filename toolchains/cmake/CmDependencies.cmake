@@ -40,6 +40,24 @@ if(NOT TARGET cm_sodium)
                         INTERFACE_INCLUDE_DIRECTORIES "${SODIUM_INCLUDE_DIR}")
 endif()
 
+# liblz4 and libbz2 (Debian liblz4-dev, libbz2-dev): the compressed chunks of ROS 1 bags (platform/ros). The
+# ROS bag library itself (librosbag-storage-dev) is not used: it pulls Boost, pluginlib, class_loader, gpgme and
+# OpenSSL into the product.
+find_path(LZ4_INCLUDE_DIR lz4frame.h REQUIRED)
+find_library(LZ4_LIBRARY lz4 REQUIRED)
+if(NOT TARGET cm_lz4)
+  add_library(cm_lz4 UNKNOWN IMPORTED)
+  set_target_properties(cm_lz4 PROPERTIES IMPORTED_LOCATION "${LZ4_LIBRARY}"
+                        INTERFACE_INCLUDE_DIRECTORIES "${LZ4_INCLUDE_DIR}")
+endif()
+find_path(BZIP2_INCLUDE_DIR bzlib.h REQUIRED)
+find_library(BZIP2_LIBRARY bz2 REQUIRED)
+if(NOT TARGET cm_bz2)
+  add_library(cm_bz2 UNKNOWN IMPORTED)
+  set_target_properties(cm_bz2 PROPERTIES IMPORTED_LOCATION "${BZIP2_LIBRARY}"
+                        INTERFACE_INCLUDE_DIRECTORIES "${BZIP2_INCLUDE_DIR}")
+endif()
+
 # Header-only, from Debian: CLI11 (subcommands, --help, validation), nanoflann (k-d tree, used by registration).
 find_path(CLI11_INCLUDE_DIR CLI/CLI.hpp REQUIRED)
 if(NOT TARGET cm_cli11)
