@@ -23,5 +23,6 @@ Command AddServerCommand(CLI::App& root);
 Command AddFeedCommand(CLI::App& root);
 Command AddKeygenCommand(CLI::App& root);
 Command AddRecordCommand(CLI::App& root);
+Command AddImportCommand(CLI::App& root);
 
 }  // namespace commerge::app

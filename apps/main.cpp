@@ -18,7 +18,8 @@ int main(int argc, char** argv) {
   const std::vector<Command> commands = {AddDemoCommand(root), AddBudgetCommand(root), AddVoxelizeCommand(root),
                                        AddSimCommand(root), AddRunCommand(root), AddRobotCommand(root),
                                        AddServerCommand(root), AddFeedCommand(root),
-                                       AddKeygenCommand(root), AddRecordCommand(root)};
+                                       AddKeygenCommand(root), AddRecordCommand(root),
+                                       AddImportCommand(root)};
 
   try {
     root.parse(argc, argv);

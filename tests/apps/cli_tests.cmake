@@ -357,3 +357,4 @@ else()
 endif()
 
 include("${CMAKE_CURRENT_SOURCE_DIR}/apps/house_tests.cmake")
+include("${CMAKE_CURRENT_SOURCE_DIR}/apps/ros_tests.cmake")

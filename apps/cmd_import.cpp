@@ -1,0 +1,385 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// `commerge import BAG --out DIR --scan-topic T --pose-topic T`: a ROS 1 bag (format 2.0; chunks uncompressed,
+// bz2 or lz4) into the KITTI-layout directory that `run`, `robot --data` and `feed` read. Scans are paired with
+// the odometry by their header stamps through the live input's synchroniser (core/agent/scan_odometry_sync.hpp):
+// the same interpolation and the same counted discards as `commerge robot --live`. Without the topics it lists
+// the bag's topics and says which it would take. The bag is read one chunk at a time (platform/ros/ros1_bag.hpp).
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "apps/app_common.hpp"
+#include "apps/commands.hpp"
+#include "core/agent/scan_odometry_sync.hpp"
+#include "core/geometry/angles.hpp"
+#include "platform/io/kitti_bin.hpp"
+#include "platform/io/kitti_dataset_writer.hpp"
+#include "platform/io/poses.hpp"
+#include "platform/ros/byte_source.hpp"
+#include "platform/ros/ros1_bag.hpp"
+#include "platform/ros/ros_messages.hpp"
+
+namespace commerge::app {
+
+namespace {
+
+using platform::RosMessageKind;
+
+struct ImportOptions {
+  std::string bag;
+  std::string out;
+  std::string scan_topic;
+  std::string pose_topic;
+  std::string extrinsic;  // "x y z roll pitch yaw" [m, deg]: T_body_sensor
+  bool force = false;
+  double progress_s = 5.0;
+};
+
+// One topic of the bag: its type and the message count, for the listing.
+struct TopicCount {
+  std::string type;
+  RosMessageKind kind = RosMessageKind::kUnsupported;
+  std::uint64_t messages = 0;
+};
+
+// What a topic's messages became during the import.
+struct TopicTally {
+  std::uint64_t messages = 0;
+  std::uint64_t decoded = 0;
+  std::uint64_t malformed = 0;  // dropped: the decoder refused the message
+  std::string first_error;
+  std::uint64_t non_finite_points = 0;
+};
+
+Result<Eigen::Isometry3d> ParseExtrinsic(const std::string& text) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  if (text.empty()) return T;
+  std::istringstream in(text);
+  double v[6];
+  for (double& x : v) {
+    if (!(in >> x) || !std::isfinite(x)) {
+      return InvalidArgument("--extrinsic: want six numbers \"x y z roll pitch yaw\" [m, deg], got '" + text + "'");
+    }
+  }
+  std::string rest;
+  if (in >> rest) return InvalidArgument("--extrinsic: more than six numbers in '" + text + "'");
+  const double d2r = kPi / 180.0;
+  T.linear() = (Eigen::AngleAxisd(v[5] * d2r, Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(v[4] * d2r, Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(v[3] * d2r, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  T.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+  return T;
+}
+
+std::string KindText(RosMessageKind kind) {
+  if (kind == RosMessageKind::kUnsupported) return "-";
+  return std::string(platform::IsScanKind(kind) ? "scan (" : "pose (") + platform::RosMessageKindName(kind) + ")";
+}
+
+// The topic a kind's messages would come from: the most messages; Odometry before PoseStamped for poses.
+std::string Suggest(const std::map<std::string, TopicCount>& topics, bool scan) {
+  std::string best;
+  std::uint64_t best_rank = 0;
+  for (const auto& [topic, t] : topics) {
+    if (t.kind == RosMessageKind::kUnsupported || platform::IsScanKind(t.kind) != scan) continue;
+    const std::uint64_t rank = t.messages * 2 + (t.kind == RosMessageKind::kOdometry ? 1 : 0);
+    if (best.empty() || rank > best_rank) {
+      best = topic;
+      best_rank = rank;
+    }
+  }
+  return best;
+}
+
+int ListTopics(platform::Ros1BagReader* reader, const std::string& bag) {
+  std::map<std::string, TopicCount> topics;
+  for (;;) {
+    auto item = reader->Next();
+    if (!item.ok()) {
+      std::fprintf(stderr, "commerge import: %s\n", item.status().message().c_str());
+      return kExitFailure;
+    }
+    if (*item == platform::Ros1BagReader::Item::kEnd) break;
+    if (*item == platform::Ros1BagReader::Item::kConnection) {
+      const auto& c = reader->connection();
+      TopicCount& t = topics[c.topic];
+      t.type = c.type;
+      t.kind = platform::RosMessageKindOf(c.type);
+    } else {
+      topics[reader->FindConnection(reader->message().connection_id)->topic].messages++;
+    }
+  }
+  std::printf("%s: %zu topics, %" PRIu64 " messages\n", bag.c_str(), topics.size(), reader->stats().messages);
+  std::printf("  %-40s %-36s %10s  %s\n", "topic", "type", "messages", "commerge reads it as");
+  for (const auto& [topic, t] : topics) {
+    std::printf("  %-40s %-36s %10" PRIu64 "  %s\n", topic.c_str(), t.type.c_str(), t.messages, KindText(t.kind).c_str());
+  }
+  const std::string scan = Suggest(topics, true), pose = Suggest(topics, false);
+  if (scan.empty() || pose.empty()) {
+    std::printf("would take: nothing: the bag has %s\n",
+                scan.empty() ? "no point cloud topic (PointCloud2, Livox CustomMsg)"
+                             : "no pose topic (Odometry, PoseStamped)");
+  } else {
+    std::printf("would take: --scan-topic %s --pose-topic %s\n", scan.c_str(), pose.c_str());
+  }
+  return kExitOk;
+}
+
+// Prepares DIR: created when missing; one that holds files is refused unless --force, which removes only what an
+// import writes (velodyne/, poses.txt, times.txt, import_info.txt).
+Status PrepareOutput(const std::string& out, bool force) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(out, ec) && !fs::is_empty(out, ec)) {
+    if (!force) return InvalidArgument(out + ": exists and is not empty (--force replaces an import)");
+    fs::remove_all(out + "/velodyne", ec);
+    for (const char* f : {"poses.txt", "times.txt", "import_info.txt"}) fs::remove(out + "/" + f, ec);
+  }
+  fs::create_directories(out + "/velodyne", ec);
+  if (ec) return Status(StatusCode::kIoError, out + "/velodyne: cannot create: " + ec.message());
+  return Status::Ok();
+}
+
+class BagImport {
+ public:
+  BagImport(const ImportOptions& o, const Eigen::Isometry3d& T_body_sensor)
+      : o_(o), T_body_sensor_(T_body_sensor), sync_(ScanOdometrySyncParams{}) {}
+
+  int Run(platform::Ros1BagReader* reader);
+
+ private:
+  Status OnConnection(const platform::Ros1Connection& c);
+  Status OnMessage(const platform::Ros1Message& m);
+  Status Drain();
+  void Progress(const platform::Ros1BagReader& reader, bool last);
+  Status Finish();
+  void PrintSummary() const;
+
+  const ImportOptions& o_;
+  Eigen::Isometry3d T_body_sensor_;
+  ScanOdometrySync sync_;
+  std::map<std::uint32_t, RosMessageKind> scan_connections_, pose_connections_;
+  std::string scan_type_, pose_type_;
+  TopicTally scans_, poses_;
+  platform::RosScan scan_;
+  platform::RosPose pose_;
+  std::vector<Eigen::Isometry3d> T_odom_sensor_;
+  std::vector<double> times_s_;
+  std::int64_t first_utime_us_ = 0;
+  std::chrono::steady_clock::time_point last_progress_ = std::chrono::steady_clock::now();
+};
+
+Status BagImport::OnConnection(const platform::Ros1Connection& c) {
+  const bool scan = c.topic == o_.scan_topic, pose = c.topic == o_.pose_topic;
+  if (!scan && !pose) return Status::Ok();
+  const RosMessageKind kind = platform::RosMessageKindOf(c.type);
+  if (scan && !platform::IsScanKind(kind)) {
+    return InvalidArgument("--scan-topic " + c.topic + ": type " + c.type +
+                           " is not a point cloud commerge reads (sensor_msgs/PointCloud2, livox_ros_driver/CustomMsg, "
+                           "livox_ros_driver2/CustomMsg)");
+  }
+  if (pose && (kind == RosMessageKind::kUnsupported || platform::IsScanKind(kind))) {
+    return InvalidArgument("--pose-topic " + c.topic + ": type " + c.type +
+                           " is not a pose commerge reads (nav_msgs/Odometry, geometry_msgs/PoseStamped)");
+  }
+  (scan ? scan_connections_ : pose_connections_)[c.id] = kind;
+  (scan ? scan_type_ : pose_type_) = c.type;
+  return Status::Ok();
+}
+
+Status BagImport::OnMessage(const platform::Ros1Message& m) {
+  const auto enc = platform::RosEncoding::kRos1;
+  if (auto it = scan_connections_.find(m.connection_id); it != scan_connections_.end()) {
+    scans_.messages++;
+    const Status st = it->second == RosMessageKind::kPointCloud2
+                          ? platform::DecodePointCloud2(enc, m.data, platform::RosScanLimits{}, &scan_)
+                          : platform::DecodeLivoxCustomMsg(enc, m.data, platform::RosScanLimits{}, &scan_);
+    if (!st.ok()) {
+      if (scans_.malformed++ == 0) scans_.first_error = "message " + std::to_string(m.record_index) + ": " + st.message();
+      return Status::Ok();
+    }
+    scans_.decoded++;
+    scans_.non_finite_points += scan_.non_finite_dropped;
+    sync_.PushScan(scan_.stamp_ns / 1000, Span<const PointXYZI>(scan_.points));
+    return Drain();
+  }
+  if (auto it = pose_connections_.find(m.connection_id); it != pose_connections_.end()) {
+    poses_.messages++;
+    const Status st = it->second == RosMessageKind::kOdometry ? platform::DecodeOdometry(enc, m.data, &pose_)
+                                                              : platform::DecodePoseStamped(enc, m.data, &pose_);
+    if (!st.ok()) {
+      if (poses_.malformed++ == 0) poses_.first_error = "message " + std::to_string(m.record_index) + ": " + st.message();
+      return Status::Ok();
+    }
+    poses_.decoded++;
+    sync_.PushOdometry(pose_.stamp_ns / 1000, pose_.T_parent_child * T_body_sensor_);
+    return Drain();
+  }
+  return Status::Ok();
+}
+
+Status BagImport::Drain() {
+  SyncedScan s;
+  while (sync_.PopReady(&s)) {
+    if (T_odom_sensor_.empty()) first_utime_us_ = s.utime_us;
+    const std::string path = o_.out + "/velodyne/" + platform::KittiScanFileName(T_odom_sensor_.size());
+    if (Status st = platform::WriteKittiBin(path, s.points); !st.ok()) return st;
+    T_odom_sensor_.push_back(s.T_odom_sensor);
+    times_s_.push_back(1e-6 * static_cast<double>(s.utime_us - first_utime_us_));
+  }
+  return Status::Ok();
+}
+
+void BagImport::Progress(const platform::Ros1BagReader& reader, bool last) {
+  const auto now = std::chrono::steady_clock::now();
+  if (!last && std::chrono::duration<double>(now - last_progress_).count() < o_.progress_s) return;
+  last_progress_ = now;
+  const double size = static_cast<double>(reader.size());
+  std::fprintf(stderr, "commerge import: %5.1f %% of %.1f MB read, %zu scans written\n",
+               size > 0.0 ? 100.0 * static_cast<double>(reader.position()) / size : 100.0, size / 1e6,
+               T_odom_sensor_.size());
+}
+
+Status BagImport::Finish() {
+  sync_.DropWaiting();
+  if (Status st = Drain(); !st.ok()) return st;
+  if (scan_type_.empty()) return NotFound(o_.bag + ": no topic " + o_.scan_topic + " (run without topics to list them)");
+  if (pose_type_.empty()) return NotFound(o_.bag + ": no topic " + o_.pose_topic + " (run without topics to list them)");
+  if (Status st = platform::WriteKittiPoses(o_.out + "/poses.txt", Span<const Eigen::Isometry3d>(T_odom_sensor_));
+      !st.ok()) {
+    return st;
+  }
+  if (Status st = platform::WriteTimes(o_.out + "/times.txt", Span<const double>(times_s_)); !st.ok()) return st;
+  std::FILE* f = std::fopen((o_.out + "/import_info.txt").c_str(), "w");
+  if (f == nullptr) return Status(StatusCode::kIoError, o_.out + "/import_info.txt: cannot write");
+  std::fprintf(f, "source: %s\nscan_topic: %s (%s)\npose_topic: %s (%s)\nextrinsic_T_body_sensor: %s\n",
+               o_.bag.c_str(), o_.scan_topic.c_str(), scan_type_.c_str(), o_.pose_topic.c_str(), pose_type_.c_str(),
+               o_.extrinsic.empty() ? "identity" : o_.extrinsic.c_str());
+  std::fprintf(f, "first_scan_stamp_us: %" PRId64 "\nscans: %zu\n", first_utime_us_, T_odom_sensor_.size());
+  if (std::fclose(f) != 0) return Status(StatusCode::kIoError, o_.out + "/import_info.txt: cannot write");
+  return Status::Ok();
+}
+
+void BagImport::PrintSummary() const {
+  const ScanOdometrySyncStats& s = sync_.stats();
+  std::printf("%s -> %s: %zu scans with poses (velodyne/*.bin, poses.txt, times.txt)\n", o_.bag.c_str(),
+              o_.out.c_str(), T_odom_sensor_.size());
+  std::printf("  %s (%s): %" PRIu64 " messages, %" PRIu64 " malformed (dropped), %" PRIu64
+              " non-finite points dropped\n",
+              o_.scan_topic.c_str(), scan_type_.c_str(), scans_.messages, scans_.malformed, scans_.non_finite_points);
+  std::printf("  %s (%s): %" PRIu64 " messages, %" PRIu64 " malformed (dropped)\n", o_.pose_topic.c_str(),
+              pose_type_.c_str(), poses_.messages, poses_.malformed);
+  for (const TopicTally* t : {&scans_, &poses_}) {
+    if (t->malformed > 0) std::printf("  first malformed: %s\n", t->first_error.c_str());
+  }
+  std::printf("  scans dropped by the synchroniser: %" PRIu64 " (before the first pose %" PRIu64 ", pose gap %" PRIu64
+              ", time not increasing %" PRIu64 ", too many points %" PRIu64 ", queue full %" PRIu64
+              ", no pose after them %" PRIu64 ")\n",
+              s.scans_dropped(), s.scans_dropped_before_odometry, s.scans_dropped_odometry_gap,
+              s.scans_dropped_time_not_increasing, s.scans_dropped_too_many_points, s.scans_dropped_queue_full,
+              s.scans_dropped_at_end);
+  std::printf("  poses rejected: %" PRIu64 " (not a rigid transform %" PRIu64 ", time not increasing %" PRIu64
+              ", faster than %.0f m/s %" PRIu64 ")\n",
+              s.odometry_rejected(), s.odometry_rejected_invalid, s.odometry_rejected_time_not_increasing,
+              ScanOdometrySyncParams{}.max_speed_mps, s.odometry_rejected_speed);
+}
+
+int BagImport::Run(platform::Ros1BagReader* reader) {
+  Status st = Status::Ok();
+  for (;;) {
+    auto item = reader->Next();
+    if (!item.ok()) {
+      st = item.status();
+      break;
+    }
+    if (*item == platform::Ros1BagReader::Item::kEnd) break;
+    st = *item == platform::Ros1BagReader::Item::kConnection ? OnConnection(reader->connection())
+                                                              : OnMessage(reader->message());
+    if (!st.ok()) break;
+    Progress(*reader, false);
+  }
+  if (st.ok()) st = Finish();
+  if (!st.ok()) {
+    std::fprintf(stderr, "commerge import: %s\n", st.message().c_str());
+    return st.code() == StatusCode::kInvalidArgument ? kExitUsage : kExitFailure;
+  }
+  Progress(*reader, true);
+  PrintSummary();
+  if (T_odom_sensor_.empty()) {
+    std::fprintf(stderr, "commerge import: %s: no scan could be paired with a pose (see the counts above)\n",
+                 o_.bag.c_str());
+    return kExitFailure;
+  }
+  return kExitOk;
+}
+
+int RunImport(const ImportOptions& o) {
+  auto T_body_sensor = ParseExtrinsic(o.extrinsic);
+  if (!T_body_sensor.ok()) {
+    std::fprintf(stderr, "commerge import: %s\n", T_body_sensor.status().message().c_str());
+    return kExitUsage;
+  }
+  auto source = platform::FileByteSource::Open(o.bag);
+  if (!source.ok()) {
+    std::fprintf(stderr, "commerge import: %s\n", source.status().message().c_str());
+    return kExitFailure;
+  }
+  auto reader = platform::Ros1BagReader::Open(source->get());
+  if (!reader.ok()) {
+    std::fprintf(stderr, "commerge import: %s\n", reader.status().message().c_str());
+    return kExitFailure;
+  }
+  if (o.scan_topic.empty() && o.pose_topic.empty()) return ListTopics(&*reader, o.bag);
+  if (o.scan_topic.empty() || o.pose_topic.empty() || o.out.empty()) {
+    std::fprintf(stderr, "commerge import: give --scan-topic, --pose-topic and --out (or no topic, to list them)\n");
+    return kExitUsage;
+  }
+  if (Status st = PrepareOutput(o.out, o.force); !st.ok()) {
+    std::fprintf(stderr, "commerge import: %s\n", st.message().c_str());
+    return kExitFailure;
+  }
+  auto job = std::make_unique<BagImport>(o, *T_body_sensor);
+  return job->Run(&*reader);
+}
+
+}  // namespace
+
+Command AddImportCommand(CLI::App& root) {
+  auto o = std::make_shared<ImportOptions>();
+  CLI::App* cmd = root.add_subcommand(
+      "import",
+      "Convert a ROS 1 bag (scans + odometry) into a KITTI-layout directory for run, robot --data and feed; "
+      "without topics, list the bag's topics");
+  cmd->add_option("bag", o->bag, "ROS 1 bag (format 2.0; chunks uncompressed, bz2 or lz4)")->required();
+  cmd->add_option("--out", o->out, "Output directory (velodyne/*.bin, poses.txt, times.txt, import_info.txt)");
+  cmd->add_option("--scan-topic", o->scan_topic,
+                  "Point clouds in the sensor (or body) frame: sensor_msgs/PointCloud2, livox_ros_driver/CustomMsg or "
+                  "livox_ros_driver2/CustomMsg");
+  cmd->add_option("--pose-topic", o->pose_topic,
+                  "Odometry of the body: nav_msgs/Odometry or geometry_msgs/PoseStamped; scans get the pose "
+                  "interpolated at their header stamp");
+  cmd->add_option("--extrinsic", o->extrinsic,
+                  "T_body_sensor as \"x y z roll pitch yaw\" [m, deg] (default identity: the clouds are in the pose's "
+                  "body frame)");
+  cmd->add_flag("--force", o->force, "Replace an earlier import in --out");
+  cmd->add_option("--progress-s", o->progress_s, "Seconds between progress lines on stderr")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  return {cmd, [o]() -> int { return RunImport(*o); }};
+}
+
+}  // namespace commerge::app
