@@ -28,8 +28,7 @@
 #include "platform/io/kitti_bin.hpp"
 #include "platform/io/kitti_dataset_writer.hpp"
 #include "platform/io/poses.hpp"
-#include "platform/ros/byte_source.hpp"
-#include "platform/ros/ros1_bag.hpp"
+#include "platform/ros/message_source.hpp"
 #include "platform/ros/ros_messages.hpp"
 
 namespace commerge::app {
@@ -105,7 +104,7 @@ std::string Suggest(const std::map<std::string, TopicCount>& topics, bool scan) 
   return best;
 }
 
-int ListTopics(platform::Ros1BagReader* reader, const std::string& bag) {
+int ListTopics(platform::RosMessageSource* reader, const std::string& bag) {
   std::map<std::string, TopicCount> topics;
   for (;;) {
     auto item = reader->Next();
@@ -113,17 +112,19 @@ int ListTopics(platform::Ros1BagReader* reader, const std::string& bag) {
       std::fprintf(stderr, "commerge import: %s\n", item.status().message().c_str());
       return kExitFailure;
     }
-    if (*item == platform::Ros1BagReader::Item::kEnd) break;
-    if (*item == platform::Ros1BagReader::Item::kConnection) {
-      const auto& c = reader->connection();
+    if (*item == platform::RosMessageSource::Item::kEnd) break;
+    if (*item == platform::RosMessageSource::Item::kChannel) {
+      const auto& c = reader->channel();
       TopicCount& t = topics[c.topic];
       t.type = c.type;
       t.kind = platform::RosMessageKindOf(c.type);
     } else {
-      topics[reader->FindConnection(reader->message().connection_id)->topic].messages++;
+      topics[reader->FindChannel(reader->message().channel_id)->topic].messages++;
     }
   }
-  std::printf("%s: %zu topics, %" PRIu64 " messages\n", bag.c_str(), topics.size(), reader->stats().messages);
+  std::uint64_t messages = 0;
+  for (const auto& entry : topics) messages += entry.second.messages;
+  std::printf("%s (%s): %zu topics, %" PRIu64 " messages\n", bag.c_str(), reader->format(), topics.size(), messages);
   std::printf("  %-40s %-36s %10s  %s\n", "topic", "type", "messages", "commerge reads it as");
   for (const auto& [topic, t] : topics) {
     std::printf("  %-40s %-36s %10" PRIu64 "  %s\n", topic.c_str(), t.type.c_str(), t.messages, KindText(t.kind).c_str());
@@ -159,20 +160,21 @@ class BagImport {
   BagImport(const ImportOptions& o, const Eigen::Isometry3d& T_body_sensor)
       : o_(o), T_body_sensor_(T_body_sensor), sync_(ScanOdometrySyncParams{}) {}
 
-  int Run(platform::Ros1BagReader* reader);
+  int Run(platform::RosMessageSource* reader);
 
  private:
-  Status OnConnection(const platform::Ros1Connection& c);
-  Status OnMessage(const platform::Ros1Message& m);
+  Status OnChannel(const platform::RosChannel& c);
+  Status OnMessage(const platform::RosRecord& m);
   Status Drain();
-  void Progress(const platform::Ros1BagReader& reader, bool last);
+  void Progress(const platform::RosMessageSource& reader, bool last);
   Status Finish();
   void PrintSummary() const;
 
   const ImportOptions& o_;
   Eigen::Isometry3d T_body_sensor_;
   ScanOdometrySync sync_;
-  std::map<std::uint32_t, RosMessageKind> scan_connections_, pose_connections_;
+  // Channel id -> its message kind and encoding.
+  std::map<std::uint32_t, std::pair<RosMessageKind, platform::RosEncoding>> scan_channels_, pose_channels_;
   std::string scan_type_, pose_type_;
   TopicTally scans_, poses_;
   platform::RosScan scan_;
@@ -183,7 +185,7 @@ class BagImport {
   std::chrono::steady_clock::time_point last_progress_ = std::chrono::steady_clock::now();
 };
 
-Status BagImport::OnConnection(const platform::Ros1Connection& c) {
+Status BagImport::OnChannel(const platform::RosChannel& c) {
   const bool scan = c.topic == o_.scan_topic, pose = c.topic == o_.pose_topic;
   if (!scan && !pose) return Status::Ok();
   const RosMessageKind kind = platform::RosMessageKindOf(c.type);
@@ -196,20 +198,20 @@ Status BagImport::OnConnection(const platform::Ros1Connection& c) {
     return InvalidArgument("--pose-topic " + c.topic + ": type " + c.type +
                            " is not a pose commerge reads (nav_msgs/Odometry, geometry_msgs/PoseStamped)");
   }
-  (scan ? scan_connections_ : pose_connections_)[c.id] = kind;
+  (scan ? scan_channels_ : pose_channels_)[c.id] = {kind, c.encoding};
   (scan ? scan_type_ : pose_type_) = c.type;
   return Status::Ok();
 }
 
-Status BagImport::OnMessage(const platform::Ros1Message& m) {
-  const auto enc = platform::RosEncoding::kRos1;
-  if (auto it = scan_connections_.find(m.connection_id); it != scan_connections_.end()) {
+Status BagImport::OnMessage(const platform::RosRecord& m) {
+  if (auto it = scan_channels_.find(m.channel_id); it != scan_channels_.end()) {
+    const auto [kind, enc] = it->second;
     scans_.messages++;
-    const Status st = it->second == RosMessageKind::kPointCloud2
+    const Status st = kind == RosMessageKind::kPointCloud2
                           ? platform::DecodePointCloud2(enc, m.data, platform::RosScanLimits{}, &scan_)
                           : platform::DecodeLivoxCustomMsg(enc, m.data, platform::RosScanLimits{}, &scan_);
     if (!st.ok()) {
-      if (scans_.malformed++ == 0) scans_.first_error = "message " + std::to_string(m.record_index) + ": " + st.message();
+      if (scans_.malformed++ == 0) scans_.first_error = "message " + std::to_string(m.index) + ": " + st.message();
       return Status::Ok();
     }
     scans_.decoded++;
@@ -217,12 +219,13 @@ Status BagImport::OnMessage(const platform::Ros1Message& m) {
     sync_.PushScan(scan_.stamp_ns / 1000, Span<const PointXYZI>(scan_.points));
     return Drain();
   }
-  if (auto it = pose_connections_.find(m.connection_id); it != pose_connections_.end()) {
+  if (auto it = pose_channels_.find(m.channel_id); it != pose_channels_.end()) {
+    const auto [kind, enc] = it->second;
     poses_.messages++;
-    const Status st = it->second == RosMessageKind::kOdometry ? platform::DecodeOdometry(enc, m.data, &pose_)
+    const Status st = kind == RosMessageKind::kOdometry ? platform::DecodeOdometry(enc, m.data, &pose_)
                                                               : platform::DecodePoseStamped(enc, m.data, &pose_);
     if (!st.ok()) {
-      if (poses_.malformed++ == 0) poses_.first_error = "message " + std::to_string(m.record_index) + ": " + st.message();
+      if (poses_.malformed++ == 0) poses_.first_error = "message " + std::to_string(m.index) + ": " + st.message();
       return Status::Ok();
     }
     poses_.decoded++;
@@ -244,7 +247,7 @@ Status BagImport::Drain() {
   return Status::Ok();
 }
 
-void BagImport::Progress(const platform::Ros1BagReader& reader, bool last) {
+void BagImport::Progress(const platform::RosMessageSource& reader, bool last) {
   const auto now = std::chrono::steady_clock::now();
   if (!last && std::chrono::duration<double>(now - last_progress_).count() < o_.progress_s) return;
   last_progress_ = now;
@@ -298,7 +301,7 @@ void BagImport::PrintSummary() const {
               ScanOdometrySyncParams{}.max_speed_mps, s.odometry_rejected_speed);
 }
 
-int BagImport::Run(platform::Ros1BagReader* reader) {
+int BagImport::Run(platform::RosMessageSource* reader) {
   Status st = Status::Ok();
   for (;;) {
     auto item = reader->Next();
@@ -306,8 +309,8 @@ int BagImport::Run(platform::Ros1BagReader* reader) {
       st = item.status();
       break;
     }
-    if (*item == platform::Ros1BagReader::Item::kEnd) break;
-    st = *item == platform::Ros1BagReader::Item::kConnection ? OnConnection(reader->connection())
+    if (*item == platform::RosMessageSource::Item::kEnd) break;
+    st = *item == platform::RosMessageSource::Item::kChannel ? OnChannel(reader->channel())
                                                               : OnMessage(reader->message());
     if (!st.ok()) break;
     Progress(*reader, false);
@@ -333,17 +336,12 @@ int RunImport(const ImportOptions& o) {
     std::fprintf(stderr, "commerge import: %s\n", T_body_sensor.status().message().c_str());
     return kExitUsage;
   }
-  auto source = platform::FileByteSource::Open(o.bag);
-  if (!source.ok()) {
-    std::fprintf(stderr, "commerge import: %s\n", source.status().message().c_str());
-    return kExitFailure;
-  }
-  auto reader = platform::Ros1BagReader::Open(source->get());
+  auto reader = platform::OpenRosMessageSource(o.bag);
   if (!reader.ok()) {
     std::fprintf(stderr, "commerge import: %s\n", reader.status().message().c_str());
     return kExitFailure;
   }
-  if (o.scan_topic.empty() && o.pose_topic.empty()) return ListTopics(&*reader, o.bag);
+  if (o.scan_topic.empty() && o.pose_topic.empty()) return ListTopics(reader->get(), o.bag);
   if (o.scan_topic.empty() || o.pose_topic.empty() || o.out.empty()) {
     std::fprintf(stderr, "commerge import: give --scan-topic, --pose-topic and --out (or no topic, to list them)\n");
     return kExitUsage;
@@ -353,7 +351,7 @@ int RunImport(const ImportOptions& o) {
     return kExitFailure;
   }
   auto job = std::make_unique<BagImport>(o, *T_body_sensor);
-  return job->Run(&*reader);
+  return job->Run(reader->get());
 }
 
 }  // namespace

@@ -32,12 +32,14 @@ apt_install() { $SUDO apt-get install -y --no-install-recommends "$@"; }
 # ninja-build: tests/run.sh builds with Ninja (its scheduling keeps both cores busy through the link steps).
 # clang (14): the fuzz configuration (CM_FUZZ). libclang-rt-14-dev holds libFuzzer and clang's sanitizer runtimes
 # (-fsanitize=fuzzer,address,undefined); clang only reaches it through a Recommends, which apt_install skips.
+# liblz4, libbz2, libzstd, libsqlite3: the ROS recordings `commerge import` reads (platform/ros: bag chunks, MCAP
+# chunks, rosbag2 .db3).
 # python3-rosbag, -roslz4, -sensor-msgs, -nav-msgs, -geometry-msgs: the official ROS 1 bag writer and message
 # classes, which write the bag fixtures of the import tests (tests/apps/ros1_bag_fixture.py); tests only.
 host_pkgs=(cmake make ninja-build g++ pkg-config ca-certificates ccache
            liblcm-dev liblcm-bin liblcm-java default-jdk-headless
            libeigen3-dev libglpk-dev doctest-dev libmimalloc-dev libnanoflann-dev
-           libcli11-dev zlib1g-dev libsodium-dev liblz4-dev libbz2-dev time
+           libcli11-dev zlib1g-dev libsodium-dev liblz4-dev libbz2-dev libzstd-dev libsqlite3-dev time
            clang libclang-rt-14-dev
            nftables iproute2 xvfb libjchart2d-java default-jre
            patchelf systemd
@@ -67,7 +69,7 @@ if [ $cross -eq 1 ]; then
   # qemu-user-static: a static emulator that runs inside a chroot holding nothing but the aarch64 bundle.
   apt_install g++-aarch64-linux-gnu qemu-user qemu-user-static libc6-dev:arm64 \
               libglpk-dev:arm64 libmimalloc-dev:arm64 libglib2.0-0:arm64 zlib1g-dev:arm64 libsodium-dev:arm64 \
-              liblz4-dev:arm64 libbz2-dev:arm64
+              liblz4-dev:arm64 libbz2-dev:arm64 libzstd-dev:arm64 libsqlite3-dev:arm64
   # LCM has no Multi-Arch field: installing liblcm1:arm64 would remove the host LCM (and make lcm-gen an
   # aarch64 binary). Extract the arm64 packages into a private overlay instead (PLATFORM.md 3.2).
   overlay="$repo/.deps/sysroot-arm64-lcm"

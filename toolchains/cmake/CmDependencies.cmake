@@ -58,6 +58,23 @@ if(NOT TARGET cm_bz2)
                         INTERFACE_INCLUDE_DIRECTORIES "${BZIP2_INCLUDE_DIR}")
 endif()
 
+# libzstd and libsqlite3 (Debian libzstd-dev, libsqlite3-dev): zstd chunks of MCAP files and rosbag2 .db3
+# recordings (platform/ros).
+find_path(ZSTD_INCLUDE_DIR zstd.h REQUIRED)
+find_library(ZSTD_LIBRARY zstd REQUIRED)
+if(NOT TARGET cm_zstd)
+  add_library(cm_zstd UNKNOWN IMPORTED)
+  set_target_properties(cm_zstd PROPERTIES IMPORTED_LOCATION "${ZSTD_LIBRARY}"
+                        INTERFACE_INCLUDE_DIRECTORIES "${ZSTD_INCLUDE_DIR}")
+endif()
+find_path(SQLITE3_INCLUDE_DIR sqlite3.h REQUIRED)
+find_library(SQLITE3_LIBRARY sqlite3 REQUIRED)
+if(NOT TARGET cm_sqlite3)
+  add_library(cm_sqlite3 UNKNOWN IMPORTED)
+  set_target_properties(cm_sqlite3 PROPERTIES IMPORTED_LOCATION "${SQLITE3_LIBRARY}"
+                        INTERFACE_INCLUDE_DIRECTORIES "${SQLITE3_INCLUDE_DIR}")
+endif()
+
 # Header-only, from Debian: CLI11 (subcommands, --help, validation), nanoflann (k-d tree, used by registration).
 find_path(CLI11_INCLUDE_DIR CLI/CLI.hpp REQUIRED)
 if(NOT TARGET cm_cli11)
