@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <set>
@@ -141,13 +142,14 @@ int ListTopics(platform::RosMessageSource* reader, const std::string& bag) {
 }
 
 // Prepares DIR: created when missing; one that holds files is refused unless --force, which removes only what an
-// import writes (velodyne/, poses.txt, times.txt, import_info.txt).
+// import writes (velodyne/, point_times/, poses.txt, times.txt, import_info.txt).
 Status PrepareOutput(const std::string& out, bool force) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (fs::exists(out, ec) && !fs::is_empty(out, ec)) {
     if (!force) return InvalidArgument(out + ": exists and is not empty (--force replaces an import)");
     fs::remove_all(out + "/velodyne", ec);
+    fs::remove_all(out + "/point_times", ec);
     for (const char* f : {"poses.txt", "times.txt", "import_info.txt"}) fs::remove(out + "/" + f, ec);
   }
   fs::create_directories(out + "/velodyne", ec);
@@ -166,6 +168,8 @@ class BagImport {
   Status OnChannel(const platform::RosChannel& c);
   Status OnMessage(const platform::RosRecord& m);
   Status Drain();
+  void HoldPointTimes(std::int64_t utime_us);
+  Status WritePointTimes(std::int64_t utime_us, std::size_t k, std::size_t points);
   void Progress(const platform::RosMessageSource& reader, bool last);
   Status Finish();
   void PrintSummary() const;
@@ -178,6 +182,10 @@ class BagImport {
   std::string scan_type_, pose_type_;
   TopicTally scans_, poses_;
   platform::RosScan scan_;
+  // Per-point times of the scans the synchroniser holds, by stamp (at most max_pending_scans + 1 entries).
+  std::map<std::int64_t, std::vector<float>> point_times_;
+  std::string point_time_field_;
+  std::size_t point_time_files_ = 0;
   platform::RosPose pose_;
   std::vector<Eigen::Isometry3d> T_odom_sensor_;
   std::vector<double> times_s_;
@@ -217,6 +225,7 @@ Status BagImport::OnMessage(const platform::RosRecord& m) {
     scans_.decoded++;
     scans_.non_finite_points += scan_.non_finite_dropped;
     sync_.PushScan(scan_.stamp_ns / 1000, Span<const PointXYZI>(scan_.points));
+    HoldPointTimes(scan_.stamp_ns / 1000);
     return Drain();
   }
   if (auto it = pose_channels_.find(m.channel_id); it != pose_channels_.end()) {
@@ -241,9 +250,38 @@ Status BagImport::Drain() {
     if (T_odom_sensor_.empty()) first_utime_us_ = s.utime_us;
     const std::string path = o_.out + "/velodyne/" + platform::KittiScanFileName(T_odom_sensor_.size());
     if (Status st = platform::WriteKittiBin(path, s.points); !st.ok()) return st;
+    if (Status st = WritePointTimes(s.utime_us, T_odom_sensor_.size(), s.points.size()); !st.ok()) return st;
     T_odom_sensor_.push_back(s.T_odom_sensor);
     times_s_.push_back(1e-6 * static_cast<double>(s.utime_us - first_utime_us_));
   }
+  return Status::Ok();
+}
+
+// The cloud's per-point times (Ouster t, Velodyne time, Hesai timestamp, Livox offset_time) are kept beside the
+// scan, in point_times/<k>.bin (float32 seconds after the scan's stamp, one per point of velodyne/<k>.bin): the
+// KITTI record has no field for them.
+void BagImport::HoldPointTimes(std::int64_t utime_us) {
+  if (scan_.point_time_s.empty()) return;
+  point_time_field_ = scan_.point_time_field;
+  point_times_[utime_us] = scan_.point_time_s;
+  while (point_times_.size() > ScanOdometrySyncParams{}.max_pending_scans + 1) point_times_.erase(point_times_.begin());
+}
+
+Status BagImport::WritePointTimes(std::int64_t utime_us, std::size_t k, std::size_t points) {
+  auto it = point_times_.find(utime_us);
+  if (it == point_times_.end()) return Status::Ok();
+  std::vector<float> times = std::move(it->second);
+  point_times_.erase(point_times_.begin(), std::next(it));
+  if (times.size() != points) return Status::Ok();  // another scan of the same stamp: not this one's times
+  const std::string dir = o_.out + "/point_times";
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  const std::string path = dir + "/" + platform::KittiScanFileName(k);
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (f == nullptr) return IoError(path + ": cannot write");
+  const bool ok = std::fwrite(times.data(), sizeof(float), times.size(), f) == times.size();
+  if (std::fclose(f) != 0 || !ok) return IoError(path + ": cannot write");
+  ++point_time_files_;
   return Status::Ok();
 }
 
@@ -273,6 +311,10 @@ Status BagImport::Finish() {
                o_.bag.c_str(), o_.scan_topic.c_str(), scan_type_.c_str(), o_.pose_topic.c_str(), pose_type_.c_str(),
                o_.extrinsic.empty() ? "identity" : o_.extrinsic.c_str());
   std::fprintf(f, "first_scan_stamp_us: %" PRId64 "\nscans: %zu\n", first_utime_us_, T_odom_sensor_.size());
+  if (point_time_files_ > 0) {
+    std::fprintf(f, "point_times: %zu scans, from field %s (float32 s after the stamp)\n", point_time_files_,
+                 point_time_field_.c_str());
+  }
   if (std::fclose(f) != 0) return Status(StatusCode::kIoError, o_.out + "/import_info.txt: cannot write");
   return Status::Ok();
 }
@@ -281,6 +323,10 @@ void BagImport::PrintSummary() const {
   const ScanOdometrySyncStats& s = sync_.stats();
   std::printf("%s -> %s: %zu scans with poses (velodyne/*.bin, poses.txt, times.txt)\n", o_.bag.c_str(),
               o_.out.c_str(), T_odom_sensor_.size());
+  if (point_time_files_ > 0) {
+    std::printf("  per-point times of %zu scans (field %s) in point_times/*.bin\n", point_time_files_,
+                point_time_field_.c_str());
+  }
   std::printf("  %s (%s): %" PRIu64 " messages, %" PRIu64 " malformed (dropped), %" PRIu64
               " non-finite points dropped\n",
               o_.scan_topic.c_str(), scan_type_.c_str(), scans_.messages, scans_.malformed, scans_.non_finite_points);

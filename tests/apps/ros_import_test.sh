@@ -4,7 +4,7 @@
 # from KITTI-layout directories, converted back by `commerge import`, then merged by `commerge run`. Checks:
 #   1. the listing names every topic with its type and count and proposes the scan and pose topics;
 #   2. the imported directories hold the same points (float32 x y z, bit for bit) and the same poses (within 1e-9)
-#      as the directories the bags were written from;
+#      as the directories the bags were written from, and the clouds' per-point times in point_times/;
 #   3. `commerge run` on the imports gives the transforms of `commerge run` on the original directories (within
 #      1e-6), for a generated two-robot world (PointCloud2 in the Velodyne driver's layout: lz4 chunks and
 #      Odometry; bz2 chunks and PoseStamped) and, when ../shared/data is present, the real hku2 sequence in halves
@@ -93,6 +93,16 @@ grep -q '^would take: --scan-topic /velodyne_points --pose-topic /odom$' list.tx
 "$bin" import r0.bag --scan-topic /velodyne_points --pose-topic /odom --out imp0 > imp0.txt
 grep -q ': 80 scans with poses' imp0.txt || { cat imp0.txt; fail "import r0.bag: not 80 scans"; }
 grep -q 'scans dropped by the synchroniser: 0 ' imp0.txt || { cat imp0.txt; fail "import r0.bag: scans dropped"; }
+grep -q 'per-point times of 80 scans (field time) in point_times/\*.bin' imp0.txt || { cat imp0.txt; fail "import r0.bag: point times"; }
+# The Velodyne layout's per-point "time" (the fixture writes 0.1 s * i / n for point i of n) is kept per scan.
+"$py" - imp0/velodyne/000005.bin imp0/point_times/000005.bin <<'EOF' || fail "imp0/point_times/000005.bin: not the fixture's times"
+import struct, sys
+n = len(open(sys.argv[1], 'rb').read()) // 16
+t = open(sys.argv[2], 'rb').read()
+assert len(t) == 4 * n, (len(t), n)
+for i, (v,) in enumerate(struct.iter_unpack('<f', t)):
+    assert abs(v - 0.1 * i / n) < 1e-6, (i, v)
+EOF
 "$bin" import r1.bag --scan-topic /velodyne_points --pose-topic /pose --out imp1 > imp1.txt
 same_dataset sim/robot_0 imp0
 same_dataset sim/robot_1 imp1
