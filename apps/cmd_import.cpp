@@ -1,14 +1,16 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// `commerge import BAG --out DIR --scan-topic T --pose-topic T`: a ROS 1 bag (format 2.0; chunks uncompressed,
-// bz2 or lz4) into the KITTI-layout directory that `run`, `robot --data` and `feed` read. Scans are paired with
-// the odometry by their header stamps through the live input's synchroniser (core/agent/scan_odometry_sync.hpp):
-// the same interpolation and the same counted discards as `commerge robot --live`. Without the topics it lists
-// the bag's topics and says which it would take. The bag is read one chunk at a time (platform/ros/ros1_bag.hpp).
+// `commerge import INPUT --out DIR`: a recording or a scan session into the KITTI-layout directory that `run`,
+// `robot --data` and `feed` read.
+//   * a recording (ROS 1 bag: chunks uncompressed, bz2 or lz4; MCAP; rosbag2 .db3), with --scan-topic and
+//     --pose-topic: scans are paired with the odometry by their header stamps through the live input's
+//     synchroniser (core/agent/scan_odometry_sync.hpp), the same interpolation and counted discards as
+//     `commerge robot --live`; without the topics it lists the recording's topics and says which it would take. It
+//     is read one chunk at a time (platform/ros/message_source.hpp);
+//   * a folder of .pcd / .ply / .bin scans with --poses (apps/import_session.hpp).
 #include <CLI/CLI.hpp>
 
 #include <chrono>
 #include <cinttypes>
-#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -16,7 +18,6 @@
 #include <map>
 #include <memory>
 #include <set>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -24,11 +25,12 @@
 
 #include "apps/app_common.hpp"
 #include "apps/commands.hpp"
+#include "apps/import_session.hpp"
 #include "core/agent/scan_odometry_sync.hpp"
-#include "core/geometry/angles.hpp"
 #include "platform/io/kitti_bin.hpp"
 #include "platform/io/kitti_dataset_writer.hpp"
 #include "platform/io/poses.hpp"
+#include "platform/ros/extrinsic.hpp"
 #include "platform/ros/message_source.hpp"
 #include "platform/ros/ros_messages.hpp"
 
@@ -63,27 +65,6 @@ struct TopicTally {
   std::string first_error;
   std::uint64_t non_finite_points = 0;
 };
-
-Result<Eigen::Isometry3d> ParseExtrinsic(const std::string& text) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  if (text.empty()) return T;
-  std::istringstream in(text);
-  double v[6];
-  for (double& x : v) {
-    if (!(in >> x) || !std::isfinite(x)) {
-      return InvalidArgument("--extrinsic: want six numbers \"x y z roll pitch yaw\" [m, deg], got '" + text + "'");
-    }
-  }
-  std::string rest;
-  if (in >> rest) return InvalidArgument("--extrinsic: more than six numbers in '" + text + "'");
-  const double d2r = kPi / 180.0;
-  T.linear() = (Eigen::AngleAxisd(v[5] * d2r, Eigen::Vector3d::UnitZ()) *
-                Eigen::AngleAxisd(v[4] * d2r, Eigen::Vector3d::UnitY()) *
-                Eigen::AngleAxisd(v[3] * d2r, Eigen::Vector3d::UnitX()))
-                   .toRotationMatrix();
-  T.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
-  return T;
-}
 
 std::string KindText(RosMessageKind kind) {
   if (kind == RosMessageKind::kUnsupported) return "-";
@@ -160,7 +141,15 @@ Status PrepareOutput(const std::string& out, bool force) {
 class BagImport {
  public:
   BagImport(const ImportOptions& o, const Eigen::Isometry3d& T_body_sensor)
-      : o_(o), T_body_sensor_(T_body_sensor), sync_(ScanOdometrySyncParams{}) {}
+      : o_(o), T_body_sensor_(T_body_sensor), sync_(SyncParams()) {}
+
+  // The live input's rules, with room for the largest scan the live input carries (one 128 x 2048 scan): the
+  // robot that reads the import applies its own budget's limit.
+  static ScanOdometrySyncParams SyncParams() {
+    ScanOdometrySyncParams p;
+    p.max_points_per_scan = kMaxLidarScanPoints;
+    return p;
+  }
 
   int Run(platform::RosMessageSource* reader);
 
@@ -376,8 +365,27 @@ int BagImport::Run(platform::RosMessageSource* reader) {
   return kExitOk;
 }
 
-int RunImport(const ImportOptions& o) {
-  auto T_body_sensor = ParseExtrinsic(o.extrinsic);
+int RunImport(const ImportOptions& o, const SessionImportOptions& session) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(o.bag, ec)) {
+    if (!o.scan_topic.empty() || !o.pose_topic.empty() || !o.extrinsic.empty()) {
+      std::fprintf(stderr, "commerge import: %s is a folder of scans: --scan-topic, --pose-topic and --extrinsic "
+                           "apply to recordings; give --poses\n", o.bag.c_str());
+      return kExitUsage;
+    }
+    SessionImportOptions s = session;
+    s.dir = o.bag;
+    s.out = o.out;
+    s.force = o.force;
+    s.progress_s = o.progress_s;
+    return RunSessionImport(s);
+  }
+  if (!session.poses.empty() || !session.gt.empty()) {
+    std::fprintf(stderr, "commerge import: %s is a recording: --poses and --gt apply to a folder of scans; give "
+                         "--pose-topic\n", o.bag.c_str());
+    return kExitUsage;
+  }
+  auto T_body_sensor = platform::ParseExtrinsic(o.extrinsic);
   if (!T_body_sensor.ok()) {
     std::fprintf(stderr, "commerge import: %s\n", T_body_sensor.status().message().c_str());
     return kExitUsage;
@@ -404,26 +412,41 @@ int RunImport(const ImportOptions& o) {
 
 Command AddImportCommand(CLI::App& root) {
   auto o = std::make_shared<ImportOptions>();
+  auto session = std::make_shared<SessionImportOptions>();
   CLI::App* cmd = root.add_subcommand(
       "import",
-      "Convert a ROS 1 bag (scans + odometry) into a KITTI-layout directory for run, robot --data and feed; "
-      "without topics, list the bag's topics");
-  cmd->add_option("bag", o->bag, "ROS 1 bag (format 2.0; chunks uncompressed, bz2 or lz4)")->required();
-  cmd->add_option("--out", o->out, "Output directory (velodyne/*.bin, poses.txt, times.txt, import_info.txt)");
+      "Convert a ROS recording (ROS 1 bag, MCAP, rosbag2 .db3) or a folder of scans with a pose file into a "
+      "KITTI-layout directory for run, robot --data and feed; a recording without topics: list its topics");
+  cmd->add_option("input", o->bag,
+                  "A recording (ROS 1 bag: chunks uncompressed, bz2 or lz4; MCAP: chunks none, lz4 or zstd; rosbag2 "
+                  ".db3), or a folder of .pcd / .ply / .bin scans")
+      ->required();
+  cmd->add_option("--out", o->out,
+                  "Output directory (velodyne/*.bin, poses.txt, times.txt, import_info.txt; point_times/ when the "
+                  "clouds carry per-point times; poses_gt.txt with --gt)");
   cmd->add_option("--scan-topic", o->scan_topic,
-                  "Point clouds in the sensor (or body) frame: sensor_msgs/PointCloud2, livox_ros_driver/CustomMsg or "
-                  "livox_ros_driver2/CustomMsg");
+                  "Recording: point clouds in the sensor (or body) frame: sensor_msgs/PointCloud2, "
+                  "livox_ros_driver/CustomMsg or livox_ros_driver2/CustomMsg");
   cmd->add_option("--pose-topic", o->pose_topic,
-                  "Odometry of the body: nav_msgs/Odometry or geometry_msgs/PoseStamped; scans get the pose "
+                  "Recording: odometry of the body: nav_msgs/Odometry or geometry_msgs/PoseStamped; scans get the pose "
                   "interpolated at their header stamp");
   cmd->add_option("--extrinsic", o->extrinsic,
-                  "T_body_sensor as \"x y z roll pitch yaw\" [m, deg] (default identity: the clouds are in the pose's "
-                  "body frame)");
+                  "Recording: T_body_sensor as \"x y z roll pitch yaw\" [m, deg] (default identity: the clouds are in "
+                  "the pose's body frame)");
+  cmd->add_option("--poses", session->poses,
+                  "Folder of scans: one pose per scan, paired by index (KITTI 3x4, TUM, or CSV with a header line)");
+  cmd->add_option("--pose-format", session->pose_format, "Format of --poses")
+      ->check(CLI::IsMember({"auto", "kitti", "tum", "csv"}))
+      ->capture_default_str();
+  cmd->add_option("--gt", session->gt, "Folder of scans: ground truth, one pose per scan (written as poses_gt.txt)");
+  cmd->add_option("--gt-format", session->gt_format, "Format of --gt")
+      ->check(CLI::IsMember({"auto", "kitti", "tum", "csv"}))
+      ->capture_default_str();
   cmd->add_flag("--force", o->force, "Replace an earlier import in --out");
   cmd->add_option("--progress-s", o->progress_s, "Seconds between progress lines on stderr")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  return {cmd, [o]() -> int { return RunImport(*o); }};
+  return {cmd, [o, session]() -> int { return RunImport(*o, *session); }};
 }
 
 }  // namespace commerge::app

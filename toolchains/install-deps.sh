@@ -36,6 +36,9 @@ apt_install() { $SUDO apt-get install -y --no-install-recommends "$@"; }
 # chunks, rosbag2 .db3).
 # python3-rosbag, -roslz4, -sensor-msgs, -nav-msgs, -geometry-msgs: the official ROS 1 bag writer and message
 # classes, which write the bag fixtures of the import tests (tests/apps/ros1_bag_fixture.py); tests only.
+# libroscpp-dev, libtopic-tools-dev and the message packages: the optional commerge-ros1-bridge (host builds only);
+# ros-core (roscore), librosbag-dev (rosbag play), python3-rospy, python3-tf2-msgs: its end-to-end test.
+# pcl-tools: PCL's own PCD writer (binary, binary_compressed) for the scan-session import test; tests only.
 host_pkgs=(cmake make ninja-build g++ pkg-config ca-certificates ccache
            liblcm-dev liblcm-bin liblcm-java default-jdk-headless
            libeigen3-dev libglpk-dev doctest-dev libmimalloc-dev libnanoflann-dev
@@ -43,7 +46,10 @@ host_pkgs=(cmake make ninja-build g++ pkg-config ca-certificates ccache
            clang libclang-rt-14-dev
            nftables iproute2 xvfb libjchart2d-java default-jre
            patchelf systemd
-           python3-rosbag python3-roslz4 python3-sensor-msgs python3-nav-msgs python3-geometry-msgs)
+           python3-rosbag python3-roslz4 python3-sensor-msgs python3-nav-msgs python3-geometry-msgs
+           libroscpp-dev libtopic-tools-dev libsensor-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
+           ros-core librosbag-dev python3-rospy python3-tf2-msgs
+           pcl-tools)
 missing=()
 for p in "${host_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")

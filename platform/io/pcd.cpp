@@ -2,6 +2,9 @@
 #include "platform/io/pcd.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <functional>
 #include <map>
 #include <optional>
@@ -9,6 +12,7 @@
 #include <vector>
 
 #include "platform/io/file_util.hpp"
+#include "platform/io/lzf.hpp"
 #include "platform/io/record_layout.hpp"
 #include "platform/io/text_io.hpp"
 
@@ -21,7 +25,7 @@ using io_detail::HeaderLines;
 using io_detail::LineError;
 using io_detail::ScalarType;
 
-enum class PcdData { kAscii, kBinary };
+enum class PcdData { kAscii, kBinary, kBinaryCompressed };
 
 struct PcdHeader {
   std::vector<FieldSpec> fields;
@@ -183,10 +187,7 @@ Result<PcdData> ParseDataKind(const std::string& path, const HeaderEntry& entry)
   const std::string kind = entry.values.size() == 1 ? entry.values[0] : std::string();
   if (kind == "ascii") return PcdData::kAscii;
   if (kind == "binary") return PcdData::kBinary;
-  if (kind == "binary_compressed") {
-    return Unimplemented(path + ": DATA binary_compressed is not supported (unimplemented); re-save the cloud " +
-                         "with DATA binary or ascii");
-  }
+  if (kind == "binary_compressed") return PcdData::kBinaryCompressed;
   return DataLoss(LineError(path, entry.line, "DATA expects one of ascii, binary, binary_compressed"));
 }
 
@@ -244,6 +245,111 @@ Result<PointCloudFile> ReadAsciiData(std::FILE* f, const std::string& path, cons
   return cloud;
 }
 
+// DATA binary_compressed (PCL's writer): uint32 compressed size, uint32 uncompressed size, then the LZF-compressed
+// fields in column order (every point's value of field 1, then of field 2, ...; a field's COUNT elements stay
+// together). PCL pads the file with zeros after the block (to a page), so bytes after it are allowed.
+namespace pcd_compressed_impl {
+
+constexpr std::uint64_t kSizeFieldsBytes = 8;
+
+struct CompressedSizes {
+  std::uint32_t compressed_bytes = 0;
+  std::uint32_t uncompressed_bytes = 0;
+};
+
+/// The announced uncompressed size must be POINTS x record bytes, within 32 bits and what LZF can expand
+/// `compressed_bytes` to: all checked before anything is allocated.
+Status CheckUncompressedSize(const std::string& path, const CompressedSizes& sizes, std::uint64_t points,
+                             std::size_t record_bytes) {
+  const bool overflow = points > UINT64_MAX / record_bytes;
+  const std::string expected = overflow ? std::string("more than 2^64") : std::to_string(points * record_bytes);
+  const std::string announced = std::to_string(sizes.uncompressed_bytes);
+  if (overflow || points * record_bytes > UINT32_MAX) {
+    return DataLoss(path + ": POINTS " + std::to_string(points) + " x " + std::to_string(record_bytes) +
+                    " record bytes = " + expected + " bytes: more than DATA binary_compressed can hold (32-bit sizes)");
+  }
+  if (sizes.uncompressed_bytes != points * record_bytes) {
+    return DataLoss(path + ": DATA binary_compressed announces " + announced + " uncompressed bytes, but POINTS " +
+                    std::to_string(points) + " x " + std::to_string(record_bytes) + " record bytes = " + expected);
+  }
+  if (sizes.uncompressed_bytes > kLzfMaxExpansion * sizes.compressed_bytes) {
+    return DataLoss(path + ": DATA binary_compressed announces " + announced + " uncompressed bytes from " +
+                    std::to_string(sizes.compressed_bytes) + " compressed bytes; LZF expands at most " +
+                    std::to_string(kLzfMaxExpansion) + "-fold (corrupt sizes)");
+  }
+  return Status::Ok();
+}
+
+/// The two size fields, checked against the file size and the header.
+Result<CompressedSizes> ReadCompressedSizes(std::FILE* f, const std::string& path, std::uint64_t data_bytes,
+                                            std::uint64_t points, std::size_t record_bytes) {
+  if (data_bytes < kSizeFieldsBytes) {
+    return DataLoss(path + ": truncated: DATA binary_compressed needs 8 bytes of sizes after the header, the file " +
+                    "has " + std::to_string(data_bytes));
+  }
+  unsigned char raw[kSizeFieldsBytes];
+  if (std::fread(raw, 1, sizeof(raw), f) != sizeof(raw)) {
+    return IoError(path + ": read failed in the binary_compressed sizes: " + ShortReadReason(f));
+  }
+  CompressedSizes sizes;
+  std::memcpy(&sizes.compressed_bytes, raw, 4);
+  std::memcpy(&sizes.uncompressed_bytes, raw + 4, 4);
+  const std::uint64_t available = data_bytes - kSizeFieldsBytes;
+  if (sizes.compressed_bytes > available) {
+    return DataLoss(path + ": truncated: DATA binary_compressed announces " + std::to_string(sizes.compressed_bytes) +
+                    " compressed bytes, the file has " + std::to_string(available) + " after the size fields");
+  }
+  if (Status s = CheckUncompressedSize(path, sizes, points, record_bytes); !s.ok()) return s;
+  return sizes;
+}
+
+/// Reads and decompresses the block: the fields in column order.
+Result<std::vector<unsigned char>> ReadColumns(std::FILE* f, const std::string& path, const CompressedSizes& sizes) {
+  std::vector<unsigned char> compressed(sizes.compressed_bytes);
+  if (!compressed.empty() && std::fread(compressed.data(), 1, compressed.size(), f) != compressed.size()) {
+    return IoError(path + ": read failed in the binary_compressed data: " + ShortReadReason(f));
+  }
+  std::vector<unsigned char> columns(sizes.uncompressed_bytes);
+  const Status s = LzfDecompress(Span<const unsigned char>(compressed), Span<unsigned char>(columns));
+  if (!s.ok()) return DataLoss(path + ": DATA binary_compressed: " + s.message());
+  return columns;
+}
+
+/// Column order to records (the layout of DATA binary): field k of point i moves from
+/// points x (offset of field k) + i x (its bytes) to i x record bytes + (offset of field k).
+std::vector<unsigned char> ColumnsToRecords(const std::vector<unsigned char>& columns,
+                                            const std::vector<io_detail::FieldSpec>& fields, std::size_t points,
+                                            std::size_t record_bytes) {
+  std::vector<unsigned char> records(columns.size());
+  std::size_t offset = 0;
+  for (const io_detail::FieldSpec& field : fields) {
+    const std::size_t width = io_detail::ScalarSize(field.type) * field.count;
+    const unsigned char* column = columns.data() + points * offset;
+    for (std::size_t i = 0; i < points; ++i) std::memcpy(&records[i * record_bytes + offset], column + i * width, width);
+    offset += width;
+  }
+  return records;
+}
+
+Result<PointCloudFile> ReadCompressedData(std::FILE* f, const std::string& path, const PcdHeader& header,
+                                          const io_detail::RecordLayout& layout, std::uint64_t data_bytes) {
+  auto sizes = ReadCompressedSizes(f, path, data_bytes, header.points, layout.record_bytes);
+  if (!sizes.ok()) return sizes.status();
+  if (header.points == 0) return PointCloudFile{};  // the block is empty or fails to decompress into nothing
+  std::vector<unsigned char> records;
+  {
+    auto columns = ReadColumns(f, path, *sizes);
+    if (!columns.ok()) return columns.status();
+    records = ColumnsToRecords(*columns, header.fields, static_cast<std::size_t>(header.points), layout.record_bytes);
+  }
+  // Decoded as DATA binary is (the same conversions, robot-id checks and non-finite drops), from memory.
+  FilePtr memory(fmemopen(records.data(), records.size(), "rb"));
+  if (!memory) return IoError(path + ": cannot open the decompressed data as a stream: " + std::strerror(errno));
+  return io_detail::ReadBinaryRecords(memory.get(), path, layout, header.points, records.size());
+}
+
+}  // namespace pcd_compressed_impl
+
 std::string PcdHeaderText(std::size_t num_points, PcdEncoding encoding, bool with_robot) {
   const std::string n = std::to_string(num_points);
   std::string text = "# .PCD v0.7 - Point Cloud Data file format (written by commerge)\nVERSION 0.7\n";
@@ -289,6 +395,9 @@ Result<PointCloudFile> ReadPcd(const std::string& path) {
   const std::uint64_t data_bytes = *size - std::min(*size, lines.bytes_consumed());
   if (header->data == PcdData::kBinary) {
     return io_detail::ReadBinaryRecords(file->get(), path, *layout, header->points, data_bytes);
+  }
+  if (header->data == PcdData::kBinaryCompressed) {
+    return pcd_compressed_impl::ReadCompressedData(file->get(), path, *header, *layout, data_bytes);
   }
   return ReadAsciiData(file->get(), path, *layout, header->points, data_bytes, lines.line_number() + 1);
 }

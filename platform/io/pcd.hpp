@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// PCD point clouds (PCL's format, v0.7): a text header, then DATA ascii or binary records.
+// PCD point clouds (PCL's format, v0.7): a text header, then DATA ascii, binary or binary_compressed records.
 #pragma once
 
 #include <cstdint>
@@ -12,11 +12,16 @@
 
 namespace commerge::platform {
 
-/// Reads a PCD file with DATA ascii or binary (binary_compressed is unimplemented). Header keys VERSION,
+/// Reads a PCD file with DATA ascii, binary or binary_compressed. Header keys VERSION,
 /// FIELDS, SIZE, TYPE, COUNT, WIDTH, HEIGHT, VIEWPOINT, POINTS, DATA in any order ('#' comments allowed);
 /// fields in any order with TYPE F (SIZE 4/8), U or I (SIZE 1/2/4/8). x, y, z are required, intensity is
 /// optional (0 when absent), a "robot" field fills robot_ids; other fields are skipped. Points with a
 /// non-finite coordinate are dropped and counted. Every error message starts with `path`.
+/// binary_compressed (PCL's): uint32 compressed size, uint32 uncompressed size, then LZF data (platform/io/lzf.hpp)
+/// holding the fields in column order (all points' field 1, then field 2, ...). The uncompressed size must equal
+/// POINTS x record bytes and be at most kLzfMaxExpansion x the compressed size, which must fit in the file: all
+/// checked before allocating (a lying size is data loss, never a huge allocation). Bytes after the block are
+/// ignored (PCL pads the file to a page).
 Result<PointCloudFile> ReadPcd(const std::string& path);
 
 enum class PcdEncoding { kAscii, kBinary };

@@ -2,16 +2,16 @@
 #include "platform/ros/ros1_bag.hpp"
 
 #include <bzlib.h>
-#include <lz4frame.h>
 
 #include <algorithm>
 #include <cstring>
-#include <memory>
 #include <optional>
 #include <string_view>
 #include <utility>
 
 #include "core/common/little_endian.hpp"
+#include "platform/ros/container_util.hpp"
+#include "platform/ros/lz4_frame.hpp"
 
 namespace commerge::platform {
 
@@ -38,20 +38,8 @@ constexpr std::uint8_t kOpConnection = 0x07;
 constexpr const char* kRecordHeader = "the record header";
 constexpr const char* kConnectionHeader = "the connection header (record data)";
 
-std::uint64_t GetU64Le(const std::uint8_t* p) noexcept {
-  return static_cast<std::uint64_t>(GetU32Le(p)) | (static_cast<std::uint64_t>(GetU32Le(p + 4)) << 32);
-}
-
-/// Bytes from the file, quoted for an error message: non-printable bytes as '?', at most 64 of them.
-std::string Printable(Bytes bytes) {
-  std::string out = "\"";
-  for (std::size_t i = 0; i < bytes.size() && i < 64; ++i) {
-    const char c = static_cast<char>(bytes[i]);
-    out += (bytes[i] >= 0x20 && bytes[i] < 0x7f) ? c : '?';
-  }
-  if (bytes.size() > 64) out += "...";
-  return out + "\"";
-}
+using container::GetU64Le;
+using container::Printable;
 
 Bytes BytesOf(const std::string& s) { return Bytes(reinterpret_cast<const std::uint8_t*>(s.data()), s.size()); }
 
@@ -71,10 +59,6 @@ std::string OpName(int op) {
 const char* CompressionName(int compression) {
   static const char* const kNames[] = {"none", "bz2", "lz4"};
   return kNames[compression];
-}
-
-void EnsureSize(std::vector<std::uint8_t>* buffer, std::size_t bytes) {
-  if (buffer->size() < bytes) buffer->resize(bytes);
 }
 
 /// Checks that a header block is a sequence of (int32 length, "name=value") fields inside the block.
@@ -182,49 +166,6 @@ Result<Ros1Connection> ParseConnection(Bytes header, Bytes data) {
   const auto latching = FindField(data, "latching");
   c.latching = latching && latching->size() == 1 && (*latching)[0] == '1';
   return c;
-}
-
-struct LzDctxFree {
-  void operator()(LZ4F_dctx* dctx) const noexcept { LZ4F_freeDecompressionContext(dctx); }
-};
-
-/// One LZ4 frame (roslz4 writes the standard frame format) into exactly `out_size` bytes.
-Status DecompressLz4(Bytes in, std::uint8_t* out, std::size_t out_size) {
-  LZ4F_dctx* raw = nullptr;
-  if (LZ4F_isError(LZ4F_createDecompressionContext(&raw, LZ4F_VERSION))) {
-    return ResourceExhausted("lz4: cannot create a decompression context");
-  }
-  const std::unique_ptr<LZ4F_dctx, LzDctxFree> dctx(raw);
-  std::size_t in_pos = 0;
-  std::size_t out_pos = 0;
-  std::size_t hint = 1;
-  while (hint != 0) {
-    std::size_t out_avail = out_size - out_pos;
-    std::size_t in_avail = in.size() - in_pos;
-    hint = LZ4F_decompress(dctx.get(), out + out_pos, &out_avail, in.data() + in_pos, &in_avail, nullptr);
-    if (LZ4F_isError(hint)) {
-      return DataLoss(std::string("lz4: ") + LZ4F_getErrorName(hint) + " after " + std::to_string(in_pos) + " of " +
-                      std::to_string(in.size()) + " compressed bytes");
-    }
-    in_pos += in_avail;
-    out_pos += out_avail;
-    if (hint != 0 && in_avail == 0 && out_avail == 0) {
-      if (out_pos == out_size) {
-        return DataLoss("lz4: decompressed more than the " + std::to_string(out_size) +
-                        " bytes the chunk header says");
-      }
-      return DataLoss("lz4: the frame ends early (truncated) after " + std::to_string(out_pos) +
-                      " decompressed bytes; the chunk header says " + std::to_string(out_size));
-    }
-  }
-  if (out_pos != out_size) {
-    return DataLoss("lz4: decompressed " + std::to_string(out_pos) + " bytes, the chunk header says " +
-                    std::to_string(out_size));
-  }
-  if (in_pos != in.size()) {
-    return DataLoss("lz4: " + std::to_string(in.size() - in_pos) + " bytes after the end of the lz4 frame");
-  }
-  return Status::Ok();
 }
 
 /// One bzip2 stream into exactly `out_size` bytes.
@@ -387,6 +328,14 @@ Result<Ros1BagReader::RawRecord> Ros1BagReader::ReadFileRecord() {
   Status read = source_->ReadAt(file_pos_, 4, len_bytes);
   if (!read.ok()) return read;
   const std::uint32_t header_len = GetU32Le(len_bytes);
+  const Status length = CheckHeaderLength(header_len, left);
+  if (!length.ok()) return length;
+  read = container::ReadInto(source_, file_pos_ + 4, std::size_t{header_len} + 4, &header_buf_);
+  if (!read.ok()) return read;
+  return ParseRecord(header_buf_.data(), header_len, left);
+}
+
+Status Ros1BagReader::CheckHeaderLength(std::uint32_t header_len, std::uint64_t left) const {
   if (header_len > limits_.max_header_bytes) {
     return AboveLimit("record header", header_len, limits_.max_header_bytes, "max_header_bytes");
   }
@@ -394,12 +343,14 @@ Result<Ros1BagReader::RawRecord> Ros1BagReader::ReadFileRecord() {
     return Truncated("the record header of " + std::to_string(header_len) + " bytes (and the data length after it)",
                      left);
   }
-  bagfmt::EnsureSize(&header_buf_, std::size_t{header_len} + 4);
-  read = source_->ReadAt(file_pos_ + 4, std::size_t{header_len} + 4, header_buf_.data());
-  if (!read.ok()) return read;
+  return Status::Ok();
+}
+
+Result<Ros1BagReader::RawRecord> Ros1BagReader::ParseRecord(const std::uint8_t* header, std::uint32_t header_len,
+                                                            std::uint64_t left) {
   RawRecord record;
-  record.header = bagfmt::Bytes(header_buf_.data(), header_len);
-  record.data_len = GetU32Le(header_buf_.data() + header_len);
+  record.header = bagfmt::Bytes(header, header_len);
+  record.data_len = GetU32Le(header + header_len);
   const Status fields = bagfmt::CheckFields(record.header, bagfmt::kRecordHeader);
   if (!fields.ok()) return Located(fields);
   auto op = bagfmt::RequireField(record.header, bagfmt::kRecordHeader, "op", 1);
@@ -428,8 +379,7 @@ Result<Ros1BagReader::Step> Ros1BagReader::OnFileRecord(const RawRecord& record,
         return AboveLimit(connection ? "connection header" : "message data", record.data_len, limit,
                           connection ? "max_header_bytes" : "max_chunk_bytes");
       }
-      bagfmt::EnsureSize(&data_buf_, std::max<std::size_t>(record.data_len, 1));
-      const Status read = source_->ReadAt(data_offset, record.data_len, data_buf_.data());
+      const Status read = container::ReadInto(source_, data_offset, record.data_len, &data_buf_);
       if (!read.ok()) return read;
       const bagfmt::Bytes data(data_buf_.data(), record.data_len);
       return connection ? OnConnection(record.header, data) : OnMessage(record.header, data, record_offset_);
@@ -503,7 +453,7 @@ Status Ros1BagReader::LoadChunk(const RawRecord& record, std::uint64_t data_offs
 }
 
 Status Ros1BagReader::ReadChunkData(const RawRecord& record, std::uint64_t data_offset, std::uint32_t size) {
-  bagfmt::EnsureSize(&chunk_buf_, std::max<std::size_t>(size, 1));
+  container::EnsureSize(&chunk_buf_, std::max<std::size_t>(size, 1));
   if (chunk_compression_ == Compression::kNone) {
     if (record.data_len != size) {
       return ChunkLocated(DataLoss("the uncompressed chunk holds " + std::to_string(record.data_len) +
@@ -511,12 +461,13 @@ Status Ros1BagReader::ReadChunkData(const RawRecord& record, std::uint64_t data_
     }
     return source_->ReadAt(data_offset, size, chunk_buf_.data());
   }
-  bagfmt::EnsureSize(&compressed_buf_, std::max<std::size_t>(record.data_len, 1));
-  const Status read = source_->ReadAt(data_offset, record.data_len, compressed_buf_.data());
+  const Status read = container::ReadInto(source_, data_offset, record.data_len, &compressed_buf_);
   if (!read.ok()) return read;
   const bagfmt::Bytes in(compressed_buf_.data(), record.data_len);
-  const Status unpacked = chunk_compression_ == Compression::kLz4 ? bagfmt::DecompressLz4(in, chunk_buf_.data(), size)
-                                                                  : bagfmt::DecompressBz2(in, chunk_buf_.data(), size);
+  const Status unpacked =
+      chunk_compression_ == Compression::kLz4
+          ? DecompressLz4Frame(in, chunk_buf_.data(), size, "the chunk header says", Lz4Frames::kOne)
+          : bagfmt::DecompressBz2(in, chunk_buf_.data(), size);
   return unpacked.ok() ? unpacked : ChunkLocated(unpacked);
 }
 
@@ -544,27 +495,9 @@ Result<Ros1BagReader::RawRecord> Ros1BagReader::ParseChunkRecord() {
   if (left < 4) return Truncated("the 4-byte record header length field", left);
   const std::uint8_t* const start = chunk_buf_.data() + chunk_pos_;
   const std::uint32_t header_len = GetU32Le(start);
-  if (header_len > limits_.max_header_bytes) {
-    return AboveLimit("record header", header_len, limits_.max_header_bytes, "max_header_bytes");
-  }
-  if (std::uint64_t{header_len} + 8 > left) {
-    return Truncated("the record header of " + std::to_string(header_len) + " bytes (and the data length after it)",
-                     left);
-  }
-  RawRecord record;
-  record.header = bagfmt::Bytes(start + 4, header_len);
-  record.data_len = GetU32Le(start + 4 + header_len);
-  const Status fields = bagfmt::CheckFields(record.header, bagfmt::kRecordHeader);
-  if (!fields.ok()) return Located(fields);
-  auto op = bagfmt::RequireField(record.header, bagfmt::kRecordHeader, "op", 1);
-  if (!op.ok()) return Located(op.status());
-  record.op = (*op)[0];
-  record_op_ = record.op;
-  if (record.data_len > left - 8 - header_len) {
-    return Truncated("the " + bagfmt::OpName(record.op) + "'s data of " + std::to_string(record.data_len) + " bytes",
-                     left - 8 - header_len);
-  }
-  return record;
+  const Status length = CheckHeaderLength(header_len, left);
+  if (!length.ok()) return length;
+  return ParseRecord(start + 4, header_len, left);
 }
 
 Result<Ros1BagReader::Step> Ros1BagReader::OnChunkRecord(const RawRecord& record, bagfmt::Bytes data) {
@@ -638,41 +571,30 @@ std::uint64_t Ros1BagReader::size() const noexcept { return source_ ? source_->s
 // ---- Error messages ----------------------------------------------------------------------------------------------
 
 std::string Ros1BagReader::ChunkWhere() const {
-  return source_->name() + ": chunk at offset " + std::to_string(chunk_offset_) + " (" +
-         bagfmt::CompressionName(static_cast<int>(chunk_compression_)) + ")";
+  return container::ChunkWhere(source_->name(), chunk_offset_,
+                               bagfmt::CompressionName(static_cast<int>(chunk_compression_)));
 }
 
 std::string Ros1BagReader::Where() const {
   if (in_chunk_) {
-    return ChunkWhere() + ": " + bagfmt::OpName(record_op_) + " " + std::to_string(chunk_record_) + " at chunk byte " +
-           std::to_string(record_offset_);
+    return container::InChunkWhere(ChunkWhere(), bagfmt::OpName(record_op_), chunk_record_, record_offset_);
   }
   if (record_op_ == bagfmt::kOpChunk && chunk_offset_ == record_offset_) return ChunkWhere();
-  return source_->name() + ": " + bagfmt::OpName(record_op_) + " at offset " + std::to_string(record_offset_);
+  return container::InFileWhere(source_->name(), bagfmt::OpName(record_op_), record_offset_);
 }
 
-Status Ros1BagReader::Located(const Status& status) const {
-  return Status(status.code(), Where() + ": " + status.message());
-}
+Status Ros1BagReader::Located(const Status& status) const { return container::Prefixed(Where(), status); }
 
-Status Ros1BagReader::ChunkLocated(const Status& status) const {
-  return Status(status.code(), ChunkWhere() + ": " + status.message());
-}
+Status Ros1BagReader::ChunkLocated(const Status& status) const { return container::Prefixed(ChunkWhere(), status); }
 
 Status Ros1BagReader::Truncated(const std::string& what, std::uint64_t left) const {
-  if (in_chunk_) {
-    return Located(DataLoss(what + " ends past the end of the chunk (" + std::to_string(left) + " bytes left of " +
-                            std::to_string(chunk_size_) + ")"));
-  }
-  return DataLoss(source_->name() + ": truncated at offset " + std::to_string(record_offset_) + ": " + what +
-                  " ends past the end of the file (" + std::to_string(left) + " bytes left of " +
-                  std::to_string(source_->size()) + ")");
+  if (in_chunk_) return Located(container::PastChunkEnd(what, left, chunk_size_));
+  return container::PastFileEnd(*source_, record_offset_, what, left);
 }
 
 Status Ros1BagReader::AboveLimit(const std::string& what, std::uint64_t bytes, std::uint64_t limit,
                                  const char* field) const {
-  return Located(DataLoss(what + " of " + std::to_string(bytes) + " bytes is above the limit of " +
-                          std::to_string(limit) + " bytes (Ros1BagLimits::" + field + ")"));
+  return Located(container::AboveLimit(what, bytes, limit, "Ros1BagLimits", field));
 }
 
 }  // namespace commerge::platform

@@ -109,6 +109,11 @@ class Ros1BagReader {
   Result<Step> StepChunk();
   Result<RawRecord> ReadFileRecord();
   Result<RawRecord> ParseChunkRecord();
+  /// The header length against the limit and the bytes `left` from the record's start.
+  Status CheckHeaderLength(std::uint32_t header_len, std::uint64_t left) const;
+  /// The record whose header of `header_len` bytes (then the u32 data length) is at `header`: its fields and op
+  /// checked, its data length against the bytes `left` from the record's start.
+  Result<RawRecord> ParseRecord(const std::uint8_t* header, std::uint32_t header_len, std::uint64_t left);
   Result<Step> OnFileRecord(const RawRecord& record, std::uint64_t data_offset);
   Result<Step> OnChunkRecord(const RawRecord& record, Span<const std::uint8_t> data);
   Status LoadChunk(const RawRecord& record, std::uint64_t data_offset);

@@ -358,3 +358,4 @@ endif()
 
 include("${CMAKE_CURRENT_SOURCE_DIR}/apps/house_tests.cmake")
 include("${CMAKE_CURRENT_SOURCE_DIR}/apps/ros_tests.cmake")
+include("${CMAKE_CURRENT_SOURCE_DIR}/apps/ros1_bridge_tests.cmake")

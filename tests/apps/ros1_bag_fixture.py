@@ -8,11 +8,13 @@ message at the same stamp (the odometry stack publishes after it has processed t
 
 Usage: ros1_bag_fixture.py DIR[:FIRST-LAST] OUT.bag [--compression none|bz2|lz4] [--scan-type pointcloud2|livox]
                            [--pose-type odometry|posestamped] [--t0-s S] [--chunk-bytes 786432]
-                           [--extra-topic]
+                           [--extra-topic] [--scan-topic TOPIC] [--pose-topic TOPIC]
   pointcloud2: the Velodyne driver's layout (x y z intensity float32 at 0 4 8 16, ring uint16 at 20, time float32
                at 24, 32-byte points: gaps included)
   livox:       livox_ros_driver/CustomMsg (reflectivity = intensity rounded into 0..255)
   --extra-topic also writes a /rosout_agg-like string topic that the import must ignore
+  --scan-topic, --pose-topic: topic names (default /velodyne_points or /livox/lidar, and /odom or /pose), e.g.
+               one namespace per robot when several bags play into one ROS graph
 """
 import argparse
 import math
@@ -147,6 +149,8 @@ def main():
                     help='added to times.txt (default 1.7e9 when the times start near 0, else 0)')
     ap.add_argument('--chunk-bytes', type=int, default=768 * 1024)
     ap.add_argument('--extra-topic', action='store_true')
+    ap.add_argument('--scan-topic', default=None)
+    ap.add_argument('--pose-topic', default=None)
     a = ap.parse_args()
 
     data, first, last = a.data, 0, None
@@ -163,6 +167,8 @@ def main():
                  (data, len(scans), len(poses), len(times), first, last))
 
     t0 = a.t0_s if a.t0_s is not None else (1700000000.0 if times[first] < 1e8 else 0.0)
+    scan_topic = a.scan_topic or ('/livox/lidar' if a.scan_type == 'livox' else '/velodyne_points')
+    pose_topic = a.pose_topic or ('/odom' if a.pose_type == 'odometry' else '/pose')
     livox_type = None
     if a.scan_type == 'livox':
         classes = genpy.dynamic.generate_dynamic('livox_ros_driver/CustomMsg', LIVOX_MSG)
@@ -177,13 +183,12 @@ def main():
             header = Header(seq=seq, stamp=stamp, frame_id='lidar')
             if livox_type:
                 cloud = livox_cloud(livox_type, header, points, stamp_ns, 0.1)
-                bag.write('/livox/lidar', cloud, stamp)
+                bag.write(scan_topic, cloud, stamp)
             else:
-                bag.write('/velodyne_points', velodyne_cloud(header, points, 0.1), stamp)
+                bag.write(scan_topic, velodyne_cloud(header, points, 0.1), stamp)
             pose_header = Header(seq=seq, stamp=stamp, frame_id='odom')
             recv = stamp + rospy.Duration.from_sec(0.02)
-            bag.write('/odom' if a.pose_type == 'odometry' else '/pose', pose_message(a.pose_type, pose_header, poses[k]),
-                      recv)
+            bag.write(pose_topic, pose_message(a.pose_type, pose_header, poses[k]), recv)
             if a.extra_topic:
                 bag.write('/rosout_note', String(data='scan %d' % k), recv)
 

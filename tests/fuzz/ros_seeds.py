@@ -3,11 +3,18 @@
 """Seed corpora of the ROS fuzz targets, written by the official ROS 1 writer (Debian's python3-rosbag and the
 genpy message classes): SEEDS/ros1_bag/{none,bz2,lz4}.bag, small bags with PointCloud2, Livox CustomMsg,
 Odometry and PoseStamped messages; SEEDS/ros_messages/<kind>.bin, one ROS 1 message of each kind behind the fuzz
-target's selector byte (bit 0 the encoding, bits 1-2 the kind: tests/fuzz/fuzz_ros_messages.cpp).
+target's selector byte (bit 0 the encoding, bits 1-2 the kind: tests/fuzz/fuzz_ros_messages.cpp);
+SEEDS/mcap/{plain,chunked,lz4}.mcap, small MCAP files (records laid out here by the MCAP specification; the lz4
+chunk by roslz4, an LZ4 frame), as seeds only: the reader's tests against the official MCAP writer are in
+tests/apps/ros2_import_test.sh.
 Usage: ros_seeds.py SEEDS"""
 import io
 import os
+import struct
 import sys
+import zlib
+
+import roslz4
 
 import genpy.dynamic
 import rosbag
@@ -43,6 +50,41 @@ def messages():
                    ('odometry', 4, '/odom', odom), ('posestamped', 6, '/pose', pose)]
 
 
+MCAP_MAGIC = b'\x89MCAP0\r\n'
+
+
+def mcap_record(op, content):
+    return struct.pack('<BQ', op, len(content)) + content
+
+
+def mcap_string(text):
+    raw = text.encode()
+    return struct.pack('<I', len(raw)) + raw
+
+
+def mcap_file(chunk_compression):
+    """Header, a schema, a channel and three CDR messages (in a chunk unless chunk_compression is None), Data End,
+    Footer."""
+    schema = mcap_record(0x03, struct.pack('<H', 1) + mcap_string('nav_msgs/msg/Odometry') + mcap_string('ros2msg') +
+                         mcap_string('std_msgs/Header header\nstring child_frame_id\n'))
+    channel = mcap_record(0x04, struct.pack('<HH', 1, 1) + mcap_string('/odom') + mcap_string('cdr') +
+                          struct.pack('<I', 0))
+    body = schema + channel
+    for i in range(3):
+        data = b'\x00\x01\x00\x00' + struct.pack('<iI', 1700000000 + i, 500) + mcap_string('odom\0')
+        body += mcap_record(0x05, struct.pack('<HIQQ', 1, i, 10 + i, 10 + i) + data)
+    out = MCAP_MAGIC + mcap_record(0x01, mcap_string('ros2') + mcap_string('commerge seeds'))
+    if chunk_compression is None:
+        out += body
+    else:
+        packed = roslz4.compress(body) if chunk_compression == 'lz4' else body
+        out += mcap_record(0x06, struct.pack('<QQQI', 10, 12, len(body), zlib.crc32(body)) +
+                           mcap_string(chunk_compression if chunk_compression == 'lz4' else '') +
+                           struct.pack('<Q', len(packed)) + packed)
+    out += mcap_record(0x0F, struct.pack('<I', 0))
+    return out + mcap_record(0x02, struct.pack('<QQI', 0, 0, 0)) + MCAP_MAGIC
+
+
 def main():
     root = sys.argv[1]
     stamp, msgs = messages()
@@ -53,6 +95,10 @@ def main():
                         chunk_threshold=1024) as bag:
             for _, _, topic, msg in msgs + msgs:
                 bag.write(topic, msg, stamp)
+    os.makedirs(os.path.join(root, 'mcap'), exist_ok=True)
+    for name, compression in (('plain', None), ('chunked', 'none'), ('lz4', 'lz4')):
+        with open(os.path.join(root, 'mcap', name + '.mcap'), 'wb') as f:
+            f.write(mcap_file(compression))
     for name, selector, _, msg in msgs:
         buf = io.BytesIO()
         msg.serialize(buf)
