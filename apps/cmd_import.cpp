@@ -9,7 +9,9 @@
 //   * a folder of .pcd / .ply / .bin scans with --poses (apps/import_session.hpp).
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cinttypes>
 #include <cstdint>
 #include <cstdio>
@@ -30,6 +32,7 @@
 #include "platform/io/kitti_bin.hpp"
 #include "platform/io/kitti_dataset_writer.hpp"
 #include "platform/io/poses.hpp"
+#include "platform/io/scan_session.hpp"
 #include "platform/ros/extrinsic.hpp"
 #include "platform/ros/message_source.hpp"
 #include "platform/ros/ros_messages.hpp"
@@ -46,6 +49,8 @@ struct ImportOptions {
   std::string scan_topic;
   std::string pose_topic;
   std::string extrinsic;  // "x y z roll pitch yaw" [m, deg]: T_body_sensor
+  std::string gt;         // ground truth of the body (TUM / CSV with times: at the scans' stamps; KITTI: per scan)
+  std::string gt_format = "auto";
   bool force = false;
   double progress_s = 5.0;
 };
@@ -123,7 +128,7 @@ int ListTopics(platform::RosMessageSource* reader, const std::string& bag) {
 }
 
 // Prepares DIR: created when missing; one that holds files is refused unless --force, which removes only what an
-// import writes (velodyne/, point_times/, poses.txt, times.txt, import_info.txt).
+// import writes (velodyne/, point_times/, poses.txt, poses_gt.txt, times.txt, import_info.txt).
 Status PrepareOutput(const std::string& out, bool force) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -131,7 +136,7 @@ Status PrepareOutput(const std::string& out, bool force) {
     if (!force) return InvalidArgument(out + ": exists and is not empty (--force replaces an import)");
     fs::remove_all(out + "/velodyne", ec);
     fs::remove_all(out + "/point_times", ec);
-    for (const char* f : {"poses.txt", "times.txt", "import_info.txt"}) fs::remove(out + "/" + f, ec);
+    for (const char* f : {"poses.txt", "poses_gt.txt", "times.txt", "import_info.txt"}) fs::remove(out + "/" + f, ec);
   }
   fs::create_directories(out + "/velodyne", ec);
   if (ec) return Status(StatusCode::kIoError, out + "/velodyne: cannot create: " + ec.message());
@@ -161,6 +166,7 @@ class BagImport {
   Status WritePointTimes(std::int64_t utime_us, std::size_t k, std::size_t points);
   void Progress(const platform::RosMessageSource& reader, bool last);
   Status Finish();
+  Status WriteGroundTruth() const;
   void PrintSummary() const;
 
   const ImportOptions& o_;
@@ -294,6 +300,7 @@ Status BagImport::Finish() {
     return st;
   }
   if (Status st = platform::WriteTimes(o_.out + "/times.txt", Span<const double>(times_s_)); !st.ok()) return st;
+  if (Status st = WriteGroundTruth(); !st.ok()) return st;
   std::FILE* f = std::fopen((o_.out + "/import_info.txt").c_str(), "w");
   if (f == nullptr) return Status(StatusCode::kIoError, o_.out + "/import_info.txt: cannot write");
   std::fprintf(f, "source: %s\nscan_topic: %s (%s)\npose_topic: %s (%s)\nextrinsic_T_body_sensor: %s\n",
@@ -306,6 +313,46 @@ Status BagImport::Finish() {
   }
   if (std::fclose(f) != 0) return Status(StatusCode::kIoError, o_.out + "/import_info.txt: cannot write");
   return Status::Ok();
+}
+
+// --gt: the body's ground truth as poses_gt.txt, one T_gt_sensor = T_gt_body * T_body_sensor per written scan. A
+// file with times (TUM, CSV with a time column; the clock of the header stamps) is interpolated at each scan's stamp
+// (linear, slerp), and every scan must lie within its span; a file without times (KITTI) has one pose per scan.
+Status BagImport::WriteGroundTruth() const {
+  if (o_.gt.empty()) return Status::Ok();
+  auto format = platform::ParsePoseFileFormat(o_.gt_format);
+  if (!format.ok()) return format.status();
+  auto gt = platform::ReadTrajectory(o_.gt, *format);
+  if (!gt.ok()) return gt.status();
+  const std::vector<Eigen::Isometry3d>& T = gt->T_frame_sensor;
+  if (T.empty()) return InvalidArgument("--gt " + o_.gt + ": no pose");
+  std::vector<Eigen::Isometry3d> T_gt_sensor;
+  T_gt_sensor.reserve(times_s_.size());
+  for (std::size_t k = 0; k < times_s_.size(); ++k) {
+    if (gt->times_s.empty()) {
+      if (T.size() != times_s_.size()) {
+        return InvalidArgument("--gt " + o_.gt + ": " + std::to_string(T.size()) + " poses without times for " +
+                               std::to_string(times_s_.size()) + " scans (give times, TUM or CSV, or one pose per scan)");
+      }
+      T_gt_sensor.push_back(T[k] * T_body_sensor_);
+      continue;
+    }
+    // Stamps travel in microseconds here: a scan within 1 ms of either end takes the end pose.
+    const auto& ts = gt->times_s;
+    const double t = 1e-6 * static_cast<double>(first_utime_us_) + times_s_[k];
+    if (!(t >= ts.front() - 1e-3 && t <= ts.back() + 1e-3)) {
+      char text[160];
+      std::snprintf(text, sizeof(text), ": scan %zu at %.6f s lies outside its times %.6f .. %.6f s", k, t,
+                    ts.front(), ts.back());
+      return InvalidArgument("--gt " + o_.gt + text);
+    }
+    const double t_in = std::clamp(t, ts.front(), ts.back());
+    const std::size_t b = static_cast<std::size_t>(std::lower_bound(ts.begin(), ts.end(), t_in) - ts.begin());
+    const std::size_t a = ts[b] == t_in ? b : b - 1;
+    const double fraction = a == b ? 0.0 : (t_in - ts[a]) / (ts[b] - ts[a]);
+    T_gt_sensor.push_back(InterpolatePose(T[a], T[b], fraction) * T_body_sensor_);
+  }
+  return platform::WriteKittiPoses(o_.out + "/poses_gt.txt", Span<const Eigen::Isometry3d>(T_gt_sensor));
 }
 
 void BagImport::PrintSummary() const {
@@ -380,11 +427,14 @@ int RunImport(const ImportOptions& o, const SessionImportOptions& session) {
     s.progress_s = o.progress_s;
     return RunSessionImport(s);
   }
-  if (!session.poses.empty() || !session.gt.empty()) {
-    std::fprintf(stderr, "commerge import: %s is a recording: --poses and --gt apply to a folder of scans; give "
+  if (!session.poses.empty()) {
+    std::fprintf(stderr, "commerge import: %s is a recording: --poses applies to a folder of scans; give "
                          "--pose-topic\n", o.bag.c_str());
     return kExitUsage;
   }
+  ImportOptions with_gt = o;
+  with_gt.gt = session.gt;
+  with_gt.gt_format = session.gt_format;
   auto T_body_sensor = platform::ParseExtrinsic(o.extrinsic);
   if (!T_body_sensor.ok()) {
     std::fprintf(stderr, "commerge import: %s\n", T_body_sensor.status().message().c_str());
@@ -404,7 +454,7 @@ int RunImport(const ImportOptions& o, const SessionImportOptions& session) {
     std::fprintf(stderr, "commerge import: %s\n", st.message().c_str());
     return kExitFailure;
   }
-  auto job = std::make_unique<BagImport>(o, *T_body_sensor);
+  auto job = std::make_unique<BagImport>(with_gt, *T_body_sensor);
   return job->Run(reader->get());
 }
 
@@ -438,7 +488,9 @@ Command AddImportCommand(CLI::App& root) {
   cmd->add_option("--pose-format", session->pose_format, "Format of --poses")
       ->check(CLI::IsMember({"auto", "kitti", "tum", "csv"}))
       ->capture_default_str();
-  cmd->add_option("--gt", session->gt, "Folder of scans: ground truth, one pose per scan (written as poses_gt.txt)");
+  cmd->add_option("--gt", session->gt,
+                  "Ground truth, written as poses_gt.txt: folder of scans: one pose per scan; recording: the body's "
+                  "poses with times (TUM, CSV) interpolated at the scans' stamps, or one per imported scan (KITTI)");
   cmd->add_option("--gt-format", session->gt_format, "Format of --gt")
       ->check(CLI::IsMember({"auto", "kitti", "tum", "csv"}))
       ->capture_default_str();

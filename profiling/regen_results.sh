@@ -101,6 +101,7 @@ sections=(
   "round-cost|30 min|-|Five robots and memory sized from the work: Round cost at scale"
   "mission-long|1 h (12 GB of data)|root|Mission-long exchange"
   "peak-ram-town|15 min (12 GB of data)|root|Peak RAM of a Town-scale mission"
+  "import-memory|15 min (2 GB of data)|real, python3-rosbag|Import of a ROS bag: memory follows the largest message"
   "field-bundle|15 min|build-jetson (the cross build)|Field bundle"
   "ci-time|40 min|a clean clone of the repository|CI time"
 )
@@ -892,6 +893,35 @@ sec_peak_ram_town() {
   town peak-ram-town
   echo
   ctest_table peak-ram-town-smoke -R "profile town"
+}
+sec_import_memory() {
+  local d=$work/import-memory fixture=$repo/tests/apps/ros1_bag_fixture.py
+  rm -rf "$d" && mkdir -p "$d"
+  run_logged "$d/sim.log" "$bin" sim --world urban --robots 2 --overlap complete --lidar hdl64 --keyframes 300 \
+      --out "$d/sim" || { fail "commerge sim failed (see $d/sim.log)"; return; }
+  /usr/bin/python3 "$fixture" "$d/sim/robot_0" "$d/big.bag" --compression none >"$d/big.log" 2>&1 \
+    && /usr/bin/python3 "$fixture" "$data/real/hku2:0-133" "$d/hku2a.bag" --compression lz4 >"$d/small.log" 2>&1 \
+    || { fail "ros1_bag_fixture.py failed (see $d/big.log, $d/small.log)"; return; }
+  rm -rf "$d/sim"
+  echo "| bag | file | messages | largest message | chunks | peak RSS | wall |"
+  echo "|---|---|---|---|---|---|---|"
+  local name bag stats
+  for name in "hku2, first half (Livox Avia, PointCloud2)|hku2a" "generated urban, HDL-64|big"; do
+    bag=${name#*|}
+    set +e
+    "$here/peak-ram.sh" "$bin" import "$d/$bag.bag" --scan-topic /velodyne_points --pose-topic /odom \
+        --out "$d/$bag.imp" >"$d/$bag.import.log" 2>&1
+    local rc=$?
+    set -e
+    stats=$(/usr/bin/python3 -c 'import rosbag, sys
+b = rosbag.Bag(sys.argv[1])
+print("%d | %.2f MB | %d" % (b.get_message_count(), max(len(m[1]) for _, m, _ in b.read_messages(raw=True)) / 1e6,
+                             len(b._chunks)))' "$d/$bag.bag")
+    printf '| %s | %.1f MB | %s | %s |\n' "${name%|*}" "$(awk -v b="$(stat -c %s "$d/$bag.bag")" 'BEGIN { print b / 1e6 }')" "$stats" \
+        "$( [ "$rc" = 0 ] && grep -o 'peak RSS: [0-9.]* MiB' "$d/$bag.import.log" | sed 's/peak RSS: //' || echo "import failed") | $(grep -o 'wall [0-9.]* s' "$d/$bag.import.log" | sed 's/wall //')"
+    rm -rf "$d/$bag.imp"
+  done
+  rm -f "$d/big.bag"
 }
 sec_field_bundle() {
   local jet=$repo/build-jetson

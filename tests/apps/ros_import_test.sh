@@ -4,7 +4,8 @@
 # from KITTI-layout directories, converted back by `commerge import`, then merged by `commerge run`. Checks:
 #   1. the listing names every topic with its type and count and proposes the scan and pose topics;
 #   2. the imported directories hold the same points (float32 x y z, bit for bit) and the same poses (within 1e-9)
-#      as the directories the bags were written from, and the clouds' per-point times in point_times/;
+#      as the directories the bags were written from, the clouds' per-point times in point_times/, and --gt (a TUM
+#      file on the stamps' clock) interpolated at the scans' stamps;
 #   3. `commerge run` on the imports gives the transforms of `commerge run` on the original directories (within
 #      1e-6), for a generated two-robot world (PointCloud2 in the Velodyne driver's layout: lz4 chunks and
 #      Odometry; bz2 chunks and PoseStamped) and, when ../shared/data is present, the real hku2 sequence in halves
@@ -56,6 +57,34 @@ EOF
 "$bin" import r1.bag --scan-topic /velodyne_points --pose-topic /pose --out imp1 > imp1.txt
 same_dataset sim/robot_0 imp0
 same_dataset sim/robot_1 imp1
+# --gt: the simulator's ground truth as a TUM file on the stamps' clock (the fixture adds 1.7e9 s to times.txt),
+# interpolated at each imported scan's stamp, must give back poses_gt.txt.
+"$py" - sim/robot_0/poses_gt.txt sim/robot_0/times.txt gt0_tum.txt <<'EOF'
+import math, sys
+poses = [[float(x) for x in l.split()] for l in open(sys.argv[1]) if l.strip()]
+times = [float(x) for x in open(sys.argv[2]).read().split()]
+with open(sys.argv[3], 'w') as f:
+    f.write('# t x y z qx qy qz qw\n')
+    for t, v in zip(times, poses):
+        r = [[v[0], v[1], v[2]], [v[4], v[5], v[6]], [v[8], v[9], v[10]]]
+        w = math.sqrt(max(0.0, 1 + r[0][0] + r[1][1] + r[2][2])) / 2
+        x = math.copysign(math.sqrt(max(0.0, 1 + r[0][0] - r[1][1] - r[2][2])) / 2, r[2][1] - r[1][2])
+        y = math.copysign(math.sqrt(max(0.0, 1 - r[0][0] + r[1][1] - r[2][2])) / 2, r[0][2] - r[2][0])
+        z = math.copysign(math.sqrt(max(0.0, 1 - r[0][0] - r[1][1] + r[2][2])) / 2, r[1][0] - r[0][1])
+        f.write('%.9f %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n' % (1700000000.0 + t, v[3], v[7], v[11], x, y, z, w))
+EOF
+"$bin" import r0.bag --scan-topic /velodyne_points --pose-topic /odom --gt gt0_tum.txt --out imp0gt > imp0gt.txt
+"$py" - sim/robot_0/poses_gt.txt imp0gt/poses_gt.txt <<'EOF' || fail "imp0gt/poses_gt.txt: not the simulator's ground truth"
+import sys
+a, b = ([[float(x) for x in l.split()] for l in open(p) if l.strip()] for p in sys.argv[1:3])
+assert len(a) == len(b), (len(a), len(b))
+worst = max(abs(x - y) for la, lb in zip(a, b) for x, y in zip(la, lb))
+print('ground truth at the scans\' stamps agrees within %.1e' % worst)
+assert worst < 1e-4, worst
+EOF
+head -n 3 gt0_tum.txt > gt_short.txt
+expect_error "ground truth too short" 'gt_short\.txt: scan [0-9]+ at [0-9.]+ s lies outside its times' \
+  "$bin" import r0.bag --scan-topic /velodyne_points --pose-topic /odom --gt gt_short.txt --out imp0short
 "$bin" run sim/robot_0 sim/robot_1 --lidar vlp16 --out run_dir > run_dir.txt
 "$bin" run imp0 imp1 --lidar vlp16 --out run_bag > run_bag.txt
 same_transforms run_dir/transforms.txt run_bag/transforms.txt

@@ -1,0 +1,160 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// libFuzzer target for the rosbag2 sqlite3 reader (platform/ros/rosbag2_db3.hpp): the input is a whole .db3 file.
+// The reader opens a path (through libsqlite3), so each input is written to a per-process temporary file
+// (TempInputFile: /dev/shm, else $TMPDIR, else /tmp, with the pid in its name; rewritten per input, removed at
+// exit), then walked item by item until kEnd or the first error. Every input must be read or refused, never crash
+// (ASan, UBSan). Also checked, for every input:
+//   * an error (at Open or from Next()) is DataLoss, InvalidArgument or IoError and names the file; Next()
+//     repeats it;
+//   * kEnd repeats, and then position() == size(); position() never decreases and never passes size();
+//   * every channel is found by its id; every message is on an announced channel, its index in step with the
+//     messages seen, its bytes readable;
+//   * no single allocation exceeds kDb3AllocationBound(size): a row's blob is at most the file (SQLite refuses a
+//     record larger than page size x pages), + what SQLite allocates for itself: its page-cache bulk block (20
+//     pages of at most 64 KiB + headers, ~1.3 MiB) and a sorter buffer (ORDER BY without a usable index: at most
+//     the cache size, 2 MB by default). 4 MiB + the input size.
+// Seeds: tests/fuzz/ros_seeds.py (SEEDS/rosbag2_db3/: a small .db3 in rosbag2's schema, one Odometry topic).
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+
+#include "core/common/status.hpp"
+#include "platform/ros/message_source.hpp"
+#include "platform/ros/rosbag2_db3.hpp"
+#include "tests/fuzz/fuzz_container.hpp"
+#include "tests/fuzz/fuzz_support.hpp"
+
+namespace commerge::fuzz {
+namespace {
+
+constexpr ContainerTarget kTarget{"rosbag2_db3", "the .db3 input file", "channel"};
+
+/// Far above the items a fuzz input can hold.
+constexpr int kMaxSteps = 1 << 20;
+
+/// The largest single allocation allowed for an input of `size` bytes (see the comment at the top).
+std::size_t Db3AllocationBound(std::size_t size) { return (std::size_t{4} << 20) + size; }
+
+platform::Rosbag2Db3Limits FuzzLimits() {
+  platform::Rosbag2Db3Limits limits;
+  limits.max_topics = 256;
+  return limits;
+}
+
+/// The per-process file each input is written to; removed at exit.
+class TempInputFile {
+ public:
+  explicit TempInputFile(const char* suffix) {
+    const char* dir = "/dev/shm";
+    if (access(dir, W_OK) != 0) {
+      const char* tmp = std::getenv("TMPDIR");
+      dir = tmp != nullptr && *tmp != '\0' ? tmp : "/tmp";
+    }
+    path_ = std::string(dir) + "/cm_fuzz_" + std::to_string(static_cast<long>(getpid())) + suffix;
+  }
+  ~TempInputFile() { std::remove(path_.c_str()); }
+  TempInputFile(const TempInputFile&) = delete;
+  TempInputFile& operator=(const TempInputFile&) = delete;
+
+  const std::string& path() const noexcept { return path_; }
+
+  /// Replaces the file's contents with the input.
+  void Write(const std::uint8_t* data, std::size_t size) const {
+    std::FILE* f = std::fopen(path_.c_str(), "wb");
+    if (f == nullptr) Fail("cannot create the input file %s", path_.c_str());
+    const bool written = size == 0 || std::fwrite(data, 1, size, f) == size;
+    if (std::fclose(f) != 0 || !written) Fail("cannot write %zu bytes to the input file %s", size, path_.c_str());
+  }
+
+ private:
+  std::string path_;
+};
+
+/// A static object: destroyed (the file removed) when libFuzzer exits normally.
+const TempInputFile& InputFile() {
+  static const TempInputFile file(".db3");
+  return file;
+}
+
+/// Fails unless `status` is DataLoss, InvalidArgument or IoError and names `path`.
+void CheckError(const std::string& path, const Status& status, const char* where) {
+  const bool code_ok = status.code() == StatusCode::kDataLoss || status.code() == StatusCode::kInvalidArgument ||
+                       status.code() == StatusCode::kIoError;
+  if (!code_ok || status.message().find(path) == std::string::npos) {
+    Fail("rosbag2_db3: %s refused the input with '%s' (expected DataLoss, InvalidArgument or IoError naming %s)",
+         where, status.ToString().c_str(), path.c_str());
+  }
+}
+
+/// Walks `reader` to kEnd or its first error.
+void Walk(const std::string& path, platform::Rosbag2Db3Reader* reader) {
+  using Item = platform::RosMessageSource::Item;
+  std::uint64_t messages = 0;
+  std::uint64_t sink = 0;
+  std::uint64_t position = 0;
+  for (int step = 0; step < kMaxSteps; ++step) {
+    Result<Item> item = reader->Next();
+    if (reader->position() < position || reader->position() > reader->size()) {
+      Fail("rosbag2_db3: position() went from %llu to %llu (size() %llu)", static_cast<unsigned long long>(position),
+           static_cast<unsigned long long>(reader->position()), static_cast<unsigned long long>(reader->size()));
+    }
+    position = reader->position();
+    if (!item.ok()) {
+      CheckError(path, item.status(), "Next()");
+      Result<Item> again = reader->Next();
+      if (again.ok() || again.status().message() != item.status().message()) {
+        Fail("rosbag2_db3: Next() after the error '%s' did not return it again", item.status().message().c_str());
+      }
+      return;
+    }
+    if (*item == Item::kEnd) {
+      Result<Item> again = reader->Next();
+      if (!again.ok() || *again != Item::kEnd) Fail("rosbag2_db3: kEnd did not repeat");
+      if (reader->position() != reader->size()) Fail("rosbag2_db3: kEnd with position() below size()");
+      return;
+    }
+    if (*item == Item::kChannel) {
+      const platform::RosChannel& c = reader->channel();
+      if (reader->FindChannel(c.id) != &c) Fail("rosbag2_db3: channel %u is not found by its id", c.id);
+      sink += c.topic.size() + c.type.size();
+      continue;
+    }
+    const platform::RosRecord& m = reader->message();
+    ++messages;
+    sink += CheckContainerMessage(kTarget, reader->FindChannel(m.channel_id) != nullptr, m.channel_id, m.index,
+                                  messages, m.data);
+  }
+  Fail("rosbag2_db3: more than %d items from one input (sink %llu)", kMaxSteps,
+       static_cast<unsigned long long>(sink));
+}
+
+}  // namespace
+}  // namespace commerge::fuzz
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace commerge;        // NOLINT(google-build-using-namespace): a fuzz entry point
+  using namespace commerge::fuzz;  // NOLINT(google-build-using-namespace)
+  const TempInputFile& file = InputFile();
+  file.Write(data, size);
+  const std::size_t bound = Db3AllocationBound(size);
+  const bool watched = AllocationWatch::Available();
+  AllocationWatch watch;
+  {
+    auto reader = platform::Rosbag2Db3Reader::Open(file.path(), FuzzLimits());
+    if (!reader.ok()) {
+      CheckError(file.path(), reader.status(), "Open()");
+    } else {
+      Walk(file.path(), reader->get());
+    }
+  }
+  if (watched && watch.largest_bytes() > bound) {
+    Fail("rosbag2_db3: reading %zu bytes allocated one block of %zu bytes, above the bound of %zu", size,
+         watch.largest_bytes(), bound);
+  }
+  return 0;
+}
