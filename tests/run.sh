@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The whole test suite, from a fresh Debian 12 machine: installs the dependencies (apt, via
-# toolchains/install-deps.sh --cross), then builds and tests
+# toolchains/install-deps.sh --cross --ros), then builds and tests
 #   host     x86-64 RelWithDebInfo, every test including those labelled `heavy`
 #   asan     x86-64 clang Debug (-O1, toolchains/cmake/CmDefaults.cmake) with AddressSanitizer +
 #            UndefinedBehaviorSanitizer and libFuzzer's coverage (-DCM_SANITIZE=ON -DCM_FUZZ=ON): every test but
@@ -43,7 +43,7 @@ for arg in "$@"; do
 done
 [ ${#configs[@]} -gt 0 ] || configs=(host asan jetson)
 
-if [ $install -eq 1 ]; then bash toolchains/install-deps.sh --cross; fi
+if [ $install -eq 1 ]; then bash toolchains/install-deps.sh --cross --ros; fi
 
 jobs=$(nproc 2>/dev/null || echo 2)
 export CTEST_OUTPUT_ON_FAILURE=1

@@ -5,17 +5,22 @@
 #   toolchains/install-deps.sh --cross    also the aarch64 (Jetson Nano) cross toolchain, arm64 libraries,
 #                                         qemu-user, and the LCM arm64 overlay in .deps/sysroot-arm64-lcm
 #   toolchains/install-deps.sh --tools    also profiling tools (valgrind, heaptrack, hyperfine, ImageMagick)
+#   toolchains/install-deps.sh --ros      also Debian's ROS 1 (the optional commerge-ros1-bridge and its test) and the
+#                                         official writers of the import tests' fixtures (python3-rosbag, pcl-tools);
+#                                         tests/run.sh passes it, the Quickstart's first line does not
 # Runs apt-get as root (or through sudo). Safe to run again: installed packages are skipped by apt,
 # and the LCM overlay is only extracted when missing.
 set -euo pipefail
 
 cross=0
 tools=0
+ros=0
 for arg in "$@"; do
   case "$arg" in
     --cross) cross=1 ;;
     --tools) tools=1 ;;
-    -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
+    --ros) ros=1 ;;
+    -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
     *) echo "install-deps.sh: unknown option '$arg' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -45,11 +50,12 @@ host_pkgs=(cmake make ninja-build g++ pkg-config ca-certificates ccache
            libcli11-dev zlib1g-dev libsodium-dev liblz4-dev libbz2-dev libzstd-dev libsqlite3-dev time
            clang libclang-rt-14-dev
            nftables iproute2 xvfb libjchart2d-java default-jre
-           patchelf systemd
-           python3-rosbag python3-roslz4 python3-sensor-msgs python3-nav-msgs python3-geometry-msgs
-           libroscpp-dev libtopic-tools-dev libsensor-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
-           ros-core librosbag-dev python3-rospy python3-tf2-msgs
-           pcl-tools)
+           patchelf systemd)
+ros_pkgs=(python3-rosbag python3-roslz4 python3-sensor-msgs python3-nav-msgs python3-geometry-msgs
+          libroscpp-dev libtopic-tools-dev libsensor-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
+          ros-core librosbag-dev python3-rospy python3-tf2-msgs
+          pcl-tools)
+if [ $ros -eq 1 ]; then host_pkgs+=("${ros_pkgs[@]}"); fi
 missing=()
 for p in "${host_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
@@ -89,4 +95,4 @@ if [ $cross -eq 1 ]; then
   fi
 fi
 : "$need_update"
-echo "install-deps.sh: dependencies present (cross=$cross tools=$tools)"
+echo "install-deps.sh: dependencies present (cross=$cross tools=$tools ros=$ros)"
