@@ -21,9 +21,9 @@
 
 #include "apps/app_common.hpp"
 #include "apps/ros1_bridge/bridge_options.hpp"
-#include "platform/ros/extrinsic.hpp"
 #include "apps/ros1_bridge/input_forwarder.hpp"
 #include "apps/ros1_bridge/results_publisher.hpp"
+#include "platform/ros/extrinsic.hpp"
 
 namespace commerge::ros1_bridge {
 
