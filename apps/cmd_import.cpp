@@ -127,22 +127,6 @@ int ListTopics(platform::RosMessageSource* reader, const std::string& bag) {
   return kExitOk;
 }
 
-// Prepares DIR: created when missing; one that holds files is refused unless --force, which removes only what an
-// import writes (velodyne/, point_times/, poses.txt, poses_gt.txt, times.txt, import_info.txt).
-Status PrepareOutput(const std::string& out, bool force) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (fs::exists(out, ec) && !fs::is_empty(out, ec)) {
-    if (!force) return InvalidArgument(out + ": exists and is not empty (--force replaces an import)");
-    fs::remove_all(out + "/velodyne", ec);
-    fs::remove_all(out + "/point_times", ec);
-    for (const char* f : {"poses.txt", "poses_gt.txt", "times.txt", "import_info.txt"}) fs::remove(out + "/" + f, ec);
-  }
-  fs::create_directories(out + "/velodyne", ec);
-  if (ec) return Status(StatusCode::kIoError, out + "/velodyne: cannot create: " + ec.message());
-  return Status::Ok();
-}
-
 class BagImport {
  public:
   BagImport(const ImportOptions& o, const Eigen::Isometry3d& T_body_sensor)
@@ -450,7 +434,7 @@ int RunImport(const ImportOptions& o, const SessionImportOptions& session) {
     std::fprintf(stderr, "commerge import: give --scan-topic, --pose-topic and --out (or no topic, to list them)\n");
     return kExitUsage;
   }
-  if (Status st = PrepareOutput(o.out, o.force); !st.ok()) {
+  if (Status st = PrepareImportOutput(o.out, o.force); !st.ok()) {
     std::fprintf(stderr, "commerge import: %s\n", st.message().c_str());
     return kExitFailure;
   }

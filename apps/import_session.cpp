@@ -55,20 +55,6 @@ Status CheckOutputIsNotInput(const SessionImportOptions& o) {
   return Status::Ok();
 }
 
-/// Like `commerge import BAG`: OUT is created when missing; one that holds files is refused unless `force`, which
-/// removes only what an import writes (velodyne/ and kOutputFiles).
-Status PrepareOutput(const std::string& out, bool force) {
-  std::error_code ec;
-  if (fs::exists(out, ec) && !fs::is_empty(out, ec)) {
-    if (!force) return InvalidArgument(out + ": exists and is not empty (--force replaces an import)");
-    fs::remove_all(out + "/velodyne", ec);
-    for (const char* f : kOutputFiles) fs::remove(out + "/" + f, ec);
-  }
-  fs::create_directories(out + "/velodyne", ec);
-  if (ec) return Status(StatusCode::kIoError, out + "/velodyne: cannot create: " + ec.message());
-  return Status::Ok();
-}
-
 std::string FormatName(platform::PoseFileFormat f) {
   switch (f) {
     case platform::PoseFileFormat::kKitti: return "KITTI 3x4";
@@ -228,6 +214,20 @@ Result<platform::Trajectory> ReadGroundTruth(const SessionImportOptions& o, cons
 
 }  // namespace session_import_impl
 
+Status PrepareImportOutput(const std::string& out, bool force) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(out, ec) && !fs::is_empty(out, ec)) {
+    if (!force) return InvalidArgument(out + ": exists and is not empty (--force replaces an import)");
+    fs::remove_all(out + "/velodyne", ec);
+    fs::remove_all(out + "/point_times", ec);
+    for (const char* f : session_import_impl::kOutputFiles) fs::remove(out + "/" + f, ec);
+  }
+  fs::create_directories(out + "/velodyne", ec);
+  if (ec) return Status(StatusCode::kIoError, out + "/velodyne: cannot create: " + ec.message());
+  return Status::Ok();
+}
+
 int RunSessionImport(const SessionImportOptions& o) {
   using namespace session_import_impl;
   if (o.dir.empty() || o.poses.empty() || o.out.empty()) {
@@ -242,7 +242,7 @@ int RunSessionImport(const SessionImportOptions& o) {
   if (!session.ok()) return Fail(session.status());
   auto gt = ReadGroundTruth(o, *session);
   if (!gt.ok()) return Fail(gt.status());
-  if (Status st = PrepareOutput(o.out, o.force); !st.ok()) {
+  if (Status st = PrepareImportOutput(o.out, o.force); !st.ok()) {
     std::fprintf(stderr, "commerge import: %s\n", st.message().c_str());
     return kExitFailure;
   }

@@ -13,6 +13,8 @@
 
 #include <string>
 
+#include "core/common/status.hpp"
+
 namespace commerge::app {
 
 struct SessionImportOptions {
@@ -25,6 +27,11 @@ struct SessionImportOptions {
   bool force = false;                ///< --force: replace an earlier import in --out
   double progress_s = 5.0;           ///< --progress-s: seconds between progress lines on stderr
 };
+
+/// The output directory of either import (a recording or a session): created when missing; one that holds files is
+/// refused unless `force`, which removes only what an import writes (velodyne/, point_times/, poses.txt,
+/// poses_gt.txt, times.txt, import_info.txt) and nothing else.
+Status PrepareImportOutput(const std::string& out, bool force);
 
 /// Runs the import and prints its summary on stdout (errors on stderr, prefixed "commerge import: "). Returns
 /// kExitOk, kExitUsage (bad options, an invalid argument such as scans and poses of different counts, --out
