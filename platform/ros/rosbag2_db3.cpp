@@ -40,25 +40,51 @@ std::string ColumnText(sqlite3_stmt* stmt, int column) {
   return text == nullptr ? std::string() : std::string(reinterpret_cast<const char*>(text), static_cast<size_t>(n));
 }
 
+// SQLite's default allocator, wrapped by the cap (written once, before SQLite initialises; read-only after).
+sqlite3_mem_methods g_sqlite_default_allocator;
+
+bool AboveCap(int bytes) { return bytes < 0 || static_cast<std::size_t>(bytes) > kSqliteLargestBlockBytes; }
+
+void* CappedMalloc(int bytes) { return AboveCap(bytes) ? nullptr : g_sqlite_default_allocator.xMalloc(bytes); }
+
+void* CappedRealloc(void* block, int bytes) {
+  return AboveCap(bytes) ? nullptr : g_sqlite_default_allocator.xRealloc(block, bytes);
+}
+
 }  // namespace
 }  // namespace db3fmt
 
+bool InstallSqliteBlockCap() {
+  static const bool installed = [] {
+    if (sqlite3_config(SQLITE_CONFIG_GETMALLOC, &db3fmt::g_sqlite_default_allocator) != SQLITE_OK) return false;
+    sqlite3_mem_methods capped = db3fmt::g_sqlite_default_allocator;
+    capped.xMalloc = db3fmt::CappedMalloc;
+    capped.xRealloc = db3fmt::CappedRealloc;
+    return sqlite3_config(SQLITE_CONFIG_MALLOC, &capped) == SQLITE_OK;
+  }();
+  return installed;
+}
+
 void Rosbag2Db3Reader::DbClose::operator()(sqlite3* db) const noexcept { sqlite3_close_v2(db); }
 void Rosbag2Db3Reader::StmtFinalize::operator()(sqlite3_stmt* stmt) const noexcept { sqlite3_finalize(stmt); }
+void Rosbag2Db3Reader::BlobClose::operator()(sqlite3_blob* blob) const noexcept { sqlite3_blob_close(blob); }
 
 Rosbag2Db3Reader::~Rosbag2Db3Reader() {
-  messages_.reset();  // before the database it belongs to
+  blob_.reset();  // before the database they belong to
+  messages_.reset();
 }
 
 Result<std::unique_ptr<Rosbag2Db3Reader>> Rosbag2Db3Reader::Open(const std::string& path,
                                                                  const Rosbag2Db3Limits& limits) {
-  std::unique_ptr<Rosbag2Db3Reader> reader(new Rosbag2Db3Reader(path));
+  InstallSqliteBlockCap();
+  std::unique_ptr<Rosbag2Db3Reader> reader(new Rosbag2Db3Reader(path, limits));
   Status st = reader->OpenDatabase();
   if (st.ok()) st = reader->ReadSchemaVersion();
   if (st.ok()) st = reader->ReadTopics(limits);
   if (st.ok()) st = reader->CountMessages();
   if (!st.ok()) return st;
-  auto messages = reader->Prepare("SELECT topic_id, timestamp, data, id FROM messages ORDER BY timestamp, id",
+  auto messages = reader->Prepare("SELECT topic_id, timestamp, id, typeof(data), rowid FROM messages "
+                                  "ORDER BY timestamp, id",
                                   "not a rosbag2 sqlite3 database: reading the messages table");
   if (!messages.ok()) return messages.status();
   reader->messages_ = std::move(*messages);
@@ -76,6 +102,10 @@ Status Rosbag2Db3Reader::OpenDatabase() {
                                  nullptr);
   db_.reset(raw);  // closed even when the open failed
   if (rc != SQLITE_OK) return SqliteError(StatusCode::kIoError, "cannot open it");
+  // SQLite's default cache size, not the one a (corrupt) file header suggests: it sizes the sorter's buffer.
+  if (sqlite3_exec(db_.get(), "PRAGMA cache_size = -2000", nullptr, nullptr, nullptr) != SQLITE_OK) {
+    return SqliteError(StatusCode::kInvalidArgument, "not an sqlite3 database");
+  }
   return Status::Ok();
 }
 
@@ -172,25 +202,57 @@ Result<RosMessageSource::Item> Rosbag2Db3Reader::StepMessage() {
   }
   if (rc != SQLITE_ROW) return SqliteError(StatusCode::kDataLoss, row + " (in timestamp order)");
   const sqlite3_int64 topic_id = sqlite3_column_int64(stmt, 0);
-  const sqlite3_int64 id = sqlite3_column_int64(stmt, 3);
-  const std::string where = path_ + ": " + row + " (messages.id " + std::to_string(id) + ")";
+  const sqlite3_int64 id = sqlite3_column_int64(stmt, 2);
+  const std::string where = row + " (messages.id " + std::to_string(id) + ")";
   if (topic_id < 0 || topic_id > 0xFFFFFFFFll || FindChannel(static_cast<std::uint32_t>(topic_id)) == nullptr) {
-    return DataLoss(where + ": topic_id " + std::to_string(topic_id) + " is not in the topics table");
+    return DataLoss(path_ + ": " + where + ": topic_id " + std::to_string(topic_id) + " is not in the topics table");
   }
-  const int type = sqlite3_column_type(stmt, 2);
-  if (type != SQLITE_BLOB && type != SQLITE_NULL) {
-    return DataLoss(where + ": data is not a BLOB (sqlite type " + std::to_string(type) + ")");
+  const std::string type = db3fmt::ColumnText(stmt, 3);
+  if (type == "blob") {
+    const Status st = ReadData(sqlite3_column_int64(stmt, 4), where);
+    if (!st.ok()) return st;
+  } else if (type == "null") {
+    data_.clear();
+  } else {
+    return DataLoss(path_ + ": " + where + ": data is not a BLOB (sqlite type " + type + ")");
   }
-  const void* blob = sqlite3_column_blob(stmt, 2);
-  const int bytes = sqlite3_column_bytes(stmt, 2);
   message_.channel_id = static_cast<std::uint32_t>(topic_id);
   message_.log_time_ns = sqlite3_column_int64(stmt, 1);
-  message_.data = Span<const std::uint8_t>(static_cast<const std::uint8_t*>(blob),
-                                           blob == nullptr ? 0 : static_cast<std::size_t>(bytes));
+  message_.data = Span<const std::uint8_t>(data_.data(), data_.size());
   message_.offset = static_cast<std::uint64_t>(id);
   message_.index = rows_read_++;
   if (rows_read_ > row_count_) row_count_ = rows_read_;  // never past size()
   return Item::kMessage;
+}
+
+Status Rosbag2Db3Reader::ReadData(std::int64_t rowid, const std::string& row) {
+  int rc = SQLITE_OK;
+  if (blob_) {
+    rc = sqlite3_blob_reopen(blob_.get(), rowid);
+  } else {
+    sqlite3_blob* raw = nullptr;
+    rc = sqlite3_blob_open(db_.get(), "main", "messages", "data", rowid, 0, &raw);
+    blob_.reset(raw);
+  }
+  if (rc != SQLITE_OK) {
+    Status error = SqliteError(StatusCode::kDataLoss, row + ": opening its data");
+    blob_.reset();  // a handle whose reopen failed is unusable
+    return error;
+  }
+  const int bytes = sqlite3_blob_bytes(blob_.get());
+  if (bytes < 0 || static_cast<std::uint64_t>(bytes) > file_size_) {
+    return DataLoss(path_ + ": " + row + ": its data declares " + std::to_string(bytes) + " bytes, more than the " +
+                    std::to_string(file_size_) + "-byte file");
+  }
+  if (static_cast<std::uint64_t>(bytes) > limits_.max_message_bytes) {
+    return DataLoss(path_ + ": " + row + ": its data is " + std::to_string(bytes) + " bytes, above " +
+                    std::to_string(limits_.max_message_bytes) + " (Rosbag2Db3Limits::max_message_bytes)");
+  }
+  data_.resize(static_cast<std::size_t>(bytes));
+  if (bytes > 0 && sqlite3_blob_read(blob_.get(), data_.data(), bytes, 0) != SQLITE_OK) {
+    return SqliteError(StatusCode::kDataLoss, row + ": reading its data");
+  }
+  return Status::Ok();
 }
 
 const RosChannel* Rosbag2Db3Reader::FindChannel(std::uint32_t id) const noexcept {
@@ -206,8 +268,13 @@ std::uint64_t Rosbag2Db3Reader::position() const noexcept {
 }
 
 Status Rosbag2Db3Reader::SqliteError(StatusCode code, const std::string& what) const {
-  const char* text = db_ ? sqlite3_errmsg(db_.get()) : "out of memory";
-  return Status(code, path_ + ": " + what + ": sqlite: " + text);
+  if (!db_ || (sqlite3_errcode(db_.get()) & 0xFF) == SQLITE_NOMEM) {
+    // With the cap, SQLite asking for a block above it is what a corrupt record's declared size looks like.
+    return Status(StatusCode::kDataLoss, path_ + ": " + what + ": sqlite: out of memory (SQLite asked for a block " +
+                                             "above " + std::to_string(kSqliteLargestBlockBytes >> 20) +
+                                             " MiB, or the process has no memory left): a corrupt file?");
+  }
+  return Status(code, path_ + ": " + what + ": sqlite: " + sqlite3_errmsg(db_.get()));
 }
 
 }  // namespace commerge::platform

@@ -10,21 +10,30 @@
 // The file is opened read-only and immutable (SQLITE_OPEN_READONLY, URI "file:...?immutable=1": no lock, no
 // journal or -wal file looked at or created; a -wal file left by a writer that crashed is not applied). Every
 // topic is announced as a channel first (in id order), then the messages are stepped row by row from
-//   SELECT topic_id, timestamp, data, id FROM messages ORDER BY timestamp, id
-// (rosbag2's own read order; the timestamp_idx index that rosbag2 creates serves it), so memory is bounded by one
-// row, not by the file. RosChannel: id = topics.id, type = topics.type ("sensor_msgs/msg/PointCloud2"),
-// encoding kCdr for serialization_format "cdr"; another format is announced with it appended to the type in
-// parentheses ("... (json)"), which RosMessageKindOf() does not know, so `commerge import` lists it as unsupported.
-// RosRecord: log_time_ns = messages.timestamp, offset = messages.id (the row id: a db3 has no message offsets).
+//   SELECT topic_id, timestamp, id, typeof(data), rowid FROM messages ORDER BY timestamp, id
+// (rosbag2's own read order; the timestamp_idx index that rosbag2 creates serves it; without it SQLite sorts these
+// small columns, never the data). Each row's data is read through SQLite's incremental blob API into one buffer
+// of the reader, after its length is checked against the file's size and Rosbag2Db3Limits::max_message_bytes, so
+// memory is bounded by the largest message, not by the file. RosChannel: id = topics.id, type = topics.type
+// ("sensor_msgs/msg/PointCloud2"), encoding kCdr for serialization_format "cdr"; another format is announced with
+// it appended to the type in parentheses ("... (json)"), which RosMessageKindOf() does not know, so
+// `commerge import` lists it as unsupported. RosRecord: log_time_ns = messages.timestamp, offset = messages.id
+// (the row id: a db3 has no message offsets).
+//
+// SQLite's own allocations are capped at kSqliteLargestBlockBytes per block (InstallSqliteBlockCap): a corrupt
+// file can declare a record of gigabytes, from which SQLite sizes internal arrays before it finds the damage; the
+// cap turns that into an error (DataLoss, "SQLite asked for a block above ...") instead of the allocation.
 //
 // position() and size(): the file size, and file size x rows read / rows of the messages table (counted at Open),
 // rounded down; position() == size() at kEnd. Monotonic, and proportional to the messages walked.
 //
 // Errors name the file: not an sqlite3 database, a missing table or column ("not a rosbag2 sqlite3 database: ...:
 // no such table: topics"), a corrupt database (the sqlite error text and the message row), a message whose
-// topic_id is not in the topics table, data that is not a BLOB. After an error Next() returns it again.
+// topic_id is not in the topics table, data that is not a BLOB or longer than the file or the limit. After an
+// error Next() returns it again.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -36,12 +45,26 @@
 
 struct sqlite3;
 struct sqlite3_stmt;
+struct sqlite3_blob;
 
 namespace commerge::platform {
 
 struct Rosbag2Db3Limits {
-  std::uint32_t max_topics = 65536;  ///< rows of the topics table
+  std::uint32_t max_topics = 65536;                ///< rows of the topics table
+  std::uint64_t max_message_bytes = 512ull << 20;  ///< one message's data [bytes]
 };
+
+/// The largest block SQLite may allocate in this process once InstallSqliteBlockCap() has run [bytes]. SQLite's
+/// own blocks for reading a rosbag2 file are far smaller (page-cache bulk ~1.3 MiB at 64 KiB pages, sorter 2 MB at
+/// the cache size the reader sets, the overflow-page list of a message: 8 bytes per page of it).
+constexpr std::size_t kSqliteLargestBlockBytes = std::size_t{4} << 20;
+
+/// Routes SQLite's allocations through a check that refuses (SQLITE_NOMEM) any block above
+/// kSqliteLargestBlockBytes. Process-wide (SQLITE_CONFIG_MALLOC), so it must run before SQLite initialises:
+/// Rosbag2Db3Reader::Open calls it, and a process that uses SQLite before its first Open (a test writing
+/// databases) calls it first. Idempotent; returns whether the cap is in place (false: SQLite was initialised
+/// before, and the reader runs without the cap).
+bool InstallSqliteBlockCap();
 
 class Rosbag2Db3Reader final : public RosMessageSource {
  public:
@@ -71,21 +94,29 @@ class Rosbag2Db3Reader final : public RosMessageSource {
   struct StmtFinalize {
     void operator()(sqlite3_stmt* stmt) const noexcept;
   };
+  struct BlobClose {
+    void operator()(sqlite3_blob* blob) const noexcept;
+  };
   using Statement = std::unique_ptr<sqlite3_stmt, StmtFinalize>;
 
-  explicit Rosbag2Db3Reader(std::string path) : path_(std::move(path)) {}
+  Rosbag2Db3Reader(std::string path, const Rosbag2Db3Limits& limits) : path_(std::move(path)), limits_(limits) {}
   Status OpenDatabase();
   Result<Statement> Prepare(const char* sql, const char* what);
   Status ReadSchemaVersion();
   Status ReadTopics(const Rosbag2Db3Limits& limits);
   Status CountMessages();
   Result<Item> StepMessage();
+  /// Reads the data of messages row `rowid` into data_; `row` names it in errors.
+  Status ReadData(std::int64_t rowid, const std::string& row);
   /// "<path>: <what>: sqlite: <error text>"
   Status SqliteError(StatusCode code, const std::string& what) const;
 
   std::string path_;
+  Rosbag2Db3Limits limits_;
   std::unique_ptr<sqlite3, DbClose> db_;
   Statement messages_;
+  std::unique_ptr<sqlite3_blob, BlobClose> blob_;  ///< open on the last row read, moved with sqlite3_blob_reopen
+  std::vector<std::uint8_t> data_;                 ///< the last message's data
   std::vector<RosChannel> channels_;
   std::unordered_map<std::uint32_t, std::size_t> channel_index_;
   std::size_t announced_ = 0;

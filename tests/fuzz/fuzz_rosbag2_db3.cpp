@@ -9,10 +9,10 @@
 //   * kEnd repeats, and then position() == size(); position() never decreases and never passes size();
 //   * every channel is found by its id; every message is on an announced channel, its index in step with the
 //     messages seen, its bytes readable;
-//   * no single allocation exceeds kDb3AllocationBound(size): a row's blob is at most the file (SQLite refuses a
-//     record larger than page size x pages), + what SQLite allocates for itself: its page-cache bulk block (20
-//     pages of at most 64 KiB + headers, ~1.3 MiB) and a sorter buffer (ORDER BY without a usable index: at most
-//     the cache size, 2 MB by default). 4 MiB + the input size.
+//   * no single allocation exceeds Db3AllocationBound(size): a message's data is read into the reader's buffer
+//     only after its length is checked against the file's size, and SQLite's own blocks are capped at
+//     kSqliteLargestBlockBytes (4 MiB, platform/ros/rosbag2_db3.hpp); SQLite asking for more is refused and
+//     reported as an error. 4 MiB + the input size.
 // Seeds: tests/fuzz/ros_seeds.py (SEEDS/rosbag2_db3/: a small .db3 in rosbag2's schema, one Odometry topic).
 #include <unistd.h>
 

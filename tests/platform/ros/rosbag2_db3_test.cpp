@@ -6,6 +6,7 @@
 #include <doctest/doctest.h>
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <string>
@@ -19,6 +20,9 @@
 namespace commerge::platform::rosbag2_db3_test {
 
 enum class Layout { kIron, kHumble, kFoxy };
+
+// Before this process's first SQLite call (the tests write databases with SQLite before the reader opens them).
+const bool kSqliteCapInstalled = InstallSqliteBlockCap();
 
 void Exec(sqlite3* db, const std::string& sql) {
   char* error = nullptr;
@@ -65,15 +69,26 @@ void AddTopic(sqlite3* db, Layout layout, int id, const std::string& name, const
   Exec(db, sql + ");");
 }
 
+/// Inserts a zero-filled blob and writes `data` into it piece by piece (sqlite3_blob_write): no block of SQLite's
+/// as large as the message, which its allocation cap (InstallSqliteBlockCap) would refuse.
 void AddMessage(sqlite3* db, int topic_id, std::int64_t timestamp, const std::string& data) {
   sqlite3_stmt* stmt = nullptr;
   REQUIRE(sqlite3_prepare_v2(db, "INSERT INTO messages (topic_id, timestamp, data) VALUES (?, ?, ?)", -1, &stmt,
                              nullptr) == SQLITE_OK);
   sqlite3_bind_int(stmt, 1, topic_id);
   sqlite3_bind_int64(stmt, 2, timestamp);
-  sqlite3_bind_blob(stmt, 3, data.data(), static_cast<int>(data.size()), SQLITE_TRANSIENT);
+  sqlite3_bind_zeroblob(stmt, 3, static_cast<int>(data.size()));
   CHECK(sqlite3_step(stmt) == SQLITE_DONE);
   sqlite3_finalize(stmt);
+  if (data.empty()) return;
+  sqlite3_blob* blob = nullptr;
+  REQUIRE(sqlite3_blob_open(db, "main", "messages", "data", sqlite3_last_insert_rowid(db), 1, &blob) == SQLITE_OK);
+  constexpr std::size_t kPiece = std::size_t{1} << 20;
+  for (std::size_t at = 0; at < data.size(); at += kPiece) {
+    const std::size_t n = std::min(kPiece, data.size() - at);
+    CHECK(sqlite3_blob_write(blob, data.data() + at, static_cast<int>(n), static_cast<int>(at)) == SQLITE_OK);
+  }
+  sqlite3_blob_close(blob);
 }
 
 sqlite3* Create(const std::string& path) {
@@ -272,6 +287,146 @@ TEST_CASE("rosbag2 db3: a file that is not a database, or a cut or damaged one, 
   CHECK(refused > 0);
   auto missing = Rosbag2Db3Reader::Open(test::ScratchFile("missing.db3"));
   CHECK_FALSE(missing.ok());
+}
+
+/// SQLite's varint (sqlite3PutVarint): 7 bits per byte, most significant first; values below 2^56.
+std::string SqliteVarint(std::uint64_t v) {
+  std::string out(1, static_cast<char>(v & 0x7F));
+  for (v >>= 7; v != 0; v >>= 7) out.insert(out.begin(), static_cast<char>(0x80 | (v & 0x7F)));
+  return out;
+}
+
+std::uint64_t ReadSqliteVarint(const std::string& bytes, std::size_t* at) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) {
+    const auto b = static_cast<unsigned char>(bytes.at((*at)++));
+    v = (v << 7) | (b & 0x7F);
+    if ((b & 0x80) == 0) return v;
+  }
+  return (v << 8) | static_cast<unsigned char>(bytes.at((*at)++));
+}
+
+unsigned Be16(const std::string& bytes, std::size_t at) {
+  return (static_cast<unsigned char>(bytes.at(at)) << 8) | static_cast<unsigned char>(bytes.at(at + 1));
+}
+
+void PutBe16(std::string* bytes, std::size_t at, unsigned v) {
+  (*bytes)[at] = static_cast<char>(v >> 8);
+  (*bytes)[at + 1] = static_cast<char>(v & 0xFF);
+}
+
+/// Database file `bytes` (page size `page_size`, no reserved bytes) with the first cell of table-leaf page `page`
+/// (1-based, not page 1) rewritten so that its record declares `extra` x (page_size - 4) payload bytes more than
+/// it holds and a record header of `header_bytes` (< 128), more than the cell keeps on its page: the same rowid,
+/// local bytes and first overflow page (the local part's length depends on the payload size modulo page_size - 4
+/// only), behind a longer size varint; the new cell goes into the page's free space. SQLite then reads the header
+/// from the overflow pages, sizing its list of them from the declared payload.
+std::string InflateFirstCell(std::string bytes, std::size_t page_size, std::uint64_t page, std::uint64_t extra,
+                             unsigned header_bytes) {
+  const std::size_t off = (page - 1) * page_size;
+  REQUIRE(static_cast<unsigned char>(bytes.at(off)) == 0x0D);  // a table b-tree leaf
+  const unsigned cells = Be16(bytes, off + 3);
+  const unsigned content = Be16(bytes, off + 5);
+  std::size_t at = off + Be16(bytes, off + 8);
+  const std::uint64_t payload = ReadSqliteVarint(bytes, &at);
+  const std::uint64_t rowid = ReadSqliteVarint(bytes, &at);
+  // SQLite's local part of an overflowing table-leaf payload (btreeParseCellAdjustSizeForOverflow).
+  const std::uint64_t usable = page_size;
+  const std::uint64_t max_local = usable - 35;
+  const std::uint64_t min_local = (usable - 12) * 32 / 255 - 23;
+  REQUIRE(payload > max_local);  // the record overflows
+  const std::uint64_t surplus = min_local + (payload - min_local) % (usable - 4);
+  const std::uint64_t local = surplus <= max_local ? surplus : min_local;
+  std::string body = bytes.substr(at, local + 4);  // local bytes and the first overflow page number
+  REQUIRE((header_bytes > local && header_bytes < 128));
+  body[0] = static_cast<char>(header_bytes);  // the record's header-size varint
+  const std::string cell = SqliteVarint(payload + extra * (usable - 4)) + SqliteVarint(rowid) + body;
+  const std::size_t start = content - cell.size();
+  REQUIRE(start >= 8 + 2 * cells);  // above the cell pointer array
+  bytes.replace(off + start, cell.size(), cell);
+  PutBe16(&bytes, off + 8, static_cast<unsigned>(start));
+  PutBe16(&bytes, off + 5, static_cast<unsigned>(start));
+  return bytes;
+}
+
+void WriteFile(const std::string& path, const std::string& bytes) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  REQUIRE(f != nullptr);
+  REQUIRE(std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size());
+  std::fclose(f);
+}
+
+TEST_CASE("rosbag2 db3: a record declaring gigabytes is refused without SQLite allocating from that size") {
+  REQUIRE(kSqliteCapInstalled);
+  const std::string path = test::ScratchFile("inflated.db3");
+  sqlite3* db = Create(path);
+  Exec(db, "PRAGMA page_size = 512;");
+  CreateTables(db, Layout::kIron);
+  AddTopic(db, Layout::kIron, 1, "/odom", "nav_msgs/msg/Odometry");
+  AddMessage(db, 1, 5, std::string(560, 'm'));  // overflows a 512-byte page, 60 bytes on it
+  sqlite3_stmt* stmt = nullptr;
+  REQUIRE(sqlite3_prepare_v2(db, "SELECT rootpage FROM sqlite_master WHERE name = 'messages'", -1, &stmt, nullptr) ==
+          SQLITE_OK);
+  REQUIRE(sqlite3_step(stmt) == SQLITE_ROW);
+  const std::uint64_t root = static_cast<std::uint64_t>(sqlite3_column_int64(stmt, 0));
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+  {
+    auto whole = Rosbag2Db3Reader::Open(path);  // the file as written reads whole
+    REQUIRE(whole.ok());
+    const Walked w = Walk(whole->get());
+    CHECK(w.ended);
+    REQUIRE(w.messages.size() == 1);
+    CHECK(w.messages[0] == "1@5:" + std::string(560, 'm'));
+  }
+  // 2^20 more overflow pages: SQLite's list of the record's overflow pages alone would be 2^20 x 8 bytes = 8 MiB.
+  WriteFile(path, InflateFirstCell(test::ReadTextFile(path), 512, root, std::uint64_t{1} << 20, 100));
+  sqlite3_int64 used = 0;
+  sqlite3_int64 highest = 0;
+  REQUIRE(sqlite3_status64(SQLITE_STATUS_MEMORY_USED, &used, &highest, 1) == SQLITE_OK);
+  auto reader = Rosbag2Db3Reader::Open(path);
+  REQUIRE(reader.ok());
+  const Walked w = Walk(reader->get());
+  CHECK(w.messages.empty());
+  CHECK(w.status.code() == StatusCode::kDataLoss);
+  INFO(w.status.ToString());
+  CHECK(Has(w.status, path + ": message row 0 (in timestamp order): sqlite: out of memory"));
+  CHECK(Has(w.status, "SQLite asked for a block above 4 MiB"));
+  REQUIRE(sqlite3_status64(SQLITE_STATUS_MEMORY_USED, &used, &highest, 0) == SQLITE_OK);
+  CHECK(static_cast<std::uint64_t>(highest) < kSqliteLargestBlockBytes);
+}
+
+TEST_CASE("rosbag2 db3: a message larger than SQLite's block cap reads whole; one above max_message_bytes is "
+          "refused naming the limit") {
+  REQUIRE(kSqliteCapInstalled);
+  const std::string path = test::ScratchFile("large.db3");
+  sqlite3* db = Create(path);
+  CreateTables(db, Layout::kHumble);
+  AddTopic(db, Layout::kHumble, 1, "/velodyne_points", "sensor_msgs/msg/PointCloud2");
+  std::string cloud(kSqliteLargestBlockBytes + 12345, '\0');
+  std::uint32_t x = 12345;
+  for (char& c : cloud) c = static_cast<char>((x = x * 1664525u + 1013904223u) >> 24);
+  AddMessage(db, 1, 7, cloud);
+  AddMessage(db, 1, 9, "small");
+  sqlite3_close(db);
+  auto reader = Rosbag2Db3Reader::Open(path);
+  REQUIRE(reader.ok());
+  const Walked w = Walk(reader->get());
+  REQUIRE(w.status.ok());
+  REQUIRE(w.messages.size() == 2);
+  CHECK(w.messages[0] == "1@7:" + cloud);
+  CHECK(w.messages[1] == "1@9:small");
+
+  Rosbag2Db3Limits limits;
+  limits.max_message_bytes = cloud.size() - 1;
+  auto limited = Rosbag2Db3Reader::Open(path, limits);
+  REQUIRE(limited.ok());
+  const Walked refused = Walk(limited->get());
+  CHECK(refused.messages.empty());
+  CHECK(refused.status.code() == StatusCode::kDataLoss);
+  CHECK(Has(refused.status, path + ": message row 0 (messages.id 1): its data is " + std::to_string(cloud.size()) +
+                                " bytes, above " + std::to_string(cloud.size() - 1) +
+                                " (Rosbag2Db3Limits::max_message_bytes)"));
 }
 
 }  // namespace commerge::platform::rosbag2_db3_test
