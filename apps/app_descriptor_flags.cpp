@@ -52,6 +52,14 @@ void AddDescriptorFlags(CLI::App* cmd, DescriptorFlags* flags) {
                   "[m^2; paper: tau_ICP]")
       ->check(CLI::Range(1e-4, 100.0))
       ->capture_default_str();
+  cmd->add_option("--record-descriptor-bits", flags->record_descriptor_bits,
+                  "ring and solid: keyframes travel in compact batches (poses on a 1 mm grid, each keyframe predicted "
+                  "from the one before) with this many bits per descriptor value, 4..14; 0 sends the 92-byte record "
+                  "per keyframe (14 bits). The server takes both [bits]")
+      ->check(CLI::Range(0, kCompactMaxDescriptorBits) &
+              CLI::Validator([](const std::string& v) { return v == "1" || v == "2" || v == "3" ? "0 or 4..14" : ""; },
+                             "0 or 4..14"))
+      ->capture_default_str();
   cmd->add_option("--odometry-roll-pitch-sigma-deg", flags->odometry_roll_pitch_sigma_deg,
                   "the odometry's uncertainty of a keyframe step's roll and pitch in the robot's pose graph (yaw: "
                   "0.29 deg). LiDAR-inertial odometry (FAST-LIO2, the paper's) keeps them by gravity; without an IMU "

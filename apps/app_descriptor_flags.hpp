@@ -12,6 +12,7 @@
 #include <string>
 
 #include "core/agent/merge_server.hpp"
+#include "core/agent/robot_agent.hpp"
 #include "core/descriptor/place_descriptor.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/slam/robot_mapper.hpp"
@@ -46,6 +47,9 @@ struct DescriptorFlags {
   /// --odometry-roll-pitch-sigma-deg: how well the odometry knows a keyframe step's roll and pitch
   /// (RobotMapperParams::odometry_sigma_roll_pitch_rad, in degrees).
   double odometry_roll_pitch_sigma_deg = RobotMapperParams{}.odometry_sigma_roll_pitch_rad * 180.0 / kPi;
+  /// --record-descriptor-bits: ring and SOLiD keyframes travel in compact batches with this many bits per
+  /// descriptor value, or as 92-byte records (0) (RobotAgentParams::record_descriptor_bits).
+  int record_descriptor_bits = kDefaultRecordDescriptorBits;
 };
 /// The robot's stored-scan voxel parameters from the flags (RobotMapperParams::voxel).
 AdaptiveVoxelParams StoredScanVoxel(const DescriptorFlags& flags);

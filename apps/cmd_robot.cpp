@@ -39,6 +39,16 @@ namespace commerge::app {
 
 namespace {
 
+/// Keyframes per batch when --records-per-batch is not given: one keyframe_batch_t inside one 1500-byte datagram.
+std::size_t DefaultRecordsPerBatch(KeyframeRecordKind kind) {
+  switch (kind) {
+    case KeyframeRecordKind::kScanContext: return 1;   // 1226 B
+    case KeyframeRecordKind::kUnit40: return 12;       // 12 x 92 B
+    case KeyframeRecordKind::kCompact40: return 32;    // 20-35 B a keyframe
+  }
+  return 1;
+}
+
 struct RobotOptions {
   int id = 0;
   std::string data;
@@ -53,7 +63,7 @@ struct RobotOptions {
   double keyframe_spacing_m = 1.0;
   // One keyframe_batch_t / pose_update_t stays inside one UDP datagram at a 1500-byte MTU (WiFi): LCM drops a
   // whole message when one IP fragment is lost. 12 records = about 1.2 kB encoded, 32 poses = about 1.1 kB.
-  std::size_t records_per_batch = 0;  ///< 0: as many as fit one 1500-byte datagram (12 of 92 B, 1 of 1226 B)
+  std::size_t records_per_batch = 0;  ///< 0: DefaultRecordsPerBatch of the record kind
   std::size_t poses_per_update = 32;
   std::string lcm_url;
   double bandwidth_kbps = 4000.0;
@@ -189,9 +199,11 @@ int RobotProcess::Configure() {
   agent_params.mapper.loop.max_icp_mean_squared_residual_m2 = o_.descriptor.tau_icp_m2;
   agent_params.mapper.odometry_sigma_roll_pitch_rad = o_.descriptor.odometry_roll_pitch_sigma_deg * kPi / 180.0;
   agent_params.mapper.voxel = StoredScanVoxel(o_.descriptor);
-  agent_params.max_records_per_batch =
-      o_.records_per_batch > 0 ? o_.records_per_batch
-                               : (RecordKindForDescriptor(o_.descriptor.name) == KeyframeRecordKind::kScanContext ? 1 : 12);
+  agent_params.record_descriptor_bits = o_.descriptor.record_descriptor_bits;
+  agent_params.max_records_per_batch = o_.records_per_batch > 0 ? o_.records_per_batch
+                                                                : DefaultRecordsPerBatch(RobotRecordKind(
+                                                                      descriptor_->kind(),
+                                                                      o_.descriptor.record_descriptor_bits));
   agent_params.max_poses_per_update = o_.poses_per_update;
   RobotLinkParams link_params;
   link_params.resend_timeout_s = o_.resend_timeout_s;
@@ -514,7 +526,7 @@ int RobotProcess::Finish(bool merged) {
               inbox_.last_rejection.empty() ? "" : "; last: ", inbox_.last_rejection.c_str());
   std::printf("robot %d %s\n", o_.id, AuthSummary(*bus_).c_str());
   if (o_.live) PrintLiveInputSummary();
-  auto digest = RobotDeliveryDigest(agent_->mapper());
+  auto digest = RobotDeliveryDigest(agent_->mapper(), agent_->params().record_descriptor_bits);
   std::printf("robot %d session %lld: %s\n", o_.id, static_cast<long long>(session_),
               digest.ok() ? digest->ToText().c_str() : digest.status().message().c_str());
   std::printf("%s\n", PeakRssLine().c_str());
@@ -575,8 +587,9 @@ Command AddRobotCommand(CLI::App& root) {
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m, "distance between keyframes [m]")->capture_default_str();
   cmd->add_option("--lcm-url", o->lcm_url, "LCM provider URL (default: LCM_DEFAULT_URL)");
   cmd->add_option("--records-per-batch", o->records_per_batch, "keyframe records per keyframe batch (default: as many "
-                  "as keep one message inside one 1500-byte datagram: 12 records of 92 bytes, 1 Scan Context record "
-                  "of 1226 bytes)")->check(CLI::Range(1, 512));
+                  "as keep one message inside one 1500-byte datagram: 32 keyframes of a compact batch at 20-35 bytes "
+                  "each, 12 records of 92 bytes with --record-descriptor-bits 0, 1 Scan Context record of 1226 "
+                  "bytes)")->check(CLI::Range(1, 512));
   cmd->add_option("--poses-per-update", o->poses_per_update, "poses per pose update (the default keeps one message "
                   "inside one 1500-byte datagram)")->check(CLI::Range(1, 4096))->capture_default_str();
   cmd->add_option("--bandwidth-kbps", o->bandwidth_kbps, "cap on what this robot sends [kbit/s] (0 = none; the "

@@ -269,6 +269,7 @@ int CreateRobots(RunJob* job) {
     agent_params.mapper.loop.max_icp_mean_squared_residual_m2 = job->options.descriptor.tau_icp_m2;
     agent_params.mapper.odometry_sigma_roll_pitch_rad = job->options.descriptor.odometry_roll_pitch_sigma_deg * kPi / 180.0;
     agent_params.mapper.voxel = StoredScanVoxel(job->options.descriptor);
+    agent_params.record_descriptor_bits = job->options.descriptor.record_descriptor_bits;
     r.agent = std::make_unique<RobotAgent>(ri, agent_params, capacity, r.descriptor.get(), r.store.get());
   }
   return kExitOk;

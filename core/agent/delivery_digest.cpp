@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/agent/merge_server.hpp"
+#include "core/descriptor/compact_batch_codec.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
 #include "core/slam/robot_mapper.hpp"
 
@@ -40,23 +41,34 @@ std::string DeliveryDigest::ToText() const {
   return text;
 }
 
-Result<DeliveryDigest> RobotDeliveryDigest(const RobotMapper& mapper) {
+Result<DeliveryDigest> RobotDeliveryDigest(const RobotMapper& mapper, int record_descriptor_bits) {
   DeliveryDigest d;
   d.digest = kFnvOffset;
   d.keyframes = mapper.num_keyframes();
   d.delivered = d.keyframes;
   // The record kind RobotAgent sends for this mapper's descriptor.
-  const KeyframeRecordKind kind = RecordKindOf(mapper.descriptor_kind());
+  const KeyframeRecordKind kind = RobotRecordKind(mapper.descriptor_kind(), record_descriptor_bits);
   std::vector<std::uint8_t> bytes(KeyframeRecordBytesOf(kind));
   std::vector<float> sent(KeyframeRecordDimOf(kind));
   for (std::size_t k = 0; k < mapper.num_keyframes(); ++k) {
     if (!mapper.descriptor_valid(k)) continue;
     const KeyframePose pose{static_cast<std::uint32_t>(k), mapper.pose(k)};
-    if (Status st = EncodeRecordOfKind(kind, pose, mapper.descriptor(k), Span<std::uint8_t>(bytes)); !st.ok()) {
-      return st;
+    if (kind == KeyframeRecordKind::kCompact40) {
+      // A compact batch decodes each keyframe as its quantisation alone.
+      CompactKeyframe keyframe;
+      keyframe.pose = pose;
+      const Span<const float> descriptor = mapper.descriptor(k);
+      std::copy(descriptor.begin(), descriptor.end(), keyframe.descriptor.begin());
+      auto quantised = QuantiseCompactKeyframe(keyframe, record_descriptor_bits);
+      if (!quantised.ok()) return quantised.status();
+      std::copy(quantised->descriptor.begin(), quantised->descriptor.end(), sent.begin());
+    } else {
+      if (Status st = EncodeRecordOfKind(kind, pose, mapper.descriptor(k), Span<std::uint8_t>(bytes)); !st.ok()) {
+        return st;
+      }
+      auto decoded = DecodeRecordOfKind(kind, Span<const std::uint8_t>(bytes), Span<float>(sent));
+      if (!decoded.ok()) return decoded.status();
     }
-    auto decoded = DecodeRecordOfKind(kind, Span<const std::uint8_t>(bytes), Span<float>(sent));
-    if (!decoded.ok()) return decoded.status();
     MixKeyframe(&d.digest, pose.keyframe_index, sent.data(), sent.size());
     ++d.descriptors;
   }

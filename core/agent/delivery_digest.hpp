@@ -2,7 +2,7 @@
 // commerge: a digest of the keyframe descriptors one robot has delivered, computed the same way on both ends so
 // two processes can prove "every descriptor arrived, bit for bit" by comparing two short lines of text.
 //
-//   robot  : RobotDeliveryDigest(mapper)  - what the server must end up holding: each valid descriptor as the
+//   robot  : RobotDeliveryDigest(mapper, bits) - what the server must end up holding: each valid descriptor as the
 //            keyframe record codec transmits it (quantised, re-normalised), in keyframe order;
 //   server : ServerDeliveryDigest(db)     - what the server holds.
 // The digest is FNV-1a 64 over (keyframe index, descriptor float bits) of every keyframe with a valid
@@ -29,7 +29,8 @@ struct DeliveryDigest {
   std::string ToText() const;
 };
 
-Result<DeliveryDigest> RobotDeliveryDigest(const RobotMapper& mapper);
+/// `record_descriptor_bits`: the robot's RobotAgentParams::record_descriptor_bits (what its batches carry).
+Result<DeliveryDigest> RobotDeliveryDigest(const RobotMapper& mapper, int record_descriptor_bits);
 DeliveryDigest ServerDeliveryDigest(const RobotKeyframeDb& db);
 
 }  // namespace commerge

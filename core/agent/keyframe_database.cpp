@@ -6,9 +6,14 @@
 #include <utility>
 
 #include "core/agent/server_rejection.hpp"
+#include "core/descriptor/compact_batch_codec.hpp"
+#include "core/memory/budget.hpp"
 #include "core/geometry/se3.hpp"
 
 namespace commerge {
+
+static_assert(kMaxRecordsPerBatch * sizeof(CompactKeyframe) <= BudgetRecordSizes::kCompactBatchScratchBytes,
+              "the descriptor_db budget counts one decoded compact batch");
 
 bool DescriptorIdsConflict(std::uint32_t a, std::uint32_t b) noexcept { return a != 0 && b != 0 && a != b; }
 
@@ -22,8 +27,9 @@ Result<KeyframeDatabase> KeyframeDatabase::Create(int max_robots, std::size_t ma
     return InvalidArgument("max_keyframes_per_robot = " + std::to_string(max_keyframes_per_robot) +
                            " is outside 1..2^31");
   }
-  if (KeyframeRecordDimOf(kind) == 0) {
-    return InvalidArgument("record_kind " + std::to_string(static_cast<int>(kind)) + " is not a keyframe record kind");
+  if (KeyframeRecordDimOf(kind) == 0 || KeyframeRecordBytesOf(kind) == 0) {  // kCompact40 is held as kUnit40
+    return InvalidArgument("record_kind " + std::to_string(static_cast<int>(kind)) +
+                           " is not a kind of held records (unit-40, scan-context)");
   }
   KeyframeDatabase db;
   db.kind_ = kind;
@@ -31,6 +37,7 @@ Result<KeyframeDatabase> KeyframeDatabase::Create(int max_robots, std::size_t ma
   db.robots_.resize(static_cast<std::size_t>(max_robots));
   for (RobotKeyframeDb& r : db.robots_) r.dim = KeyframeRecordDimOf(kind);
   db.record_descriptor_.resize(KeyframeRecordDimOf(kind));
+  if (kind == KeyframeRecordKind::kUnit40) db.compact_.reserve(kMaxRecordsPerBatch);  // at start-up, not per batch
   return db;
 }
 
@@ -76,7 +83,7 @@ Status KeyframeDatabase::DescriptorIdError(const KeyframeBatch& batch) const {
 }
 
 Status KeyframeDatabase::RecordKindError(const KeyframeBatch& batch) const {
-  if (batch.record_kind == kind_) return Status::Ok();
+  if (HeldRecordKind(batch.record_kind) == kind_) return Status::Ok();
   return InvalidArgument("keyframe batch " + std::to_string(batch.sequence) + " of " + ServerRobotText(batch.robot_id) +
                          " carries " + KeyframeRecordKindName(batch.record_kind) + " records; this server takes " +
                          KeyframeRecordKindName(kind_) +
@@ -89,20 +96,33 @@ Status KeyframeDatabase::CheckKeyframeBatch(const KeyframeBatch& batch) const {
                            std::to_string(max_robots() - 1));
   }
   if (Status st = RecordKindError(batch); !st.ok()) return st;
-  const std::size_t n = batch.num_records(), bytes = KeyframeRecordBytesOf(kind_);
-  if (batch.records.size() != n * bytes || batch.stored_points.size() != n || n > kMaxRecordsPerBatch) {
+  const std::size_t n = batch.num_records();
+  if (!batch.RecordArraysConsistent()) {
     return InvalidArgument("keyframe batch of " + ServerRobotText(batch.robot_id) + ": malformed record arrays");
+  }
+  std::vector<CompactKeyframe> compact;
+  if (batch.record_kind == KeyframeRecordKind::kCompact40) {
+    if (Status st = DecodeCompactBatch(Span<const std::uint8_t>(batch.records), n, &compact); !st.ok()) return st;
   }
   Status first_error = InvalidArgument("keyframe batch of " + ServerRobotText(batch.robot_id) + " has no record");
   std::vector<float> descriptor(KeyframeRecordDimOf(kind_));
   for (std::size_t i = 0; i < n; ++i) {
-    auto record = DecodeRecordOfKind(kind_,
-                                     Span<const std::uint8_t>(batch.records.data() + i * bytes, bytes),
-                                     Span<float>(descriptor));
+    auto record = DecodeBatchRecord(batch, compact, i, Span<float>(descriptor));
     if (record.ok() && record->keyframe_index < max_keyframes_) return Status::Ok();
     if (i == 0) first_error = record.ok() ? CapacityError(batch.robot_id, record->keyframe_index) : record.status();
   }
   return first_error;
+}
+
+Result<KeyframePose> KeyframeDatabase::DecodeBatchRecord(const KeyframeBatch& batch,
+                                                         const std::vector<CompactKeyframe>& compact, std::size_t i,
+                                                         Span<float> descriptor) const {
+  if (batch.record_kind == KeyframeRecordKind::kCompact40) {
+    std::copy(compact[i].descriptor.begin(), compact[i].descriptor.end(), descriptor.begin());
+    return compact[i].pose;
+  }
+  const std::size_t bytes = KeyframeRecordBytesOf(kind_);
+  return DecodeRecordOfKind(kind_, Span<const std::uint8_t>(batch.records.data() + i * bytes, bytes), descriptor);
 }
 
 Status KeyframeDatabase::OnKeyframeBatch(const KeyframeBatch& batch, MergeServerStats* stats) {
@@ -111,22 +131,30 @@ Status KeyframeDatabase::OnKeyframeBatch(const KeyframeBatch& batch, MergeServer
                                                             " is outside 0.." + std::to_string(max_robots() - 1)));
   }
   if (Status st = RecordKindError(batch); !st.ok()) return CountRejection(stats, &stats->rejected_batches, st);
-  const std::size_t n = batch.num_records(), bytes = KeyframeRecordBytesOf(kind_);
-  if (batch.records.size() != n * bytes || batch.stored_points.size() != n || n > kMaxRecordsPerBatch) {
+  const std::size_t n = batch.num_records(), bytes = KeyframeRecordBytesOf(batch.record_kind);
+  if (!batch.RecordArraysConsistent()) {
+    const std::string shape = bytes == 0 ? "a compact batch of 1.." + std::to_string(kMaxRecordsPerBatch) +
+                                               " records in 1.." + std::to_string(kMaxCompactBatchBytes) + " bytes"
+                                         : "1.." + std::to_string(kMaxRecordsPerBatch) + " records of " +
+                                               std::to_string(bytes) + " bytes";
     return CountRejection(stats, &stats->rejected_batches,
                   InvalidArgument("keyframe batch of " + ServerRobotText(batch.robot_id) + ": " +
                                   std::to_string(batch.records.size()) + " record bytes and " +
                                   std::to_string(batch.stored_points.size()) +
-                                  " point counts do not describe 1.." + std::to_string(kMaxRecordsPerBatch) +
-                                  " records of " + std::to_string(bytes) + " bytes"));
+                                  " point counts do not describe " + shape));
   }
   if (Status st = DescriptorIdError(batch); !st.ok()) return CountRejection(stats, &stats->rejected_batches, st);
+  if (batch.record_kind == KeyframeRecordKind::kCompact40) {
+    if (Status st = DecodeCompactBatch(Span<const std::uint8_t>(batch.records), n, &compact_); !st.ok()) {
+      return CountRejection(stats, &stats->rejected_batches,
+                            Status(st.code(), "keyframe batch " + std::to_string(batch.sequence) + " of " +
+                                                  ServerRobotText(batch.robot_id) + ": " + st.message()));
+    }
+  }
   ++stats->batches;
   Status first_error;
   for (std::size_t i = 0; i < n; ++i) {
-    auto record = DecodeRecordOfKind(kind_,
-                                     Span<const std::uint8_t>(batch.records.data() + i * bytes, bytes),
-                                     Span<float>(record_descriptor_));
+    auto record = DecodeBatchRecord(batch, compact_, i, Span<float>(record_descriptor_));
     Status st = record.ok() ? EnsureKeyframe(batch.robot_id, record->keyframe_index) : record.status();
     if (!st.ok()) {
       Status named(st.code(), "keyframe batch " + std::to_string(batch.sequence) + " of " + ServerRobotText(batch.robot_id) +
@@ -213,7 +241,7 @@ std::size_t KeyframeDatabase::MemoryBytes() const {
     bytes += held(db.descriptors) + held(db.valid) + held(db.pose_known) + held(db.no_descriptor) +
              held(db.T_map_sensor) + held(db.stored_points);
   }
-  return bytes;
+  return bytes + held(record_descriptor_) + held(compact_);
 }
 
 }  // namespace commerge

@@ -13,6 +13,7 @@
 #include "core/agent/merge_server_params.hpp"
 #include "core/agent/messages.hpp"
 #include "core/common/status.hpp"
+#include "core/descriptor/compact_batch_codec.hpp"
 
 namespace commerge {
 
@@ -73,11 +74,15 @@ class KeyframeDatabase {
   Status RecordKindError(const KeyframeBatch& batch) const;
   Status CapacityError(int robot, std::uint32_t keyframe) const;
   Status EnsureKeyframe(int robot, std::uint32_t keyframe);
+  // Record i of `batch` (of a consistent size; `compact`: the batch decoded when it is a compact one).
+  Result<KeyframePose> DecodeBatchRecord(const KeyframeBatch& batch, const std::vector<CompactKeyframe>& compact,
+                                         std::size_t i, Span<float> descriptor) const;
 
   KeyframeRecordKind kind_ = KeyframeRecordKind::kUnit40;
   std::size_t max_keyframes_ = 0;
   std::vector<RobotKeyframeDb> robots_;
   std::vector<float> record_descriptor_;  ///< one decoded record's descriptor
+  std::vector<CompactKeyframe> compact_;  ///< the compact batch being applied, decoded
 };
 
 }  // namespace commerge

@@ -66,16 +66,30 @@ struct KeyframeBatch {
   int robot_id = 0;
   std::int64_t session = 0;  ///< the robot process's session id (> 0)
   std::int32_t sequence = 0;
-  /// What the records carry: num_records x KeyframeRecordBytesOf(record_kind) bytes of descriptor_codec records.
+  /// What the records carry: num_records x KeyframeRecordBytesOf(record_kind) bytes of descriptor_codec records,
+  /// or for kCompact40 one compact batch (compact_batch_codec.hpp).
   KeyframeRecordKind record_kind = KeyframeRecordKind::kUnit40;
   std::vector<std::uint8_t> records;
   /// Points of each keyframe's stored scan (0 = not stored), one per record.
   std::vector<std::uint32_t> stored_points;
   /// PlaceDescriptor::parameter_id() of the records' descriptors: only descriptors of one id are comparable.
   std::uint32_t descriptor_id = 0;
+  /// Records of a fixed-size kind: records.size() / the record size; of kCompact40 (one coded stream, whose
+  /// count is not in its bytes): one per stored point count.
   std::size_t num_records() const noexcept {
+    if (record_kind == KeyframeRecordKind::kCompact40) return stored_points.size();
     const std::size_t bytes = KeyframeRecordBytesOf(record_kind);
     return bytes == 0 ? 0 : records.size() / bytes;
+  }
+  /// records and stored_points describe at most kMaxRecordsPerBatch records of record_kind (sizes only; a
+  /// compact batch holds at least one record in 1..kMaxCompactBatchBytes bytes).
+  bool RecordArraysConsistent() const noexcept {
+    const std::size_t n = num_records();
+    if (n > kMaxRecordsPerBatch || stored_points.size() != n) return false;
+    if (record_kind == KeyframeRecordKind::kCompact40) {
+      return n >= 1 && !records.empty() && records.size() <= kMaxCompactBatchBytes;
+    }
+    return records.size() == n * KeyframeRecordBytesOf(record_kind);
   }
 };
 

@@ -23,6 +23,12 @@ Status ValidateRobotAgentParams(const RobotAgentParams& params) {
     return InvalidArgument("chunk_payload_bytes = " + std::to_string(params.chunk_payload_bytes) +
                            " is outside 1.." + std::to_string(kMaxScanChunkPayloadBytes));
   }
+  if (params.record_descriptor_bits != 0 && (params.record_descriptor_bits < kCompactMinDescriptorBits ||
+                                             params.record_descriptor_bits > kCompactMaxDescriptorBits)) {
+    return InvalidArgument("record_descriptor_bits = " + std::to_string(params.record_descriptor_bits) +
+                           " is neither 0 (92-byte records) nor in " + std::to_string(kCompactMinDescriptorBits) +
+                           ".." + std::to_string(kCompactMaxDescriptorBits));
+  }
   if (!(params.pose_update_min_translation_m >= 0.0) || !(params.pose_update_min_rotation_deg >= 0.0) ||
       !(params.scan_pose_min_translation_m >= 0.0) || !(params.scan_pose_min_rotation_deg >= 0.0) ||
       !(params.request_pose_min_translation_m >= 0.0) || !(params.request_pose_min_rotation_deg >= 0.0)) {
@@ -44,7 +50,7 @@ RobotAgent::RobotAgent(int robot_id, const RobotAgentParams& params, const Robot
   }
   if (params_status_.ok() && descriptor != nullptr) {
     // The record that carries the descriptor: 40 unit values (SOLiD, ring occupancy) or the Scan Context grid.
-    record_kind_ = RecordKindOf(descriptor->kind());
+    record_kind_ = RobotRecordKind(descriptor->kind(), params.record_descriptor_bits);
     if (descriptor->dimension() != KeyframeRecordDimOf(record_kind_)) {
       params_status_ = InvalidArgument("the place descriptor has " + std::to_string(descriptor->dimension()) +
                                        " values; its keyframe record (" + KeyframeRecordKindName(record_kind_) +
@@ -59,6 +65,7 @@ RobotAgent::RobotAgent(int robot_id, const RobotAgentParams& params, const Robot
   sent_pose_.assign(capacity.max_keyframes, std::array<float, 7>{});
   dirty_scan_from_ = pose_dirty_.size();
   encoded_.reserve(EncodedScanBytes(capacity.max_points_per_stored_scan));
+  if (record_kind_ == KeyframeRecordKind::kCompact40) compact_.reserve(params.max_records_per_batch);
 }
 
 void RobotAgent::RememberSent(std::size_t k) {
@@ -148,7 +155,7 @@ std::array<std::int64_t, RobotAgent::kMemoryModules> RobotAgent::MeasureMemory()
   const std::size_t scan_store = store_ != nullptr ? store_->stats().used_bytes : 0;
   const std::size_t outbox =
       held(pose_dirty_) + held(scan_requested_) + held(resend_) + held(last_sent_us_) + held(sent_pose_) +
-      held(encoded_);
+      held(encoded_) + held(compact_);
   return {static_cast<std::int64_t>(descriptor_db), static_cast<std::int64_t>(pose_graph),
           static_cast<std::int64_t>(scan_store), static_cast<std::int64_t>(mapper_.scan_workspace_bytes()),
           static_cast<std::int64_t>(mapper_.loop_closure_workspace_bytes()), static_cast<std::int64_t>(outbox)};
@@ -189,6 +196,7 @@ Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch*
   batch->record_kind = record_kind_;
   batch->records.clear();
   batch->stored_points.clear();
+  compact_.clear();
   std::size_t records = 0;
   // Re-announcements first, in a batch of their own (the caller counts its bytes as resent).
   if (resend_count_ > 0) {
@@ -201,10 +209,7 @@ Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch*
       ++records;
     }
     if (resend_count_ == 0) resend_from_ = resend_.size();
-    if (records > 0) {
-      batch->sequence = batch_sequence_++;
-      return true;
-    }
+    if (records > 0) return FinishBatch(batch);
   }
   const std::size_t n = mapper_.num_keyframes();
   while (sent_upto_ < n && records < params_.max_records_per_batch) {
@@ -218,6 +223,17 @@ Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch*
     ++records;
   }
   if (records == 0) return false;
+  return FinishBatch(batch);
+}
+
+Result<bool> RobotAgent::FinishBatch(KeyframeBatch* batch) {
+  if (record_kind_ == KeyframeRecordKind::kCompact40) {
+    if (Status st = EncodeCompactBatch(Span<const CompactKeyframe>(compact_), params_.record_descriptor_bits,
+                                       &batch->records);
+        !st.ok()) {
+      return Status(st.code(), "robot " + std::to_string(robot_id_) + ": " + st.message());
+    }
+  }
   batch->sequence = batch_sequence_++;
   return true;
 }
@@ -225,14 +241,23 @@ Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch*
 Status RobotAgent::AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBatch* batch) {
   {
     const KeyframePose pose{static_cast<std::uint32_t>(k), mapper_.pose(k)};
-    const std::size_t offset = batch->records.size(), bytes = KeyframeRecordBytesOf(record_kind_);
-    batch->records.resize(offset + bytes);
-    if (Status st = EncodeRecordOfKind(record_kind_, pose, mapper_.descriptor(k),
-                                       Span<std::uint8_t>(batch->records.data() + offset, bytes));
-        !st.ok()) {
-      batch->records.resize(offset);
-      return Status(st.code(), "robot " + std::to_string(robot_id_) + " keyframe " + std::to_string(k) + ": " +
-                                   st.message());
+    if (record_kind_ == KeyframeRecordKind::kCompact40) {
+      // Coded with the rest of the batch in FinishBatch.
+      CompactKeyframe keyframe;
+      keyframe.pose = pose;
+      const Span<const float> d = mapper_.descriptor(k);
+      std::copy(d.begin(), d.end(), keyframe.descriptor.begin());
+      compact_.push_back(keyframe);
+    } else {
+      const std::size_t offset = batch->records.size(), bytes = KeyframeRecordBytesOf(record_kind_);
+      batch->records.resize(offset + bytes);
+      if (Status st = EncodeRecordOfKind(record_kind_, pose, mapper_.descriptor(k),
+                                         Span<std::uint8_t>(batch->records.data() + offset, bytes));
+          !st.ok()) {
+        batch->records.resize(offset);
+        return Status(st.code(), "robot " + std::to_string(robot_id_) + " keyframe " + std::to_string(k) + ": " +
+                                     st.message());
+      }
     }
     std::uint32_t points = 0;
     if (auto view = store_->View(static_cast<std::uint32_t>(k)); view.ok()) {

@@ -14,15 +14,23 @@
 #include "core/agent/messages.hpp"
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
+#include "core/descriptor/compact_batch_codec.hpp"
 #include "core/slam/robot_mapper.hpp"
 #include "core/slam/scan_store.hpp"
 
 namespace commerge {
 
+/// Bits per descriptor value of the compact keyframe batch by default (core/agent/decisions/ says why).
+constexpr int kDefaultRecordDescriptorBits = 6;
+
 struct RobotAgentParams {
   RobotMapperParams mapper;
   /// Records per keyframe batch (1..kMaxRecordsPerBatch).
   std::size_t max_records_per_batch = 256;
+  /// Keyframes of a 40-value descriptor (SOLiD, ring occupancy) travel as compact batches with this many bits per
+  /// descriptor value (kCompactMinDescriptorBits..kCompactMaxDescriptorBits; core/descriptor/compact_batch_codec.hpp),
+  /// or as 92-byte records (0). Scan Context keeps its own record.
+  int record_descriptor_bits = kDefaultRecordDescriptorBits;
   /// Poses per pose update (1..kMaxPosesPerUpdate).
   std::size_t max_poses_per_update = 1024;
   /// Payload bytes per scan chunk (1..kMaxScanChunkPayloadBytes): a chunk stays inside one UDP datagram.
@@ -137,6 +145,8 @@ class RobotAgent {
   void QueuePoses(Span<const std::uint32_t> keyframes);
   void MarkPoseDirty(std::size_t k);
   Status AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBatch* batch);
+  // Codes a compact batch's keyframes and numbers the batch.
+  Result<bool> FinishBatch(KeyframeBatch* batch);
   void RememberSent(std::size_t keyframe);
   bool MovedSinceSent(std::size_t keyframe, double min_translation_m, double min_rotation_deg) const;
   /// MovedSinceSent with the stream's thresholds for this keyframe (pose_update_min_... or scan_pose_min_...).
@@ -144,6 +154,7 @@ class RobotAgent {
 
   int robot_id_;
   KeyframeRecordKind record_kind_ = KeyframeRecordKind::kUnit40;  ///< of the descriptor given at construction
+  std::vector<CompactKeyframe> compact_;  ///< the compact batch being built (reserved for a whole batch)
   RobotAgentParams params_;
   Status params_status_;
   ScanStore* store_;

@@ -417,26 +417,30 @@ const char* KeyframeRecordKindName(KeyframeRecordKind kind) noexcept {
   switch (kind) {
     case KeyframeRecordKind::kUnit40: return "unit-40";
     case KeyframeRecordKind::kScanContext: return "scan-context";
+    case KeyframeRecordKind::kCompact40: return "compact-40";
   }
   return "unknown";
 }
 
 bool IsKeyframeRecordKind(std::uint8_t wire_value) noexcept {
   return wire_value == static_cast<std::uint8_t>(KeyframeRecordKind::kUnit40) ||
-         wire_value == static_cast<std::uint8_t>(KeyframeRecordKind::kScanContext);
+         wire_value == static_cast<std::uint8_t>(KeyframeRecordKind::kScanContext) ||
+         wire_value == static_cast<std::uint8_t>(KeyframeRecordKind::kCompact40);
 }
 
 std::size_t KeyframeRecordBytesOf(KeyframeRecordKind kind) noexcept {
   switch (kind) {
     case KeyframeRecordKind::kUnit40: return kKeyframeRecordBytes;
     case KeyframeRecordKind::kScanContext: return ScanContextRecordBytes(kScanContextWireRings, kScanContextWireSectors);
+    case KeyframeRecordKind::kCompact40: return 0;
   }
   return 0;
 }
 
 std::size_t KeyframeRecordDimOf(KeyframeRecordKind kind) noexcept {
   switch (kind) {
-    case KeyframeRecordKind::kUnit40: return kKeyframeDescriptorDim;
+    case KeyframeRecordKind::kUnit40:
+    case KeyframeRecordKind::kCompact40: return kKeyframeDescriptorDim;
     case KeyframeRecordKind::kScanContext:
       return static_cast<std::size_t>(kScanContextWireRings) * static_cast<std::size_t>(kScanContextWireSectors);
   }
@@ -448,7 +452,10 @@ namespace {
 // An unknown kind, or a descriptor span of another size than the kind's record carries.
 Status CheckRecordDescriptorSize(KeyframeRecordKind kind, std::size_t size) {
   const std::size_t dim = KeyframeRecordDimOf(kind);
-  if (dim == 0) return InvalidArgument("keyframe record: unknown kind " + std::to_string(static_cast<int>(kind)));
+  if (dim == 0 || KeyframeRecordBytesOf(kind) == 0) {
+    return InvalidArgument("keyframe record: kind " + std::to_string(static_cast<int>(kind)) +
+                           " is not a kind of single records");
+  }
   if (size != dim) {
     return InvalidArgument(std::string("keyframe record (") + KeyframeRecordKindName(kind) + "): descriptor of " +
                            std::to_string(size) + " values, expected " + std::to_string(dim));

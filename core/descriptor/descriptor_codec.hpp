@@ -143,7 +143,13 @@ Result<KeyframePose> DecodeScanContextRecord(Span<const std::uint8_t> bytes, int
 enum class KeyframeRecordKind : std::uint8_t {
   kUnit40 = 1,       ///< the 92-byte record: 40 unit values (R-SOLiD, the ring-occupancy descriptor)
   kScanContext = 2,  ///< the Scan Context record of the kScanContextWireRings x kScanContextWireSectors grid
+  /// A compact batch (compact_batch_codec.hpp): the keyframes of kUnit40 coded together, of variable length. A
+  /// server of kUnit40 takes both.
+  kCompact40 = 3,
 };
+/// Bytes of one compact batch at most: 512 records of at most 320 bytes each (the longest Exp-Golomb codes the
+/// encoder can write: ~313 bytes a record).
+constexpr std::size_t kMaxCompactBatchBytes = 512 * 320;
 /// The one Scan Context grid on the wire (the paper's and Kim & Kim's 20 x 60): 1226-byte records.
 constexpr int kScanContextWireRings = 20;
 constexpr int kScanContextWireSectors = 60;
@@ -152,11 +158,23 @@ constexpr int kScanContextWireSectors = 60;
 constexpr KeyframeRecordKind RecordKindOf(DescriptorKind kind) noexcept {
   return kind == DescriptorKind::kScanContext ? KeyframeRecordKind::kScanContext : KeyframeRecordKind::kUnit40;
 }
-/// "unit-40" / "scan-context" ("unknown" otherwise).
+/// What a robot sends for a descriptor of `kind`: compact batches (kCompact40) for the 40-value descriptors when
+/// `record_descriptor_bits` > 0 (RobotAgentParams), else RecordKindOf(kind).
+constexpr KeyframeRecordKind RobotRecordKind(DescriptorKind kind, int record_descriptor_bits) noexcept {
+  return RecordKindOf(kind) == KeyframeRecordKind::kUnit40 && record_descriptor_bits > 0 ? KeyframeRecordKind::kCompact40
+                                                                                         : RecordKindOf(kind);
+}
+/// "unit-40" / "scan-context" / "compact-40" ("unknown" otherwise).
 const char* KeyframeRecordKindName(KeyframeRecordKind kind) noexcept;
-/// A kind a decoder accepts (1 or 2).
+/// A kind a decoder accepts (1, 2 or 3).
 bool IsKeyframeRecordKind(std::uint8_t wire_value) noexcept;
-/// Bytes of one record of `kind`, floats of its descriptor (0 for an unknown kind).
+/// The kind a server of `server_kind` holds `batch_kind`'s descriptors as: kUnit40 for kCompact40 (the same
+/// descriptor), else the kind itself.
+constexpr KeyframeRecordKind HeldRecordKind(KeyframeRecordKind batch_kind) noexcept {
+  return batch_kind == KeyframeRecordKind::kCompact40 ? KeyframeRecordKind::kUnit40 : batch_kind;
+}
+/// Bytes of one record of `kind` (0 for kCompact40, whose batches have no fixed record size, and an unknown
+/// kind), floats of its descriptor (0 for an unknown kind).
 std::size_t KeyframeRecordBytesOf(KeyframeRecordKind kind) noexcept;
 std::size_t KeyframeRecordDimOf(KeyframeRecordKind kind) noexcept;
 /// Encodes one record of `kind` (`descriptor`: KeyframeRecordDimOf(kind) values, unit-normalised for kUnit40)

@@ -175,8 +175,9 @@ void AddServerModules(BudgetTable* t, const MemoryConfig& c, const std::string& 
   const std::int64_t r = c.max_robots;
   const std::int64_t k = c.max_keyframes_per_robot;
   const std::int64_t record = R::DescriptorRecordBytes(c.descriptor_floats);
-  t->Add(prefix + "descriptor_db", r * k * record,
-         Str(r) + " robots (--robots) x " + Str(k) + " keyframes x " + Str(record) + " B");
+  t->Add(prefix + "descriptor_db", r * k * record + R::kCompactBatchScratchBytes,
+         Str(r) + " robots (--robots) x " + Str(k) + " keyframes x " + Str(record) + " B + one compact batch " +
+             Str(R::kCompactBatchScratchBytes) + " B");
   // Streaming affinity: two 256x256 float tiles plus O(N + M) labelling state per robot pair.
   const std::int64_t pairs = r * (r - 1) / 2;
   // Place consensus: one pair's cluster set at a time, at most kServerConsensusMaxCells cells.

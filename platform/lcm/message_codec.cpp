@@ -27,6 +27,9 @@ static_assert(commerge::keyframe_batch_t::RECORD_UNIT40 == static_cast<std::int8
 static_assert(commerge::keyframe_batch_t::RECORD_SCAN_CONTEXT ==
                   static_cast<std::int8_t>(KeyframeRecordKind::kScanContext),
               "");
+static_assert(commerge::keyframe_batch_t::RECORD_COMPACT40 == static_cast<std::int8_t>(KeyframeRecordKind::kCompact40),
+              "");
+static_assert(commerge::keyframe_batch_t::MAX_COMPACT_BYTES == static_cast<std::int32_t>(kMaxCompactBatchBytes), "");
 static_assert(commerge::keyframe_batch_t::MAX_ROBOT_ID == kMaxRobotId, "");
 static_assert(commerge::pose_update_t::MAX_POSES == static_cast<std::int32_t>(kMaxPosesPerUpdate), "");
 static_assert(commerge::exchange_policy_t::MAX_KEYFRAMES == static_cast<std::int32_t>(kMaxKeyframesPerRequest), "");
@@ -39,16 +42,18 @@ using namespace lcm_detail;  // NOLINT(google-build-using-namespace): the shared
 Status EncodeKeyframeBatch(const KeyframeBatch& m, std::vector<std::uint8_t>* out) {
   const char* type = "keyframe_batch_t";
   if (Status st = CheckRobotId(m.robot_id, type); !st.ok()) return st;
-  const std::size_t record_bytes = KeyframeRecordBytesOf(m.record_kind);
-  if (record_bytes == 0) {
+  if (!IsKeyframeRecordKind(static_cast<std::uint8_t>(m.record_kind))) {
     return InvalidArgument("keyframe_batch_t: record_kind " + std::to_string(static_cast<int>(m.record_kind)) +
                            " is not a record kind");
   }
   const std::size_t n = m.num_records();
-  if (m.records.size() != n * record_bytes || m.stored_points.size() != n || n > kMaxRecordsPerBatch) {
+  if (!m.RecordArraysConsistent()) {
+    const std::size_t record_bytes = KeyframeRecordBytesOf(m.record_kind);
     return InvalidArgument("keyframe_batch_t: " + std::to_string(m.records.size()) + " record bytes and " +
-                           std::to_string(m.stored_points.size()) + " point counts are not n x " +
-                           std::to_string(record_bytes) + " and n with n <= " + std::to_string(kMaxRecordsPerBatch));
+                           std::to_string(m.stored_points.size()) + " point counts are not " +
+                           (record_bytes == 0 ? std::string("1..") + std::to_string(kMaxCompactBatchBytes) + " bytes"
+                                              : "n x " + std::to_string(record_bytes)) +
+                           " and n with n <= " + std::to_string(kMaxRecordsPerBatch));
   }
   commerge::keyframe_batch_t msg{};
   msg.utime = m.utime_us;
@@ -76,13 +81,19 @@ Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes) {
   if (Status st = CheckHeader<commerge::keyframe_batch_t>(bytes, 31, type); !st.ok()) return st;
   const std::int64_t kind = ReadBe(bytes, 8 + 22, 1);
   if (!IsKeyframeRecordKind(static_cast<std::uint8_t>(kind))) {
-    return DataLoss("keyframe_batch_t: record_kind = " + std::to_string(kind) + " is not a record kind (1, 2)");
+    return DataLoss("keyframe_batch_t: record_kind = " + std::to_string(kind) + " is not a record kind (1, 2, 3)");
   }
   const auto record_kind = static_cast<KeyframeRecordKind>(kind);
   const auto record_bytes = static_cast<std::int64_t>(KeyframeRecordBytesOf(record_kind));
   const std::int64_t n = ReadBe(bytes, 8 + 23, 4), nb = ReadBe(bytes, 8 + 27, 4);
   if (Status st = CheckCount(n, static_cast<std::int64_t>(kMaxRecordsPerBatch), type, "num_records"); !st.ok()) return st;
-  if (nb != n * record_bytes) {
+  if (record_kind == KeyframeRecordKind::kCompact40) {
+    if (n < 1 || nb < 1 || nb > static_cast<std::int64_t>(kMaxCompactBatchBytes)) {
+      return DataLoss("keyframe_batch_t: a compact batch of num_records = " + std::to_string(n) +
+                      " and num_record_bytes = " + std::to_string(nb) + " (expected 1..512 records in 1.." +
+                      std::to_string(kMaxCompactBatchBytes) + " bytes)");
+    }
+  } else if (nb != n * record_bytes) {
     return DataLoss("keyframe_batch_t: num_record_bytes = " + std::to_string(nb) + " is not " +
                     std::to_string(record_bytes) + " x num_records = " + std::to_string(n * record_bytes));
   }

@@ -315,28 +315,77 @@ std::string Text(const char* stem, std::size_t bytes) {
   return s;
 }
 
-KeyframeBatch LargestBatch(const SampleBank& bank) {
-  KeyframeBatch m = bank.batches.empty() ? KeyframeBatch{} : bank.batches.front();
-  m.records.clear();
-  m.stored_points.clear();
-  // kMaxRecordsPerBatch real records (from the mission), renumbered 0, 1, ...
-  std::vector<std::vector<std::uint8_t>> records;
+// The mission's keyframes of either record kind the robots send for SOLiD (compact batches, 92-byte records).
+std::vector<CompactKeyframe> MissionKeyframes(const SampleBank& bank) {
+  std::vector<CompactKeyframe> out;
   for (const KeyframeBatch& b : bank.batches) {
+    if (b.record_kind == KeyframeRecordKind::kCompact40) {
+      std::vector<CompactKeyframe> decoded;
+      Check(DecodeCompactBatch(Span<const std::uint8_t>(b.records), b.num_records(), &decoded), "a mission batch");
+      out.insert(out.end(), decoded.begin(), decoded.end());
+      continue;
+    }
     for (std::size_t i = 0; i < b.num_records(); ++i) {
-      records.emplace_back(b.records.begin() + static_cast<std::ptrdiff_t>(i * kKeyframeRecordBytes),
-                           b.records.begin() + static_cast<std::ptrdiff_t>((i + 1) * kKeyframeRecordBytes));
+      auto record = DecodeKeyframeRecord(
+          Span<const std::uint8_t>(b.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
+      if (!record.ok()) Fail("seed: a mission record does not decode: %s", record.status().ToString().c_str());
+      CompactKeyframe k;
+      k.pose = KeyframePose{record->keyframe_index, record->T_map_sensor};
+      k.descriptor = record->descriptor;
+      out.push_back(k);
     }
   }
-  if (records.empty()) return m;
+  return out;
+}
+
+// kMaxRecordsPerBatch 92-byte records of the mission's keyframes, renumbered 0, 1, ...
+KeyframeBatch LargestBatch(const SampleBank& bank) {
+  KeyframeBatch m = bank.batches.empty() ? KeyframeBatch{} : bank.batches.front();
+  m.record_kind = KeyframeRecordKind::kUnit40;
+  m.records.clear();
+  m.stored_points.clear();
+  const std::vector<CompactKeyframe> keyframes = MissionKeyframes(bank);
+  if (keyframes.empty()) return m;
   for (std::size_t k = 0; k < kMaxRecordsPerBatch; ++k) {
-    auto record = DecodeKeyframeRecord(Span<const std::uint8_t>(records[k % records.size()]));
-    if (!record.ok()) Fail("seed: a mission record does not decode: %s", record.status().ToString().c_str());
-    record->keyframe_index = static_cast<std::uint32_t>(k);
+    const CompactKeyframe& from = keyframes[k % keyframes.size()];
+    KeyframeRecord record;
+    record.keyframe_index = static_cast<std::uint32_t>(k);
+    record.T_map_sensor = from.pose.T_map_sensor;
+    record.descriptor = from.descriptor;
+    record.descriptor_valid = true;
     const std::size_t at = m.records.size();
     m.records.resize(at + kKeyframeRecordBytes);
-    Check(EncodeKeyframeRecord(*record, Span<std::uint8_t>(m.records.data() + at, kKeyframeRecordBytes)), "record");
+    Check(EncodeKeyframeRecord(record, Span<std::uint8_t>(m.records.data() + at, kKeyframeRecordBytes)), "record");
     m.stored_points.push_back(400 + static_cast<std::uint32_t>(k % 300));
   }
+  return m;
+}
+
+// The longest compact batch: kMaxRecordsPerBatch keyframes at 14 bits, every other index skipped, poses far apart
+// and descriptors unrelated, so that no prediction helps.
+KeyframeBatch LargestCompactBatch(const SampleBank& bank) {
+  KeyframeBatch m = bank.batches.empty() ? KeyframeBatch{} : bank.batches.front();
+  m.record_kind = KeyframeRecordKind::kCompact40;
+  m.stored_points.clear();
+  std::vector<CompactKeyframe> keyframes(kMaxRecordsPerBatch);
+  std::uint32_t x = 12345;
+  const auto next = [&x] { return (x = x * 1664525u + 1013904223u) >> 8; };
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    keyframes[k].pose.keyframe_index = static_cast<std::uint32_t>(2 * k);
+    Eigen::Isometry3d T = SomePose(k);
+    T.translation() = Eigen::Vector3d(static_cast<double>(next() % 2000000) - 1e6,
+                                      static_cast<double>(next() % 2000000) - 1e6, static_cast<double>(next() % 2000));
+    keyframes[k].pose.T_map_sensor = T;
+    double norm2 = 0.0;
+    for (float& v : keyframes[k].descriptor) {
+      v = static_cast<float>(next() % 1000) + 1.0f;
+      norm2 += static_cast<double>(v) * static_cast<double>(v);
+    }
+    for (float& v : keyframes[k].descriptor) v = static_cast<float>(static_cast<double>(v) / std::sqrt(norm2));
+    m.stored_points.push_back(400 + static_cast<std::uint32_t>(k % 300));
+  }
+  Check(EncodeCompactBatch(Span<const CompactKeyframe>(keyframes), kCompactMaxDescriptorBits, &m.records),
+        "compact batch");
   return m;
 }
 
@@ -572,7 +621,7 @@ Samples<KeyframeBatch> SamplesOf(const SampleBank& b, Tag<KeyframeBatch>) {
   smallest.robot_id = 1;
   smallest.session = kInboxStartUs - 1;
   return {true, Plus(Spread(b.batches, kSeedsPerKind), {Reannouncement(b), smallest}),
-          {LargestBatch(b), LargestScanContextBatch(b)}};
+          {LargestBatch(b), LargestScanContextBatch(b), LargestCompactBatch(b)}};
 }
 Samples<PoseUpdate> SamplesOf(const SampleBank& b, Tag<PoseUpdate>) {
   return {true, Plus(Spread(b.pose_updates, kSeedsPerKind), {PoseUpdate{}}), {LargestPoseUpdate()}};

@@ -18,6 +18,7 @@
 #include <Eigen/Geometry>
 
 #include "core/agent/messages.hpp"
+#include "core/descriptor/compact_batch_codec.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
 
 namespace commerge::test {
@@ -53,6 +54,24 @@ inline KeyframeBatch MakeBatch(int robot, std::uint32_t first,
     REQUIRE(EncodeKeyframeRecord(r, Span<std::uint8_t>(b.records.data() + at, kKeyframeRecordBytes)).ok());
     b.stored_points.push_back(points);
   }
+  return b;
+}
+
+/// The same keyframes as one compact batch with `bits` per descriptor value.
+inline KeyframeBatch MakeCompactBatch(int robot, std::uint32_t first,
+                                      const std::vector<std::array<float, kKeyframeDescriptorDim>>& descriptors,
+                                      const std::vector<Eigen::Vector3d>& positions, std::uint32_t points, int bits) {
+  KeyframeBatch b;
+  b.robot_id = robot;
+  b.record_kind = KeyframeRecordKind::kCompact40;
+  std::vector<CompactKeyframe> keyframes(descriptors.size());
+  for (std::size_t k = 0; k < descriptors.size(); ++k) {
+    keyframes[k].pose.keyframe_index = first + static_cast<std::uint32_t>(k);
+    keyframes[k].pose.T_map_sensor.translation() = positions[k];
+    keyframes[k].descriptor = descriptors[k];
+    b.stored_points.push_back(points);
+  }
+  REQUIRE(EncodeCompactBatch(Span<const CompactKeyframe>(keyframes), bits, &b.records).ok());
   return b;
 }
 

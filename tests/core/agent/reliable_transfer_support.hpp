@@ -7,6 +7,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -20,6 +21,7 @@
 #include "core/agent/robot_link.hpp"
 #include "core/agent/round_replay.hpp"
 #include "core/agent/server_link.hpp"
+#include "core/descriptor/compact_batch_codec.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
@@ -247,18 +249,30 @@ class Mission {
         CAPTURE(k);
         REQUIRE(db.delivered(k));
         if (a.mapper().descriptor_valid(k)) {
-          KeyframeRecord record;
-          record.keyframe_index = static_cast<std::uint32_t>(k);
-          record.T_map_sensor = a.mapper().pose(k);
+          // What the robot's record kind carries: the 92-byte record's 14 bits, or the compact batch's quantisation.
+          std::array<float, kKeyframeDescriptorDim> expected{};
           const Span<const float> d = a.mapper().descriptor(k);
-          std::copy(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim), record.descriptor.begin());
-          record.descriptor_valid = true;
-          std::vector<std::uint8_t> bytes(kKeyframeRecordBytes);
-          REQUIRE(EncodeKeyframeRecord(record, Span<std::uint8_t>(bytes)).ok());
-          auto expected = DecodeKeyframeRecord(Span<const std::uint8_t>(bytes));
-          REQUIRE(expected.ok());
+          if (a.params().record_descriptor_bits > 0) {
+            CompactKeyframe keyframe;
+            keyframe.pose = KeyframePose{static_cast<std::uint32_t>(k), a.mapper().pose(k)};
+            std::copy(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim), keyframe.descriptor.begin());
+            auto quantised = QuantiseCompactKeyframe(keyframe, a.params().record_descriptor_bits);
+            REQUIRE(quantised.ok());
+            expected = quantised->descriptor;
+          } else {
+            KeyframeRecord record;
+            record.keyframe_index = static_cast<std::uint32_t>(k);
+            record.T_map_sensor = a.mapper().pose(k);
+            std::copy(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kKeyframeDescriptorDim), record.descriptor.begin());
+            record.descriptor_valid = true;
+            std::vector<std::uint8_t> bytes(kKeyframeRecordBytes);
+            REQUIRE(EncodeKeyframeRecord(record, Span<std::uint8_t>(bytes)).ok());
+            auto decoded = DecodeKeyframeRecord(Span<const std::uint8_t>(bytes));
+            REQUIRE(decoded.ok());
+            expected = decoded->descriptor;
+          }
           for (std::size_t j = 0; j < kKeyframeDescriptorDim; ++j) {
-            REQUIRE(db.descriptors[k * kKeyframeDescriptorDim + j] == expected->descriptor[j]);
+            REQUIRE(db.descriptors[k * kKeyframeDescriptorDim + j] == expected[j]);
           }
         }
         CHECK((db.T_map_sensor[k].translation() - a.mapper().pose(k).translation()).norm() <
@@ -266,7 +280,7 @@ class Mission {
       }
       // The one-line digests the process-level fault tests compare agree, and would catch one changed or
       // missing descriptor.
-      auto robot_digest = RobotDeliveryDigest(a.mapper());
+      auto robot_digest = RobotDeliveryDigest(a.mapper(), a.params().record_descriptor_bits);
       REQUIRE(robot_digest.ok());
       CHECK(ServerDeliveryDigest(db).ToText() == robot_digest->ToText());
       for (std::size_t k = 0; k < db.size(); ++k) {

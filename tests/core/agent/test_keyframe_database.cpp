@@ -29,6 +29,55 @@ using commerge::test::PaperStageA;
 using commerge::test::RandomDescriptor;
 using commerge::test::ShiftedPairBatches;
 
+TEST_CASE("Merge server holds compact batches as their keyframes quantised alone, beside 92-byte records, and "
+          "refuses a corrupt or inconsistent one whole") {
+  std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, MergeServerParams{});
+  MergeServer& server = *server_owner;
+  std::mt19937 rng(3);
+  std::vector<std::array<float, kKeyframeDescriptorDim>> d;
+  std::vector<Eigen::Vector3d> pos;
+  for (int i = 0; i < 6; ++i) {
+    d.push_back(RandomDescriptor(&rng));
+    pos.emplace_back(1.01 * i, 0.5 * i, 0.1);
+  }
+  const KeyframeBatch compact = commerge::test::MakeCompactBatch(0, 4, d, pos, 700, 6);
+  REQUIRE(server.OnKeyframeBatch(compact).ok());
+  // The next keyframes of the same robot as 92-byte records: one database, either kind.
+  REQUIRE(server.OnKeyframeBatch(MakeBatch(0, 10, d, pos, 900)).ok());
+  const RobotKeyframeDb& db = server.robot(0);
+  REQUIRE(db.size() == 16);
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    CAPTURE(i);
+    const std::size_t k = 4 + i;
+    CHECK(db.valid[k] == 1);
+    CHECK(db.stored_points[k] == 700u);
+    CompactKeyframe alone;
+    alone.pose.keyframe_index = static_cast<std::uint32_t>(k);
+    alone.pose.T_map_sensor.translation() = pos[i];
+    alone.descriptor = d[i];
+    auto expected = QuantiseCompactKeyframe(alone, 6);
+    REQUIRE(expected.ok());
+    CHECK(std::equal(expected->descriptor.begin(), expected->descriptor.end(),
+                     db.descriptors.begin() + static_cast<std::ptrdiff_t>(k * db.dim)));
+    CHECK((db.T_map_sensor[k].translation() - pos[i]).cwiseAbs().maxCoeff() <= 0.5e-3 + 1e-12);
+    CHECK(db.valid[10 + i] == 1);
+  }
+  CHECK(server.stats().records == 12);
+
+  // A cut stream, or a count that does not match it, refuses the whole batch and counts it.
+  KeyframeBatch cut = commerge::test::MakeCompactBatch(1, 0, d, pos, 700, 6);
+  cut.records.pop_back();
+  CHECK(server.OnKeyframeBatch(cut).code() == StatusCode::kDataLoss);
+  KeyframeBatch miscounted = commerge::test::MakeCompactBatch(1, 0, d, pos, 700, 6);
+  miscounted.stored_points.push_back(700);
+  CHECK(server.OnKeyframeBatch(miscounted).code() == StatusCode::kDataLoss);
+  KeyframeBatch empty = miscounted;
+  empty.records.clear();
+  CHECK(server.OnKeyframeBatch(empty).code() == StatusCode::kInvalidArgument);
+  CHECK(server.stats().rejected_batches == 3);
+  CHECK(server.robot(1).size() == 0);
+}
+
 TEST_CASE("Merge server refuses malformed keyframe batches and pose updates and counts them") {
   std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, MergeServerParams{});
   MergeServer& server = *server_owner;
@@ -271,7 +320,7 @@ TEST_CASE("Keyframe database: Create refuses 1 and 65 robots, 0 keyframes and a 
   REQUIRE_FALSE(none.ok());
   CHECK(none.status().code() == StatusCode::kInvalidArgument);
   CHECK(none.status().message().find("max_keyframes_per_robot = 0") != std::string::npos);
-  for (int kind : {0, 3, 255}) {
+  for (int kind : {0, 3, 4, 255}) {  // 3: compact batches are taken by a kUnit40 database, not a kind of their own
     CAPTURE(kind);
     const auto db = KeyframeDatabase::Create(2, 100, static_cast<KeyframeRecordKind>(kind));
     REQUIRE_FALSE(db.ok());

@@ -149,11 +149,12 @@ TEST_CASE("Robot agent memory: the robot budget modules, each counted from its o
   CHECK(Module(use, "scan_store").used_bytes == records);
   CHECK(Module(use, "scan_store").high_water_bytes == records);
   // outbox: the per-keyframe send bookkeeping (flags: pose queued, record queued, scan requested; times; poses)
-  // for max_keyframes, and the chunk buffer reserved for the largest stored scan.
+  // for max_keyframes, the chunk buffer reserved for the largest stored scan, and one compact batch's keyframes.
   const std::int64_t bookkeeping = static_cast<std::int64_t>(
       rig.capacity.max_keyframes * (3 * sizeof(std::uint8_t) + sizeof(std::int64_t) + 7 * sizeof(float)));
   CHECK(Module(use, "outbox").used_bytes ==
-        bookkeeping + static_cast<std::int64_t>(EncodedScanBytes(rig.capacity.max_points_per_stored_scan)));
+        bookkeeping + static_cast<std::int64_t>(EncodedScanBytes(rig.capacity.max_points_per_stored_scan)) +
+            static_cast<std::int64_t>(rig.agent->params().max_records_per_batch * sizeof(CompactKeyframe)));
   // scan_workspace: at least the voxelised scan and the encoded scan reserved for the largest stored scan, and
   // the voxel grid's workspace for the largest raw scan (16-byte entries, input and ping-pong).
   CHECK(Module(use, "scan_workspace").used_bytes >=
@@ -227,7 +228,10 @@ TEST_CASE("Merge server memory: the server budget modules, descriptor_db from th
   }
   const std::vector<ModuleMemory> use = server.MemoryUse();
   CheckHighWaterNotBelowUse(use);
-  std::int64_t expected = static_cast<std::int64_t>(3 * sizeof(RobotKeyframeDb));
+  // The robots' arrays, one decoded record's descriptor and one decoded compact batch (reserved at start-up).
+  const auto scratch = static_cast<std::int64_t>(kKeyframeDescriptorDim * sizeof(float) +
+                                                 kMaxRecordsPerBatch * sizeof(CompactKeyframe));
+  std::int64_t expected = static_cast<std::int64_t>(3 * sizeof(RobotKeyframeDb)) + scratch;
   for (int r = 0; r < 3; ++r) {
     const RobotKeyframeDb& db = server.robot(r);
     expected += Held(db.descriptors) + Held(db.valid) + Held(db.pose_known) + Held(db.no_descriptor) +
@@ -239,7 +243,8 @@ TEST_CASE("Merge server memory: the server budget modules, descriptor_db from th
   const std::int64_t record = static_cast<std::int64_t>(kKeyframeDescriptorDim * sizeof(float) + 3 +
                                                         sizeof(Eigen::Isometry3d) + sizeof(std::uint32_t));
   CHECK(used >= static_cast<std::int64_t>(keyframes) * record);
-  CHECK(used <= 2 * static_cast<std::int64_t>(keyframes) * record + static_cast<std::int64_t>(3 * sizeof(RobotKeyframeDb)));
+  CHECK(used <= 2 * static_cast<std::int64_t>(keyframes) * record + static_cast<std::int64_t>(3 * sizeof(RobotKeyframeDb)) +
+                    scratch);
   for (const char* idle : {"affinity", "solvers", "scan_reassembly", "submaps", "registration"}) {
     CHECK(Module(use, idle).used_bytes == 0);
   }
@@ -247,7 +252,7 @@ TEST_CASE("Merge server memory: the server budget modules, descriptor_db from th
   // A new session of robot 1 drops its keyframes; the mark stays.
   server.ResetRobot(1);
   const ModuleMemory after = Module(server.MemoryUse(), "descriptor_db");
-  CHECK(after.used_bytes == static_cast<std::int64_t>(3 * sizeof(RobotKeyframeDb)));
+  CHECK(after.used_bytes == static_cast<std::int64_t>(3 * sizeof(RobotKeyframeDb)) + scratch);
   CHECK(after.high_water_bytes == used);
 }
 

@@ -10,6 +10,7 @@
 
 #include "core/agent/robot_agent.hpp"
 #include "core/cloud/scan_codec.hpp"
+#include "core/descriptor/compact_batch_codec.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
 #include "core/descriptor/sensor_presets.hpp"
 #include "core/descriptor/solid.hpp"
@@ -74,11 +75,36 @@ void Drive(RobotAgent* agent, int n, int empty_at) {
   }
 }
 
+// The keyframes of a batch of either kind a robot sends for SOLiD (92-byte records or a compact batch).
+std::vector<CompactKeyframe> BatchKeyframes(const KeyframeBatch& batch) {
+  std::vector<CompactKeyframe> out;
+  if (batch.record_kind == KeyframeRecordKind::kCompact40) {
+    const Status st = DecodeCompactBatch(Span<const std::uint8_t>(batch.records), batch.num_records(), &out);
+    REQUIRE_MESSAGE(st.ok(), st.ToString());
+    return out;
+  }
+  REQUIRE(batch.record_kind == KeyframeRecordKind::kUnit40);
+  for (std::size_t i = 0; i < batch.num_records(); ++i) {
+    auto rec = DecodeKeyframeRecord(
+        Span<const std::uint8_t>(batch.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
+    REQUIRE(rec.ok());
+    CompactKeyframe k;
+    k.pose = KeyframePose{rec->keyframe_index, rec->T_map_sensor};
+    k.descriptor = rec->descriptor;
+    out.push_back(k);
+  }
+  return out;
+}
+
 }  // namespace
 
 TEST_CASE("Robot agent batches carry every keyframe with its pose, descriptor and stored point count") {
+  // 92-byte records (0), the default compact batch, and the compact batch's finest descriptor.
+  for (int bits : {0, kDefaultRecordDescriptorBits, kCompactMaxDescriptorBits}) {
+  CAPTURE(bits);
   RobotAgentParams params;
   params.max_records_per_batch = 8;
+  params.record_descriptor_bits = bits;
   AgentRig rig = MakeRig(3, params);
   Drive(rig.agent.get(), 20, /*empty_at=*/-1);
   const RobotMapper& mapper = rig.agent->mapper();
@@ -97,22 +123,23 @@ TEST_CASE("Robot agent batches carry every keyframe with its pose, descriptor an
     CHECK(batch.descriptor_id == SolidParameterId(SolidPreset(LidarSensor::kVelodyneHdl64e)));
     CHECK(batch.descriptor_id == rig.solid->parameter_id());
     CHECK(batch.sequence == expected_sequence++);
+    CHECK(batch.record_kind == (bits == 0 ? KeyframeRecordKind::kUnit40 : KeyframeRecordKind::kCompact40));
     CHECK(batch.num_records() <= 8);
     REQUIRE(batch.stored_points.size() == batch.num_records());
+    const std::vector<CompactKeyframe> records = BatchKeyframes(batch);
+    REQUIRE(records.size() == batch.num_records());
     for (std::size_t i = 0; i < batch.num_records(); ++i) {
-      auto rec = DecodeKeyframeRecord(
-          Span<const std::uint8_t>(batch.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
-      REQUIRE(rec.ok());
-      const std::uint32_t k = rec->keyframe_index;
+      const CompactKeyframe* rec = &records[i];
+      const std::uint32_t k = rec->pose.keyframe_index;
       seen.push_back(k);
-      // Pose: float32 translation, 15-bit quaternion components.
-      CHECK((rec->T_map_sensor.translation() - mapper.pose(k).translation()).norm() < 1e-4);
-      CHECK(RotationAngleRad(rec->T_map_sensor.linear().transpose() * mapper.pose(k).linear()) < 2e-4);
-      // Descriptor: the mapper's, quantised to 14 bits.
+      // Pose: float32 translation or the 1 mm grid, quaternion codes.
+      CHECK((rec->pose.T_map_sensor.translation() - mapper.pose(k).translation()).norm() < (bits == 0 ? 1e-4 : 1e-3));
+      CHECK(RotationAngleRad(rec->pose.T_map_sensor.linear().transpose() * mapper.pose(k).linear()) < 2e-4);
+      // Descriptor: the mapper's, quantised to 14 bits or the batch's.
       const Span<const float> d = mapper.descriptor(k);
       double err = 0.0;
       for (std::size_t j = 0; j < kKeyframeDescriptorDim; ++j) err = std::max(err, std::abs(double(d[j]) - double(rec->descriptor[j])));
-      CHECK(err < 1e-3);
+      CHECK(err < (bits == 0 ? 1e-3 : 1.5 / ((1 << bits) - 1)));
       auto view = rig.store->View(k);
       REQUIRE(view.ok());
       CHECK(batch.stored_points[i] == ParseScanHeader(*view)->num_points);
@@ -125,6 +152,7 @@ TEST_CASE("Robot agent batches carry every keyframe with its pose, descriptor an
   CHECK(rig.agent->keyframes_sent() == 20);
   PoseUpdate update;
   CHECK_FALSE(rig.agent->TakePoseUpdate(0, &update));  // no loop, nothing moved
+  }
 }
 
 TEST_CASE("Robot agent sends the pose of a keyframe without a valid descriptor as a pose update") {
@@ -137,11 +165,7 @@ TEST_CASE("Robot agent sends the pose of a keyframe without a valid descriptor a
   REQUIRE(taken.ok());
   REQUIRE(*taken);
   CHECK(batch.num_records() == 5);
-  for (std::size_t i = 0; i < batch.num_records(); ++i) {
-    auto rec = DecodeKeyframeRecord(Span<const std::uint8_t>(batch.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
-    REQUIRE(rec.ok());
-    CHECK(rec->keyframe_index != 2u);
-  }
+  for (const CompactKeyframe& rec : BatchKeyframes(batch)) CHECK(rec.pose.keyframe_index != 2u);
   PoseUpdate update;
   REQUIRE(rig.agent->TakePoseUpdate(0, &update));
   REQUIRE(update.keyframes.size() == 1);

@@ -133,12 +133,14 @@ TEST_CASE("The descriptor databases are budgeted for the descriptor's values: Sc
   c.max_robots = 3;
   c.max_keyframes_per_robot = 1000;
   const std::int64_t unit_server = MakeBudgetTable(AppKind::kServer, c).Find("descriptor_db")->bytes;
-  CHECK(unit_server == 3 * 1000 * 512);
+  // One decoded compact batch beside the robots' keyframes.
+  CHECK(unit_server == 3 * 1000 * 512 + BudgetRecordSizes::kCompactBatchScratchBytes);
   c.descriptor_floats = 1200;
   // 1200 floats of 4 B where the 40-value record budgets 160 B of them, the rest of the 512 B record as before.
   const std::int64_t sc_record = 512 + 4 * (1200 - 40);
   CHECK(BudgetRecordSizes::DescriptorRecordBytes(1200) == sc_record);
-  CHECK(MakeBudgetTable(AppKind::kServer, c).Find("descriptor_db")->bytes == 3 * 1000 * sc_record);
+  CHECK(MakeBudgetTable(AppKind::kServer, c).Find("descriptor_db")->bytes ==
+        3 * 1000 * sc_record + BudgetRecordSizes::kCompactBatchScratchBytes);
   CHECK(MakeBudgetTable(AppKind::kRobot, c).Find("descriptor_db")->bytes == 1000 * sc_record);
   CHECK(MakeBudgetTable(AppKind::kRun, c).Find("robots.descriptor_db")->bytes == 3 * 1000 * sc_record);
   // The stored floats themselves fit the record: 1200 x 4 B plus the 40-value record's non-float part.

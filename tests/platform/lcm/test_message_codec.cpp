@@ -811,7 +811,19 @@ TEST_CASE("message codec: a keyframe batch whose byte count is not its record ki
   CHECK(sc_ok->record_kind == KeyframeRecordKind::kScanContext);
   CHECK(sc_ok->num_records() == 2);
   CheckDataLoss(decode(2, 184, 0), {"record_kind = 0"});
-  CheckDataLoss(decode(2, 184, 3), {"record_kind = 3"});
+  CheckDataLoss(decode(2, 184, 4), {"record_kind = 4"});
+  // A compact batch: one stream of 1..MAX_COMPACT_BYTES bytes holding 1..MAX_RECORDS records (its content is the
+  // server's to decode).
+  const std::int8_t compact = commerge::keyframe_batch_t::RECORD_COMPACT40;
+  const std::int32_t max_compact = commerge::keyframe_batch_t::MAX_COMPACT_BYTES;
+  CheckDataLoss(decode(0, 10, compact), {"compact batch", "num_records = 0"});
+  CheckDataLoss(decode(2, 0, compact), {"compact batch", "num_record_bytes = 0"});
+  CheckDataLoss(decode(2, max_compact + 1, compact), {"num_record_bytes = " + std::to_string(max_compact + 1)});
+  auto compact_ok = decode(3, 57, compact);
+  REQUIRE(compact_ok.ok());
+  CHECK(compact_ok->record_kind == KeyframeRecordKind::kCompact40);
+  CHECK(compact_ok->num_records() == 3);
+  CHECK(compact_ok->records.size() == 57);
   // A negative stored point count is refused too.
   commerge::keyframe_batch_t msg = ToLcm(MakeBatch(2));
   msg.stored_points[1] = -4;

@@ -396,7 +396,7 @@ TEST_CASE("rosbag2 db3: a record declaring gigabytes is refused without SQLite a
   CHECK(static_cast<std::uint64_t>(highest) < kSqliteLargestBlockBytes);
 }
 
-TEST_CASE("rosbag2 db3: a message larger than SQLite's block cap reads whole; one above max_message_bytes is "
+TEST_CASE("rosbag2 db3: a message larger than SQLite's block cap reads whole, one above max_message_bytes is "
           "refused naming the limit") {
   REQUIRE(kSqliteCapInstalled);
   const std::string path = test::ScratchFile("large.db3");
