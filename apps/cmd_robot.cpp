@@ -44,7 +44,7 @@ std::size_t DefaultRecordsPerBatch(KeyframeRecordKind kind) {
   switch (kind) {
     case KeyframeRecordKind::kScanContext: return 1;   // 1226 B
     case KeyframeRecordKind::kUnit40: return 12;       // 12 x 92 B
-    case KeyframeRecordKind::kCompact40: return 32;    // 20-35 B a keyframe
+    case KeyframeRecordKind::kCompact40: return 24;    // 35-45 B a keyframe + its 4-byte point count
   }
   return 1;
 }
@@ -587,7 +587,7 @@ Command AddRobotCommand(CLI::App& root) {
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m, "distance between keyframes [m]")->capture_default_str();
   cmd->add_option("--lcm-url", o->lcm_url, "LCM provider URL (default: LCM_DEFAULT_URL)");
   cmd->add_option("--records-per-batch", o->records_per_batch, "keyframe records per keyframe batch (default: as many "
-                  "as keep one message inside one 1500-byte datagram: 32 keyframes of a compact batch at 20-35 bytes "
+                  "as keep one message inside one 1500-byte datagram: 24 keyframes of a compact batch at 35-45 bytes "
                   "each, 12 records of 92 bytes with --record-descriptor-bits 0, 1 Scan Context record of 1226 "
                   "bytes)")->check(CLI::Range(1, 512));
   cmd->add_option("--poses-per-update", o->poses_per_update, "poses per pose update (the default keeps one message "

@@ -21,7 +21,7 @@
 namespace commerge {
 
 /// Bits per descriptor value of the compact keyframe batch by default (core/agent/decisions/ says why).
-constexpr int kDefaultRecordDescriptorBits = 6;
+constexpr int kDefaultRecordDescriptorBits = 8;
 
 struct RobotAgentParams {
   RobotMapperParams mapper;
