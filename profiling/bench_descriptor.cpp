@@ -1,14 +1,17 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Descriptor cost on one ~120k-point scan: SOLiD (R + A, unit R) and Scan Context per scan, plus the
-// keyframe record codec and the SOLiD / Scan Context distances per pair.
+// keyframe record codec, the compact keyframe batch per keyframe, and the SOLiD / Scan Context distances per pair.
 // Usage: bench_descriptor [--reps N]   (default 30 timed calls after one warm-up call)
 // Uses KITTI 00 frame 0 from the shared data when present, else a seeded synthetic LiDAR-like scan.
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
 
+#include "core/agent/robot_agent.hpp"
+#include "core/descriptor/compact_batch_codec.hpp"
 #include "core/descriptor/descriptor_codec.hpp"
 #include "core/descriptor/scan_context.hpp"
 #include "core/descriptor/solid.hpp"
@@ -72,5 +75,39 @@ int main(int argc, char** argv) {
   });
   std::printf("keyframe record (%zu B): encode %.2f us, decode %.2f us\n", commerge::kKeyframeRecordBytes,
               1e3 * enc[0] / kPairs, 1e3 * dec[0] / kPairs);
+
+  // A compact batch of 256 keyframes 1 m apart, the descriptor drifting from one to the next, at the default bits.
+  std::vector<commerge::CompactKeyframe> keyframes(256);
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    keyframes[k].pose.keyframe_index = static_cast<std::uint32_t>(k);
+    keyframes[k].pose.T_map_sensor.translation() = Eigen::Vector3d(static_cast<double>(k), 0.01 * k, 0.0);
+    double norm2 = 0.0;
+    for (std::size_t j = 0; j < rsolid.size(); ++j) {
+      const double v = static_cast<double>(rsolid[j]) * (1.0 + 0.05 * ((k * 7 + j * 3) % 5)) + 1e-3;
+      keyframes[k].descriptor[j] = static_cast<float>(v);
+      norm2 += v * v;
+    }
+    for (float& v : keyframes[k].descriptor) v = static_cast<float>(static_cast<double>(v) / std::sqrt(norm2));
+  }
+  std::vector<std::uint8_t> batch;
+  std::vector<commerge::CompactKeyframe> decoded;
+  const commerge::Span<const commerge::CompactKeyframe> in(keyframes.data(), keyframes.size());
+  constexpr int kBatches = 50;
+  const auto benc = commerge::bench::TimeMs(1, [&] {
+    for (int i = 0; i < kBatches; ++i) (void)commerge::EncodeCompactBatch(in, commerge::kDefaultRecordDescriptorBits, &batch);
+  });
+  const auto bdec = commerge::bench::TimeMs(1, [&] {
+    for (int i = 0; i < kBatches; ++i) {
+      (void)commerge::DecodeCompactBatch(commerge::Span<const std::uint8_t>(batch.data(), batch.size()), keyframes.size(),
+                                         &decoded);
+      sink = sink + static_cast<double>(decoded[0].descriptor[0]);
+    }
+  });
+  const double per = 1e3 / (kBatches * static_cast<double>(keyframes.size()));
+  std::printf("compact batch (%zu keyframes, %d bits, %.1f B a keyframe): encode %.2f us, decode %.2f us a keyframe "
+              "(%.4f %% of one SOLiD computation)\n",
+              keyframes.size(), commerge::kDefaultRecordDescriptorBits,
+              static_cast<double>(batch.size()) / static_cast<double>(keyframes.size()), benc[0] * per, bdec[0] * per,
+              100.0 * bdec[0] * per / (1e3 * commerge::bench::Median(solid_ms)));
   return 0;
 }

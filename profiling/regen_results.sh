@@ -102,6 +102,7 @@ sections=(
   "mission-long|1 h (12 GB of data)|root|Mission-long exchange"
   "peak-ram-town|15 min (12 GB of data)|root|Peak RAM of a Town-scale mission"
   "import-memory|15 min (2 GB of data)|real, python3-rosbag|Import of a ROS bag: memory follows the largest message"
+  "wire-records|15 min (2.4 GB of data)|-|Compact keyframe batches"
   "field-bundle|15 min|build-jetson (the cross build)|Field bundle"
   "ci-time|40 min|a clean clone of the repository|CI time"
 )
@@ -922,6 +923,25 @@ print("%d | %.2f MB | %d" % (b.get_message_count(), max(len(m[1]) for _, m, _ in
     rm -rf "$d/$bag.imp"
   done
   rm -f "$d/big.bag"
+}
+sec_wire_records() {
+  local d=$work/wire-records b
+  rm -rf "$d" && mkdir -p "$d"
+  run_logged "$d/sim.log" "$bin" sim --world urban --robots 2 --overlap complete --keyframes 3000 --lidar vlp16 \
+      --seed 11 --direction same --wobble-deg 0 --force --out "$d/data" || { fail "commerge sim failed (see $d/sim.log)"; return; }
+  echo "| --record-descriptor-bits | keyframe records received | per keyframe | total exchanged (A+B+C) | vs stored send-all | scans (selected + padded) | pair merged | e_rmse |"
+  echo "|---|---|---|---|---|---|---|---|"
+  for b in 0 6 7 8 10; do
+    "$bin" run "$d/data/robot_0" "$d/data/robot_1" --lidar vlp-16 --keyframe-spacing-m 0.9 --board jetson-nano \
+        --max-keyframes 3100 --modes A+B+C --no-progress --no-report --out "$d/run$b" --record-descriptor-bits "$b" \
+        >"$d/run$b.log" 2>&1 || { fail "commerge run --record-descriptor-bits $b failed (see $d/run$b.log)"; continue; }
+    awk -v b="$b" '/streamed to the server: keyframes/ { rec = $6 " " $7; n = $8; sub(/\(/, "", n) }
+                   /^\| A\+B\+C/ { split($0, c, "|"); total = c[7]; vs = c[8]; scans = c[3]; merged = c[9]; e = c[10] }
+                   END { kib = rec; sub(/ KiB/, "", kib); if (rec ~ /MiB/) { kib = rec; sub(/ MiB/, "", kib); kib *= 1024 }
+                         printf "| %s | %s | %.1f B | %s | %s | %s | %s | %s |\n", (b == 0 ? "0 (92-byte records)" : b), rec,
+                                kib * 1024 / n, total, vs, scans, merged, e }' "$d/run$b.log"
+  done
+  rm -rf "$d/data"
 }
 sec_field_bundle() {
   local jet=$repo/build-jetson
