@@ -94,7 +94,9 @@ int main(int argc, char** argv) {
   const commerge::Span<const commerge::CompactKeyframe> in(keyframes.data(), keyframes.size());
   constexpr int kBatches = 50;
   const auto benc = commerge::bench::TimeMs(1, [&] {
-    for (int i = 0; i < kBatches; ++i) (void)commerge::EncodeCompactBatch(in, commerge::kDefaultRecordDescriptorBits, &batch);
+    for (int i = 0; i < kBatches; ++i) {
+      (void)commerge::EncodeCompactBatch(in, commerge::kDefaultRecordDescriptorBits, &batch);
+    }
   });
   const auto bdec = commerge::bench::TimeMs(1, [&] {
     for (int i = 0; i < kBatches; ++i) {

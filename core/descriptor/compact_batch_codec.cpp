@@ -280,7 +280,9 @@ Status DecodeCompactBatch(Span<const std::uint8_t> bytes, std::size_t num_record
   for (std::size_t i = 0; i < num_records; ++i) {
     Codes c;
     std::uint64_t v = 0;
-    const auto ended = [i] { return Corrupt(i, "the stream ends early, or an Exp-Golomb code is longer than 40 bits"); };
+    const auto ended = [i] {
+      return Corrupt(i, "the stream ends early, or an Exp-Golomb code is longer than 40 bits");
+    };
     if (i == 0) {
       if (!r.GetExpGolomb(0, &v)) return ended();
       if (v > std::numeric_limits<std::uint32_t>::max()) return Corrupt(i, "keyframe index beyond 2^32 - 1");

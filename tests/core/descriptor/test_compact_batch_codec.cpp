@@ -82,7 +82,7 @@ void CheckRoundTrip(const std::vector<CompactKeyframe>& in, int bits, double* by
     CHECK(dt.cwiseAbs().maxCoeff() <= 0.5e-3 + 1e-9);
     CHECK(test::RotationErrorRad(out[i].pose.T_map_sensor.linear(), in[i].pose.T_map_sensor.linear()) <= 1.3e-4);
     // Max-scaled codes move by at most 0.5 each: the angle is at most asin(max_j d_j sqrt(40) / (2 L)).
-    const double max_value = *std::max_element(in[i].descriptor.begin(), in[i].descriptor.end());
+    const double max_value = static_cast<double>(*std::max_element(in[i].descriptor.begin(), in[i].descriptor.end()));
     const double bound = std::asin(std::min(1.0, max_value * std::sqrt(40.0) / (2.0 * levels)));
     CHECK(DescriptorAngle(out[i].descriptor, in[i].descriptor) <= bound + 1e-6);
     // The same as the keyframe quantised alone, bit for bit.
