@@ -7,8 +7,8 @@
 
 #include "core/agent/server_rejection.hpp"
 #include "core/descriptor/compact_batch_codec.hpp"
-#include "core/memory/budget.hpp"
 #include "core/geometry/se3.hpp"
+#include "core/memory/budget.hpp"
 
 namespace commerge {
 
