@@ -10,7 +10,7 @@ namespace commerge {
 namespace {
 
 constexpr std::int64_t kMaxGridValue = std::int64_t{1} << 43;  // 8.8e9 m at 1 mm
-constexpr int kMaxExpGolombBits = 40;                          // leading zeros of one code at most
+constexpr int kMaxExpGolombZeros = 48;                         // leading zeros of one code at most
 constexpr int kOrderBits = 4;                                  // each k in the stream header
 constexpr int kMaxOrder = (1 << kOrderBits) - 1;
 constexpr int kQuaternionCodeBits = 16;
@@ -72,7 +72,7 @@ class BitReader {
     while (true) {
       if (!Get(1, &bit)) return false;
       if (bit != 0) break;
-      if (++zeros > kMaxExpGolombBits) return false;
+      if (++zeros > kMaxExpGolombZeros) return false;
     }
     std::uint64_t u = 1;
     for (int i = 0; i < zeros; ++i) {
@@ -281,7 +281,7 @@ Status DecodeCompactBatch(Span<const std::uint8_t> bytes, std::size_t num_record
     Codes c;
     std::uint64_t v = 0;
     const auto ended = [i] {
-      return Corrupt(i, "the stream ends early, or an Exp-Golomb code is longer than 40 bits");
+      return Corrupt(i, "the stream ends early, or an Exp-Golomb code has more than 48 leading zeros");
     };
     if (i == 0) {
       if (!r.GetExpGolomb(0, &v)) return ended();

@@ -32,7 +32,7 @@
 // The record count is the batch's num_records; the stored point counts travel beside, as for every kind.
 //
 // Decoders refuse (data loss, naming the record): b outside 4..14, a stream that ends early or has bytes or set
-// padding bits left, an EG code longer than 40 bits, an index that does not ascend or passes 2^32 - 1, a grid
+// padding bits left, an EG code with more than 48 leading zeros (the encoder writes at most 46), an index that does not ascend or passes 2^32 - 1, a grid
 // value beyond +-2^43 (8.8e9 m), a quaternion code outside +-32767 or an all-zero quaternion, a descriptor code
 // above L or a descriptor whose largest code is not L.
 #pragma once

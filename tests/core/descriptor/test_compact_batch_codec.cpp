@@ -113,13 +113,16 @@ TEST_CASE("compact batch: round trips within the stated quantisation, each keyfr
   }
 }
 
-TEST_CASE("compact batch: a quaternion near -q of its predecessor, far positions and large index gaps") {
+TEST_CASE("compact batch: a quaternion near -q of its predecessor, positions near the grid's end and large index gaps") {
   std::vector<CompactKeyframe> in = Trajectory(5, 0, 3);
   in[2].pose.T_map_sensor.linear() = Eigen::AngleAxisd(3.14159, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   in[3].pose.T_map_sensor.linear() = Eigen::AngleAxisd(-3.14159, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  in[3].pose.T_map_sensor.translation() = Eigen::Vector3d(-8e6, 4e6, -2.5e3);
+  in[3].pose.T_map_sensor.translation() = Eigen::Vector3d(-8.7e9, 4e6, -2.5e3);  // near the grid's +-8.8e9 m
   in[4].pose.keyframe_index = 0xFFFFFFF0u;
   double unused = 0.0;
+  CheckRoundTrip(in, 8, &unused);
+  // The first keyframe, coded whole, at the grid's end.
+  in[0].pose.T_map_sensor.translation() = Eigen::Vector3d(8.79e9, -8.79e9, 1.0);
   CheckRoundTrip(in, 8, &unused);
 }
 
