@@ -242,12 +242,7 @@ Status RobotAgent::AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBa
   {
     const KeyframePose pose{static_cast<std::uint32_t>(k), mapper_.pose(k)};
     if (record_kind_ == KeyframeRecordKind::kCompact40) {
-      // Coded with the rest of the batch in FinishBatch.
-      CompactKeyframe keyframe;
-      keyframe.pose = pose;
-      const Span<const float> d = mapper_.descriptor(k);
-      std::copy(d.begin(), d.end(), keyframe.descriptor.begin());
-      compact_.push_back(keyframe);
+      compact_.push_back(MakeCompactKeyframe(pose, mapper_.descriptor(k)));  // coded in FinishBatch
     } else {
       const std::size_t offset = batch->records.size(), bytes = KeyframeRecordBytesOf(record_kind_);
       batch->records.resize(offset + bytes);

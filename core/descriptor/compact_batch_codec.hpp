@@ -62,6 +62,14 @@ struct CompactKeyframe {
   std::array<float, kKeyframeDescriptorDim> descriptor{};
 };
 
+/// The keyframe of `pose` and `descriptor` (its first kKeyframeDescriptorDim values; a 40-value descriptor's).
+inline CompactKeyframe MakeCompactKeyframe(const KeyframePose& pose, Span<const float> descriptor) {
+  CompactKeyframe k;
+  k.pose = pose;
+  for (std::size_t i = 0; i < kKeyframeDescriptorDim && i < descriptor.size(); ++i) k.descriptor[i] = descriptor[i];
+  return k;
+}
+
 /// Encodes `keyframes` (1..kMaxCompactBatchRecords, ascending keyframe indices) with `descriptor_bits` per
 /// descriptor value into `out` (replaced). Errors (invalid argument, naming the keyframe): bits outside 4..14, no
 /// or too many keyframes, indices not ascending, the 92-byte record's checks of pose and descriptor (finite,
