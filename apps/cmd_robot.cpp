@@ -44,7 +44,7 @@ std::size_t DefaultRecordsPerBatch(KeyframeRecordKind kind) {
   switch (kind) {
     case KeyframeRecordKind::kScanContext: return 1;   // 1226 B
     case KeyframeRecordKind::kUnit40: return 12;       // 12 x 92 B
-    case KeyframeRecordKind::kCompact40: return 24;    // 35-45 B a keyframe + its 4-byte point count
+    case KeyframeRecordKind::kCompact40: return 24;    // 35-45 B a keyframe, its point count included
   }
   return 1;
 }
@@ -62,9 +62,10 @@ struct RobotOptions {
   double rate_hz = 10.0;
   double keyframe_spacing_m = 1.0;
   // One keyframe_batch_t / pose_update_t stays inside one UDP datagram at a 1500-byte MTU (WiFi): LCM drops a
-  // whole message when one IP fragment is lost. 12 records = about 1.2 kB encoded, 32 poses = about 1.1 kB.
+  // whole message when one IP fragment is lost. 128 poses of a corrected stretch = about 0.7-1.1 kB (5-8 bytes a
+  // pose, core/descriptor/compact_pose_codec.hpp).
   std::size_t records_per_batch = 0;  ///< 0: DefaultRecordsPerBatch of the record kind
-  std::size_t poses_per_update = 32;
+  std::size_t poses_per_update = 128;
   std::string lcm_url;
   double bandwidth_kbps = 4000.0;
   double linger_s = 60.0;
@@ -590,8 +591,8 @@ Command AddRobotCommand(CLI::App& root) {
                   "as keep one message inside one 1500-byte datagram: 24 keyframes of a compact batch at 35-45 bytes "
                   "each, 12 records of 92 bytes with --record-descriptor-bits 0, 1 Scan Context record of 1226 "
                   "bytes)")->check(CLI::Range(1, 512));
-  cmd->add_option("--poses-per-update", o->poses_per_update, "poses per pose update (the default keeps one message "
-                  "inside one 1500-byte datagram)")->check(CLI::Range(1, 4096))->capture_default_str();
+  cmd->add_option("--poses-per-update", o->poses_per_update, "poses per pose update (the default keeps the update "
+                  "of a corrected stretch, 5-8 bytes a pose, inside one 1500-byte datagram)")->check(CLI::Range(1, 4096))->capture_default_str();
   cmd->add_option("--bandwidth-kbps", o->bandwidth_kbps, "cap on what this robot sends [kbit/s] (0 = none; the "
                                                          "default paces bursts so receivers keep up)")
       ->check(CLI::Range(0.0, 1e7))

@@ -929,17 +929,19 @@ sec_wire_records() {
   rm -rf "$d" && mkdir -p "$d"
   run_logged "$d/sim.log" "$bin" sim --world urban --robots 2 --overlap complete --keyframes 3000 --lidar vlp16 \
       --seed 11 --direction same --wobble-deg 0 --force --out "$d/data" || { fail "commerge sim failed (see $d/sim.log)"; return; }
-  echo "| --record-descriptor-bits | keyframe records received | per keyframe | total exchanged (A+B+C) | vs stored send-all | scans (selected + padded) | pair merged | e_rmse |"
-  echo "|---|---|---|---|---|---|---|---|"
+  echo "| --record-descriptor-bits | keyframe records received | per keyframe | streamed pose updates (messages) | total exchanged (A+B+C) | vs stored send-all | scans (selected + padded) | pair merged | e_rmse |"
+  echo "|---|---|---|---|---|---|---|---|---|"
   for b in 0 6 7 8 10; do
     "$bin" run "$d/data/robot_0" "$d/data/robot_1" --lidar vlp-16 --keyframe-spacing-m 0.9 --board jetson-nano \
         --max-keyframes 3100 --modes A+B+C --no-progress --no-report --out "$d/run$b" --record-descriptor-bits "$b" \
         >"$d/run$b.log" 2>&1 || { fail "commerge run --record-descriptor-bits $b failed (see $d/run$b.log)"; continue; }
-    awk -v b="$b" '/streamed to the server: keyframes/ { rec = $6 " " $7; n = $8; sub(/\(/, "", n) }
-                   /^\| A\+B\+C/ { split($0, c, "|"); total = c[7]; vs = c[8]; scans = c[3]; merged = c[9]; e = c[10] }
+    awk -v b="$b" '/streamed to the server: keyframes/ { rec = $6 " " $7; n = $8; sub(/\(/, "", n)
+                                                         pu = $0; sub(/.*pose updates /, "", pu) }
+                   /^\| A\+B\+C/ { split($0, c, "|"); for (i in c) gsub(/^ +| +$/, "", c[i])
+                                   total = c[7]; vs = c[8]; scans = c[3]; merged = c[9]; e = c[10] }
                    END { kib = rec; sub(/ KiB/, "", kib); if (rec ~ /MiB/) { kib = rec; sub(/ MiB/, "", kib); kib *= 1024 }
-                         printf "| %s | %s | %.1f B | %s | %s | %s | %s | %s |\n", (b == 0 ? "0 (92-byte records)" : b), rec,
-                                kib * 1024 / n, total, vs, scans, merged, e }' "$d/run$b.log"
+                         printf "| %s | %s | %.1f B | %s | %s | %s | %s | %s | %s |\n", (b == 0 ? "0 (92-byte records)" : b), rec,
+                                kib * 1024 / n, pu, total, vs, scans, merged, e }' "$d/run$b.log"
   done
   rm -rf "$d/data"
 }

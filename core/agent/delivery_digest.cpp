@@ -55,7 +55,7 @@ Result<DeliveryDigest> RobotDeliveryDigest(const RobotMapper& mapper, int record
     const KeyframePose pose{static_cast<std::uint32_t>(k), mapper.pose(k)};
     if (kind == KeyframeRecordKind::kCompact40) {
       // A compact batch decodes each keyframe as its quantisation alone.
-      auto quantised = QuantiseCompactKeyframe(MakeCompactKeyframe(pose, mapper.descriptor(k)), record_descriptor_bits);
+      auto quantised = QuantiseCompactKeyframe(MakeCompactKeyframe(pose, mapper.descriptor(k), 0), record_descriptor_bits);
       if (!quantised.ok()) return quantised.status();
       std::copy(quantised->descriptor.begin(), quantised->descriptor.end(), sent.begin());
     } else {

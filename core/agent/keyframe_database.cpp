@@ -139,9 +139,10 @@ Status KeyframeDatabase::OnKeyframeBatch(const KeyframeBatch& batch, MergeServer
                                                std::to_string(bytes) + " bytes";
     return CountRejection(stats, &stats->rejected_batches,
                   InvalidArgument("keyframe batch of " + ServerRobotText(batch.robot_id) + ": " +
-                                  std::to_string(batch.records.size()) + " record bytes and " +
-                                  std::to_string(batch.stored_points.size()) +
-                                  " point counts do not describe " + shape));
+                                  std::to_string(batch.records.size()) + " record bytes, " +
+                                  std::to_string(batch.stored_points.size()) + " point counts and " +
+                                  std::to_string(batch.num_compact_records) +
+                                  " compact records do not describe " + shape));
   }
   if (Status st = DescriptorIdError(batch); !st.ok()) return CountRejection(stats, &stats->rejected_batches, st);
   if (batch.record_kind == KeyframeRecordKind::kCompact40) {
@@ -171,7 +172,8 @@ Status KeyframeDatabase::OnKeyframeBatch(const KeyframeBatch& batch, MergeServer
     db.valid[k] = 1;
     db.pose_known[k] = 1;
     db.T_map_sensor[k] = record->T_map_sensor;
-    db.stored_points[k] = batch.stored_points[i];
+    db.stored_points[k] = batch.record_kind == KeyframeRecordKind::kCompact40 ? compact_[i].stored_points
+                                                                              : batch.stored_points[i];
     // The robot's id is the one of its first batch that delivered a record.
     if (db.descriptor_id == 0) db.descriptor_id = batch.descriptor_id;
     ++stats->records;

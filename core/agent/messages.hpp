@@ -70,26 +70,28 @@ struct KeyframeBatch {
   /// or for kCompact40 one compact batch (compact_batch_codec.hpp).
   KeyframeRecordKind record_kind = KeyframeRecordKind::kUnit40;
   std::vector<std::uint8_t> records;
-  /// Points of each keyframe's stored scan (0 = not stored), one per record.
+  /// Points of each keyframe's stored scan (0 = not stored), one per record; empty for kCompact40, whose stream
+  /// carries the counts.
   std::vector<std::uint32_t> stored_points;
+  /// kCompact40 only: the keyframes coded in `records` (the stream does not hold its own count).
+  std::size_t num_compact_records = 0;
   /// PlaceDescriptor::parameter_id() of the records' descriptors: only descriptors of one id are comparable.
   std::uint32_t descriptor_id = 0;
-  /// Records of a fixed-size kind: records.size() / the record size; of kCompact40 (one coded stream, whose
-  /// count is not in its bytes): one per stored point count.
+  /// Records of a fixed-size kind: records.size() / the record size; of kCompact40: num_compact_records.
   std::size_t num_records() const noexcept {
-    if (record_kind == KeyframeRecordKind::kCompact40) return stored_points.size();
+    if (record_kind == KeyframeRecordKind::kCompact40) return num_compact_records;
     const std::size_t bytes = KeyframeRecordBytesOf(record_kind);
     return bytes == 0 ? 0 : records.size() / bytes;
   }
   /// records and stored_points describe at most kMaxRecordsPerBatch records of record_kind (sizes only; a
-  /// compact batch holds at least one record in 1..kMaxCompactBatchBytes bytes).
+  /// compact batch holds at least one record in 1..kMaxCompactBatchBytes bytes and no separate point count).
   bool RecordArraysConsistent() const noexcept {
     const std::size_t n = num_records();
-    if (n > kMaxRecordsPerBatch || stored_points.size() != n) return false;
+    if (n > kMaxRecordsPerBatch) return false;
     if (record_kind == KeyframeRecordKind::kCompact40) {
-      return n >= 1 && !records.empty() && records.size() <= kMaxCompactBatchBytes;
+      return n >= 1 && stored_points.empty() && !records.empty() && records.size() <= kMaxCompactBatchBytes;
     }
-    return records.size() == n * KeyframeRecordBytesOf(record_kind);
+    return stored_points.size() == n && records.size() == n * KeyframeRecordBytesOf(record_kind);
   }
 };
 

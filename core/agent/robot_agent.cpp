@@ -196,6 +196,7 @@ Result<bool> RobotAgent::TakeKeyframeBatch(std::int64_t utime_us, KeyframeBatch*
   batch->record_kind = record_kind_;
   batch->records.clear();
   batch->stored_points.clear();
+  batch->num_compact_records = 0;
   compact_.clear();
   std::size_t records = 0;
   // Re-announcements first, in a batch of their own (the caller counts its bytes as resent).
@@ -241,8 +242,13 @@ Result<bool> RobotAgent::FinishBatch(KeyframeBatch* batch) {
 Status RobotAgent::AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBatch* batch) {
   {
     const KeyframePose pose{static_cast<std::uint32_t>(k), mapper_.pose(k)};
+    std::uint32_t points = 0;
+    if (auto view = store_->View(static_cast<std::uint32_t>(k)); view.ok()) {
+      if (auto header = ParseScanHeader(*view); header.ok()) points = header->num_points;
+    }
     if (record_kind_ == KeyframeRecordKind::kCompact40) {
-      compact_.push_back(MakeCompactKeyframe(pose, mapper_.descriptor(k)));  // coded in FinishBatch
+      compact_.push_back(MakeCompactKeyframe(pose, mapper_.descriptor(k), points));  // coded in FinishBatch
+      batch->num_compact_records = compact_.size();
     } else {
       const std::size_t offset = batch->records.size(), bytes = KeyframeRecordBytesOf(record_kind_);
       batch->records.resize(offset + bytes);
@@ -253,12 +259,8 @@ Status RobotAgent::AppendRecord(std::size_t k, std::int64_t utime_us, KeyframeBa
         return Status(st.code(), "robot " + std::to_string(robot_id_) + " keyframe " + std::to_string(k) + ": " +
                                      st.message());
       }
+      batch->stored_points.push_back(points);
     }
-    std::uint32_t points = 0;
-    if (auto view = store_->View(static_cast<std::uint32_t>(k)); view.ok()) {
-      if (auto header = ParseScanHeader(*view); header.ok()) points = header->num_points;
-    }
-    batch->stored_points.push_back(points);
     RememberSent(k);
     last_sent_us_[k] = utime_us;
   }

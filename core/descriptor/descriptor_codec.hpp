@@ -147,9 +147,9 @@ enum class KeyframeRecordKind : std::uint8_t {
   /// server of kUnit40 takes both.
   kCompact40 = 3,
 };
-/// Bytes of one compact batch at most: 512 records of at most 320 bytes each (the longest Exp-Golomb codes the
-/// encoder can write: ~313 bytes a record).
-constexpr std::size_t kMaxCompactBatchBytes = 512 * 320;
+/// Bytes of one compact batch at most: 512 records of at most 336 bytes each (the longest Exp-Golomb codes the
+/// encoder can write: ~321 bytes a record, of which 8 for the stored point count).
+constexpr std::size_t kMaxCompactBatchBytes = 512 * 336;
 /// The one Scan Context grid on the wire (the paper's and Kim & Kim's 20 x 60): 1226-byte records.
 constexpr int kScanContextWireRings = 20;
 constexpr int kScanContextWireSectors = 60;

@@ -99,9 +99,9 @@ struct BudgetRecordSizes {
   static constexpr std::int64_t DescriptorRecordBytes(std::int32_t floats) noexcept {
     return kDescriptorRecordBytes + 4 * (floats > 40 ? static_cast<std::int64_t>(floats) - 40 : 0);
   }
-  /// The server's decoded compact keyframe batch: 512 keyframes x sizeof(CompactKeyframe) (at most 304 B,
+  /// The server's decoded compact keyframe batch: 512 keyframes x sizeof(CompactKeyframe) (at most 320 B,
   /// checked in core/agent/keyframe_database.cpp).
-  static constexpr std::int64_t kCompactBatchScratchBytes = 512 * 304;
+  static constexpr std::int64_t kCompactBatchScratchBytes = 512 * 320;
   /// Node (128 B), the mapper's odometry pose (128 B), its edges (432 B each: odometry and loops) and the sparse
   /// solver's workspace (~2.4 kB per node on a plain circuit, profiling/bench_pose_graph; more with the fill-in
   /// of many loops). Sized for the worst case the pose-graph test measures: 5.3 kB with a loop at every

@@ -7,6 +7,7 @@
 #include "commerge/keyframe_batch_t.hpp"
 #include "commerge/pose_update_t.hpp"
 #include "commerge/scan_chunk_t.hpp"
+#include "core/descriptor/compact_pose_codec.hpp"
 #include "platform/lcm/codec_util.hpp"
 
 namespace commerge::platform {
@@ -19,6 +20,8 @@ const char* const kScansChannel = "COMMERGE_SCANS";
 namespace {
 
 static_assert(commerge::keyframe_batch_t::MAX_RECORDS == static_cast<std::int32_t>(kMaxRecordsPerBatch), "");
+static_assert(commerge::pose_update_t::MAX_POSE_BYTES == static_cast<std::int32_t>(kMaxCompactPoseBytes), "");
+static_assert(commerge::pose_update_t::MAX_POSES == static_cast<std::int32_t>(kMaxCompactPoses), "");
 static_assert(commerge::keyframe_batch_t::RECORD_BYTES == static_cast<std::int32_t>(kKeyframeRecordBytes), "");
 static_assert(commerge::keyframe_batch_t::SCAN_CONTEXT_RECORD_BYTES ==
                   static_cast<std::int32_t>(ScanContextRecordBytes(kScanContextWireRings, kScanContextWireSectors)),
@@ -64,8 +67,9 @@ Status EncodeKeyframeBatch(const KeyframeBatch& m, std::vector<std::uint8_t>* ou
   msg.num_records = static_cast<std::int32_t>(n);
   msg.num_record_bytes = static_cast<std::int32_t>(m.records.size());
   msg.records = m.records;
-  msg.stored_points.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
+  msg.num_stored_points = static_cast<std::int32_t>(m.stored_points.size());
+  msg.stored_points.resize(m.stored_points.size());
+  for (std::size_t i = 0; i < m.stored_points.size(); ++i) {
     if (m.stored_points[i] > static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max())) {
       return InvalidArgument("keyframe_batch_t: stored_points[" + std::to_string(i) + "] is too large");
     }
@@ -97,8 +101,16 @@ Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes) {
     return DataLoss("keyframe_batch_t: num_record_bytes = " + std::to_string(nb) + " is not " +
                     std::to_string(record_bytes) + " x num_records = " + std::to_string(n * record_bytes));
   }
-  // ... records, stored_points, descriptor_id 4.
-  if (Status st = CheckRoom(bytes, 8 + 31 + nb + 4 * n + 4, type); !st.ok()) return st;
+  // ... records, num_stored_points 4, stored_points, descriptor_id 4.
+  if (Status st = CheckRoom(bytes, 8 + 31 + nb + 4, type); !st.ok()) return st;
+  const std::int64_t np = ReadBe(bytes, static_cast<std::size_t>(8 + 31 + nb), 4);
+  const std::int64_t expected_np = record_kind == KeyframeRecordKind::kCompact40 ? 0 : n;
+  if (np != expected_np) {
+    return DataLoss("keyframe_batch_t: num_stored_points = " + std::to_string(np) + " is not " +
+                    std::to_string(expected_np) + (expected_np == 0 ? " (a compact batch codes its point counts)"
+                                                                    : " (num_records)"));
+  }
+  if (Status st = CheckRoom(bytes, 8 + 31 + nb + 4 + 4 * np + 4, type); !st.ok()) return st;
   commerge::keyframe_batch_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
@@ -109,7 +121,8 @@ Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes) {
   m.sequence = msg.sequence;
   m.record_kind = record_kind;
   m.records = std::move(msg.records);
-  m.stored_points.resize(static_cast<std::size_t>(n));
+  if (record_kind == KeyframeRecordKind::kCompact40) m.num_compact_records = static_cast<std::size_t>(n);
+  m.stored_points.resize(static_cast<std::size_t>(np));
   for (std::size_t i = 0; i < m.stored_points.size(); ++i) {
     if (msg.stored_points[i] < 0) {
       return DataLoss("keyframe_batch_t: stored_points[" + std::to_string(i) + "] = " +
@@ -140,38 +153,29 @@ Status EncodePoseUpdate(const PoseUpdate& m, std::vector<std::uint8_t>* out) {
   msg.session = m.session;
   msg.sequence = m.sequence;
   msg.num_poses = static_cast<std::int32_t>(n);
-  msg.keyframe_index.resize(n);
-  msg.translation_m.resize(n);
-  msg.quaternion.resize(n);
-  msg.no_descriptor.assign(n, 0);  // empty = all 0
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Isometry3d& T = m.T_map_sensor[i];
-    if (!T.matrix().allFinite() || m.keyframes[i] > static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max())) {
-      return InvalidArgument("pose_update_t: pose " + std::to_string(i) + " (keyframe " +
-                             std::to_string(m.keyframes[i]) + ") is not finite or its index is too large");
-    }
-    msg.keyframe_index[i] = static_cast<std::int32_t>(m.keyframes[i]);
-    PoseToWire(T, &msg.translation_m[i], &msg.quaternion[i]);
-    if (!m.no_descriptor.empty()) {
-      const std::string field = "no_descriptor[" + std::to_string(i) + "]";
-      if (Status st = CheckFlag(m.no_descriptor[i], InvalidArgument, type, field); !st.ok()) return st;
-      msg.no_descriptor[i] = static_cast<std::int8_t>(m.no_descriptor[i]);
-    }
+  if (Status st = EncodeCompactPoses(Span<const std::uint32_t>(m.keyframes), Span<const Eigen::Isometry3d>(m.T_map_sensor),
+                                     Span<const std::uint8_t>(m.no_descriptor), &msg.poses);
+      !st.ok()) {
+    return InvalidArgument("pose_update_t: " + st.message());
   }
+  msg.num_pose_bytes = static_cast<std::int32_t>(msg.poses.size());
   return EncodeInto(msg, out, type);
 }
 
 Result<PoseUpdate> DecodePoseUpdate(Span<const std::uint8_t> bytes) {
   const char* type = "pose_update_t";
-  // After the hash: utime 8, robot_id 2, session 8, sequence 4, num_poses 4.
-  if (Status st = CheckHeader<commerge::pose_update_t>(bytes, 26, type); !st.ok()) return st;
-  const std::int64_t n = ReadBe(bytes, 8 + 22, 4);
+  // After the hash: utime 8, robot_id 2, session 8, sequence 4, num_poses 4, num_pose_bytes 4.
+  if (Status st = CheckHeader<commerge::pose_update_t>(bytes, 30, type); !st.ok()) return st;
+  const std::int64_t n = ReadBe(bytes, 8 + 22, 4), nb = ReadBe(bytes, 8 + 26, 4);
   if (Status st = CheckCount(n, static_cast<std::int64_t>(kMaxPosesPerUpdate), type, "num_poses"); !st.ok()) return st;
-  // Each pose takes 4 + 12 + 16 + 1 bytes: a short buffer is refused before the decoder allocates for it.
-  if (static_cast<std::int64_t>(bytes.size()) < 8 + 26 + 33 * n) {
-    return DataLoss("pose_update_t: " + std::to_string(bytes.size()) + " bytes cannot hold " + std::to_string(n) +
-                    " poses");
+  if (Status st = CheckCount(nb, static_cast<std::int64_t>(kMaxCompactPoseBytes), type, "num_pose_bytes"); !st.ok()) {
+    return st;
   }
+  if ((n == 0) != (nb == 0)) {
+    return DataLoss("pose_update_t: num_pose_bytes = " + std::to_string(nb) + " for num_poses = " +
+                    std::to_string(n) + " (0 bytes exactly for 0 poses)");
+  }
+  if (Status st = CheckRoom(bytes, 8 + 30 + nb, type); !st.ok()) return st;
   commerge::pose_update_t msg{};
   if (Status st = DecodeChecked(bytes, &msg, type); !st.ok()) return st;
   if (Status st = CheckDecodedRobotId(msg.robot_id, type); !st.ok()) return st;
@@ -180,18 +184,10 @@ Result<PoseUpdate> DecodePoseUpdate(Span<const std::uint8_t> bytes) {
   m.robot_id = msg.robot_id;
   m.session = msg.session;
   m.sequence = msg.sequence;
-  m.keyframes.resize(static_cast<std::size_t>(n));
-  m.T_map_sensor.resize(static_cast<std::size_t>(n));
-  m.no_descriptor.resize(static_cast<std::size_t>(n));
-  for (std::size_t i = 0; i < m.keyframes.size(); ++i) {
-    if (msg.keyframe_index[i] < 0 || !PoseFromWire(msg.translation_m[i], msg.quaternion[i], &m.T_map_sensor[i])) {
-      return DataLoss("pose_update_t: pose " + std::to_string(i) + " has a negative keyframe index, a non-finite "
-                      "value or a quaternion that is not unit");
-    }
-    m.keyframes[i] = static_cast<std::uint32_t>(msg.keyframe_index[i]);
-    const std::string field = "no_descriptor[" + std::to_string(i) + "]";
-    if (Status st = CheckFlag(msg.no_descriptor[i], DataLoss, type, field); !st.ok()) return st;
-    m.no_descriptor[i] = static_cast<std::uint8_t>(msg.no_descriptor[i]);
+  if (Status st = DecodeCompactPoses(Span<const std::uint8_t>(msg.poses), static_cast<std::size_t>(n), &m.keyframes,
+                                     &m.T_map_sensor, &m.no_descriptor);
+      !st.ok()) {
+    return DataLoss("pose_update_t: " + st.message());
   }
   return m;
 }

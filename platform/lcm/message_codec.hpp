@@ -33,7 +33,8 @@ Status EncodeScanChunk(const ScanChunk& message, std::vector<std::uint8_t>* out)
 
 /// Decoders. Errors (DataLoss): foreign fingerprint (another message type), truncated or trailing bytes, a count
 /// outside [0, MAX], negative ids or indices, sizes that contradict each other, non-finite values, flags other
-/// than 0/1. A decoded PoseUpdate always has one no_descriptor flag per keyframe.
+/// than 0/1, a compact pose list that does not decode (core/descriptor/compact_pose_codec.hpp). A decoded
+/// PoseUpdate always has one no_descriptor flag per keyframe, its poses on the compact pose grid.
 Result<KeyframeBatch> DecodeKeyframeBatch(Span<const std::uint8_t> bytes);
 Result<PoseUpdate> DecodePoseUpdate(Span<const std::uint8_t> bytes);
 Result<ScanRequest> DecodeScanRequest(Span<const std::uint8_t> bytes);

@@ -315,25 +315,32 @@ std::string Text(const char* stem, std::size_t bytes) {
   return s;
 }
 
-// The mission's keyframes of either record kind the robots send for SOLiD (compact batches, 92-byte records).
+// The keyframes of one batch of either record kind the robots send for SOLiD (a compact batch, 92-byte records).
+std::vector<CompactKeyframe> BatchKeyframes(const KeyframeBatch& b) {
+  std::vector<CompactKeyframe> out;
+  if (b.record_kind == KeyframeRecordKind::kCompact40) {
+    Check(DecodeCompactBatch(Span<const std::uint8_t>(b.records), b.num_records(), &out), "a mission batch");
+    return out;
+  }
+  for (std::size_t i = 0; i < b.num_records(); ++i) {
+    auto record = DecodeKeyframeRecord(
+        Span<const std::uint8_t>(b.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
+    if (!record.ok()) Fail("seed: a mission record does not decode: %s", record.status().ToString().c_str());
+    CompactKeyframe k;
+    k.pose = KeyframePose{record->keyframe_index, record->T_map_sensor};
+    k.descriptor = record->descriptor;
+    k.stored_points = b.stored_points[i];
+    out.push_back(k);
+  }
+  return out;
+}
+
+// The mission's keyframes, every batch's.
 std::vector<CompactKeyframe> MissionKeyframes(const SampleBank& bank) {
   std::vector<CompactKeyframe> out;
   for (const KeyframeBatch& b : bank.batches) {
-    if (b.record_kind == KeyframeRecordKind::kCompact40) {
-      std::vector<CompactKeyframe> decoded;
-      Check(DecodeCompactBatch(Span<const std::uint8_t>(b.records), b.num_records(), &decoded), "a mission batch");
-      out.insert(out.end(), decoded.begin(), decoded.end());
-      continue;
-    }
-    for (std::size_t i = 0; i < b.num_records(); ++i) {
-      auto record = DecodeKeyframeRecord(
-          Span<const std::uint8_t>(b.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
-      if (!record.ok()) Fail("seed: a mission record does not decode: %s", record.status().ToString().c_str());
-      CompactKeyframe k;
-      k.pose = KeyframePose{record->keyframe_index, record->T_map_sensor};
-      k.descriptor = record->descriptor;
-      out.push_back(k);
-    }
+    const std::vector<CompactKeyframe> keyframes = BatchKeyframes(b);
+    out.insert(out.end(), keyframes.begin(), keyframes.end());
   }
   return out;
 }
@@ -361,12 +368,13 @@ KeyframeBatch LargestBatch(const SampleBank& bank) {
   return m;
 }
 
-// The longest compact batch: kMaxRecordsPerBatch keyframes at 14 bits, every other index skipped, poses far apart
-// and descriptors unrelated, so that no prediction helps.
+// The longest compact batch: kMaxRecordsPerBatch keyframes at 14 bits, every other index skipped, poses far apart,
+// descriptors unrelated and point counts jumping between 0 and 2^31 - 1, so that no prediction helps.
 KeyframeBatch LargestCompactBatch(const SampleBank& bank) {
   KeyframeBatch m = bank.batches.empty() ? KeyframeBatch{} : bank.batches.front();
   m.record_kind = KeyframeRecordKind::kCompact40;
   m.stored_points.clear();
+  m.num_compact_records = kMaxRecordsPerBatch;
   std::vector<CompactKeyframe> keyframes(kMaxRecordsPerBatch);
   std::uint32_t x = 12345;
   const auto next = [&x] { return (x = x * 1664525u + 1013904223u) >> 8; };
@@ -382,10 +390,11 @@ KeyframeBatch LargestCompactBatch(const SampleBank& bank) {
       norm2 += static_cast<double>(v) * static_cast<double>(v);
     }
     for (float& v : keyframes[k].descriptor) v = static_cast<float>(static_cast<double>(v) / std::sqrt(norm2));
-    m.stored_points.push_back(400 + static_cast<std::uint32_t>(k % 300));
+    keyframes[k].stored_points = k % 2 == 0 ? 0u : kCompactMaxStoredPoints;
   }
   Check(EncodeCompactBatch(Span<const CompactKeyframe>(keyframes), kCompactMaxDescriptorBits, &m.records),
         "compact batch");
+  if (m.records.size() > kMaxCompactBatchBytes) Fail("seed: the longest compact batch exceeds kMaxCompactBatchBytes");
   return m;
 }
 
@@ -585,18 +594,43 @@ Samples<T> SamplesOf(const SampleBank&, Tag<T>) {
   return {false, {T{}}, {}};
 }
 // A robot that sees a new server session announces every keyframe again, kMaxRecordsPerBatch at a time: one
-// batch of all of robot 1's recorded records.
+// batch of all of robot 1's recorded keyframes, of the record kind of its first batch.
 KeyframeBatch Reannouncement(const SampleBank& bank) {
   KeyframeBatch m;
+  std::vector<CompactKeyframe> keyframes;
+  bool first = true;
   for (const KeyframeBatch& b : bank.batches) {
-    if (b.robot_id != 1 || m.num_records() + b.num_records() > kMaxRecordsPerBatch) continue;
-    if (m.records.empty()) m = b;
-    else {
-      m.records.insert(m.records.end(), b.records.begin(), b.records.end());
-      m.stored_points.insert(m.stored_points.end(), b.stored_points.begin(), b.stored_points.end());
-      m.sequence = b.sequence + 1;
-      m.utime_us = b.utime_us;
+    if (b.robot_id != 1 || (!first && b.record_kind != m.record_kind) ||
+        keyframes.size() + b.num_records() > kMaxRecordsPerBatch) {
+      continue;
     }
+    if (first) m = b;
+    first = false;
+    m.sequence = b.sequence + 1;
+    m.utime_us = b.utime_us;
+    for (const CompactKeyframe& k : BatchKeyframes(b)) {  // once each, ascending (a resent batch repeats them)
+      if (keyframes.empty() || k.pose.keyframe_index > keyframes.back().pose.keyframe_index) keyframes.push_back(k);
+    }
+  }
+  if (keyframes.empty()) return m;
+  const int bits = m.record_kind == KeyframeRecordKind::kCompact40 ? m.records.front() : 0;
+  m.records.clear();
+  m.stored_points.clear();
+  if (m.record_kind == KeyframeRecordKind::kCompact40) {
+    Check(EncodeCompactBatch(Span<const CompactKeyframe>(keyframes), bits, &m.records), "re-announcement");
+    m.num_compact_records = keyframes.size();
+    return m;
+  }
+  for (const CompactKeyframe& k : keyframes) {
+    KeyframeRecord record;
+    record.keyframe_index = k.pose.keyframe_index;
+    record.T_map_sensor = k.pose.T_map_sensor;
+    record.descriptor = k.descriptor;
+    record.descriptor_valid = true;
+    const std::size_t at = m.records.size();
+    m.records.resize(at + kKeyframeRecordBytes);
+    Check(EncodeKeyframeRecord(record, Span<std::uint8_t>(m.records.data() + at, kKeyframeRecordBytes)), "record");
+    m.stored_points.push_back(k.stored_points);
   }
   return m;
 }

@@ -57,7 +57,8 @@ inline KeyframeBatch MakeBatch(int robot, std::uint32_t first,
   return b;
 }
 
-/// The same keyframes as one compact batch with `bits` per descriptor value.
+/// The same keyframes as one compact batch with `bits` per descriptor value; keyframe k of the batch reports
+/// points + 37 k stored points (the counts travel in the stream and differ from keyframe to keyframe).
 inline KeyframeBatch MakeCompactBatch(int robot, std::uint32_t first,
                                       const std::vector<std::array<float, kKeyframeDescriptorDim>>& descriptors,
                                       const std::vector<Eigen::Vector3d>& positions, std::uint32_t points, int bits) {
@@ -69,8 +70,9 @@ inline KeyframeBatch MakeCompactBatch(int robot, std::uint32_t first,
     keyframes[k].pose.keyframe_index = first + static_cast<std::uint32_t>(k);
     keyframes[k].pose.T_map_sensor.translation() = positions[k];
     keyframes[k].descriptor = descriptors[k];
-    b.stored_points.push_back(points);
+    keyframes[k].stored_points = points + 37 * static_cast<std::uint32_t>(k);
   }
+  b.num_compact_records = keyframes.size();
   REQUIRE(EncodeCompactBatch(Span<const CompactKeyframe>(keyframes), bits, &b.records).ok());
   return b;
 }

@@ -91,8 +91,8 @@ struct LinkModel {
 
 inline std::size_t WireBytes(const RobotOutgoing& m) {  // close to the LCM sizes; only the bandwidth cap uses it
   switch (m.kind) {
-    case RobotOutgoing::Kind::kKeyframeBatch: return 40 + m.batch.records.size() + 4 * m.batch.stored_points.size();
-    case RobotOutgoing::Kind::kPoseUpdate: return 40 + 33 * m.poses.keyframes.size();
+    case RobotOutgoing::Kind::kKeyframeBatch: return 44 + m.batch.records.size() + 4 * m.batch.stored_points.size();
+    case RobotOutgoing::Kind::kPoseUpdate: return 38 + 8 * m.poses.keyframes.size();  // compact pose list
     case RobotOutgoing::Kind::kScanChunk: return 50 + m.chunk.payload.size();
   }
   return 0;

@@ -50,7 +50,7 @@ TEST_CASE("Merge server holds compact batches as their keyframes quantised alone
     CAPTURE(i);
     const std::size_t k = 4 + i;
     CHECK(db.valid[k] == 1);
-    CHECK(db.stored_points[k] == 700u);
+    CHECK(db.stored_points[k] == 700u + 37u * i);
     CompactKeyframe alone;
     alone.pose.keyframe_index = static_cast<std::uint32_t>(k);
     alone.pose.T_map_sensor.translation() = pos[i];
@@ -64,17 +64,21 @@ TEST_CASE("Merge server holds compact batches as their keyframes quantised alone
   }
   CHECK(server.stats().records == 12);
 
-  // A cut stream, or a count that does not match it, refuses the whole batch and counts it.
+  // A cut stream, a record count that does not match it, or separate point counts beside it refuse the whole
+  // batch and count it.
   KeyframeBatch cut = commerge::test::MakeCompactBatch(1, 0, d, pos, 700, 6);
   cut.records.pop_back();
   CHECK(server.OnKeyframeBatch(cut).code() == StatusCode::kDataLoss);
   KeyframeBatch miscounted = commerge::test::MakeCompactBatch(1, 0, d, pos, 700, 6);
-  miscounted.stored_points.push_back(700);
+  ++miscounted.num_compact_records;
   CHECK(server.OnKeyframeBatch(miscounted).code() == StatusCode::kDataLoss);
+  KeyframeBatch beside = commerge::test::MakeCompactBatch(1, 0, d, pos, 700, 6);
+  beside.stored_points.assign(beside.num_compact_records, 700);
+  CHECK(server.OnKeyframeBatch(beside).code() == StatusCode::kInvalidArgument);
   KeyframeBatch empty = miscounted;
   empty.records.clear();
   CHECK(server.OnKeyframeBatch(empty).code() == StatusCode::kInvalidArgument);
-  CHECK(server.stats().rejected_batches == 3);
+  CHECK(server.stats().rejected_batches == 4);
   CHECK(server.robot(1).size() == 0);
 }
 

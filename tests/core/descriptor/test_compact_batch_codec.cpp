@@ -19,7 +19,8 @@
 namespace commerge {
 namespace {
 
-/// A ground robot's keyframes: 1 m steps, a slowly changing heading, descriptors drifting from one to the next.
+/// A ground robot's keyframes: 1 m steps, a slowly changing heading, descriptors drifting from one to the next,
+/// stored scans of 1 500-3 500 points (every ninth keyframe without one).
 std::vector<CompactKeyframe> Trajectory(std::size_t n, std::uint32_t first_index, std::uint32_t seed,
                                         double jump_m = 0.0) {
   std::mt19937 rng(seed);
@@ -50,6 +51,7 @@ std::vector<CompactKeyframe> Trajectory(std::size_t n, std::uint32_t first_index
     }
     if (norm2 == 0.0) d[0] = norm2 = 1.0;
     for (std::size_t i = 0; i < d.size(); ++i) f.descriptor[i] = static_cast<float>(d[i] / std::sqrt(norm2));
+    f.stored_points = k % 9 == 5 ? 0u : 1500u + static_cast<std::uint32_t>(rng() % 2001u);
   }
   return out;
 }
@@ -78,6 +80,7 @@ void CheckRoundTrip(const std::vector<CompactKeyframe>& in, int bits, double* by
   for (std::size_t i = 0; i < in.size(); ++i) {
     CAPTURE(i);
     CHECK(out[i].pose.keyframe_index == in[i].pose.keyframe_index);
+    CHECK(out[i].stored_points == in[i].stored_points);
     const Eigen::Vector3d dt = out[i].pose.T_map_sensor.translation() - in[i].pose.T_map_sensor.translation();
     CHECK(dt.cwiseAbs().maxCoeff() <= 0.5e-3 + 1e-9);
     CHECK(test::RotationErrorRad(out[i].pose.T_map_sensor.linear(), in[i].pose.T_map_sensor.linear()) <= 1.3e-4);
@@ -90,6 +93,7 @@ void CheckRoundTrip(const std::vector<CompactKeyframe>& in, int bits, double* by
     REQUIRE(alone.ok());
     CHECK(std::equal(alone->descriptor.begin(), alone->descriptor.end(), out[i].descriptor.begin()));
     CHECK(alone->pose.T_map_sensor.matrix() == out[i].pose.T_map_sensor.matrix());
+    CHECK(alone->stored_points == out[i].stored_points);
   }
   *bytes_per_keyframe = static_cast<double>(wire.size()) / static_cast<double>(in.size());
 }
@@ -119,6 +123,10 @@ TEST_CASE("compact batch: a quaternion near -q of its predecessor, positions nea
   in[3].pose.T_map_sensor.linear() = Eigen::AngleAxisd(-3.14159, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   in[3].pose.T_map_sensor.translation() = Eigen::Vector3d(-8.7e9, 4e6, -2.5e3);  // near the grid's +-8.8e9 m
   in[4].pose.keyframe_index = 0xFFFFFFF0u;
+  // Point counts jumping across their whole range.
+  in[0].stored_points = kCompactMaxStoredPoints;
+  in[1].stored_points = 0;
+  in[2].stored_points = kCompactMaxStoredPoints;
   double unused = 0.0;
   CheckRoundTrip(in, 8, &unused);
   // The first keyframe, coded whole, at the grid's end.
@@ -146,6 +154,10 @@ TEST_CASE("compact batch: the encoder refuses bad arguments naming them") {
   bad = in;
   bad[0].pose.T_map_sensor.translation().x() = 1e10;
   CHECK(EncodeCompactBatch(Span<const CompactKeyframe>(bad), 8, &wire).message().find("8.8e9") != std::string::npos);
+  bad = in;
+  bad[1].stored_points = kCompactMaxStoredPoints + 1u;
+  CHECK(EncodeCompactBatch(Span<const CompactKeyframe>(bad), 8, &wire).message().find("stored point count") !=
+        std::string::npos);
   std::vector<CompactKeyframe> many(kMaxCompactBatchRecords + 1, in[0]);
   CHECK(EncodeCompactBatch(Span<const CompactKeyframe>(many), 8, &wire).code() == StatusCode::kInvalidArgument);
 }
@@ -194,6 +206,7 @@ TEST_CASE("compact batch: cuts, extra bytes, set padding, a wrong count and flip
     for (std::size_t i = 0; i < out.size(); ++i) {
       if (i > 0) CHECK(out[i].pose.keyframe_index > out[i - 1].pose.keyframe_index);
       CHECK(out[i].pose.T_map_sensor.matrix().allFinite());
+      CHECK(out[i].stored_points <= kCompactMaxStoredPoints);
       double norm2 = 0.0;
       for (float v : out[i].descriptor) norm2 += static_cast<double>(v) * static_cast<double>(v);
       CHECK(std::abs(norm2 - 1.0) < 1e-5);
