@@ -151,6 +151,8 @@ class ServerProcess {
   std::int64_t rejected_ = 0;
   /// What the robots sent, by kind and over time (exchange_rounds.tsv, exchange_summary.tsv, exchange_bytes.png).
   std::unique_ptr<MissionTraffic> traffic_;
+  /// Exchange policies (scan requests, repeats included) published, encoded: the server's outgoing traffic.
+  std::uint64_t policies_sent_bytes_ = 0;
   std::int64_t start_us_ = 0;
   std::vector<double> round_end_s_;  ///< the chart's marks (at most kMaxChartMarks; then every other is dropped)
   std::int64_t merged_map_high_water_ = 0;  ///< the merged_map budget module: the builder's buffers
@@ -559,6 +561,7 @@ void ServerProcess::Publish(const ServerOutgoing& o_msg) {
   }
   if (st.ok()) st = bus_->Publish(channel, buffer_);
   if (!st.ok()) std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
+  if (st.ok() && o_msg.kind == ServerOutgoing::Kind::kScanRequest) policies_sent_bytes_ += buffer_.size();
   if (o_msg.kind == ServerOutgoing::Kind::kMergeResult) {
     WriteRoundFiles(o_msg.result);
     WriteExchangeRound(o_msg.result);
@@ -630,6 +633,7 @@ void ServerProcess::WriteExchangeSummary() {
     summary.scans_received.push_back(scans);
   }
   summary.send_all_bytes += traffic_->KindTotal(TrafficKind::kKeyframeRecords);
+  summary.policies_sent_bytes = policies_sent_bytes_;
   const std::string dir = o_.out_dir + "/";
   Status st = platform::WriteExchangeSummary(dir + "exchange_summary.tsv", *traffic_, summary);
   if (st.ok()) {
@@ -639,12 +643,12 @@ void ServerProcess::WriteExchangeSummary() {
   if (!st.ok()) std::fprintf(stderr, "%s: %s\n", kTag, st.message().c_str());
   const auto mb = [](std::uint64_t b) { return FormatFixed(static_cast<double>(b) / 1e6, 2) + " MB"; };
   std::printf("server: d_exch %s (keyframe records %s, pose updates %s, scans %s, re-sends %s), robot status %s, "
-              "t_comm %.1f s; every stored scan with the records would have been %s\n",
+              "t_comm %.1f s; every stored scan with the records would have been %s; sent policies %s B\n",
               mb(traffic_->ExchangedBytes()).c_str(), mb(traffic_->KindTotal(TrafficKind::kKeyframeRecords)).c_str(),
               mb(traffic_->KindTotal(TrafficKind::kPoseUpdates)).c_str(),
               mb(traffic_->KindTotal(TrafficKind::kScans)).c_str(), mb(traffic_->KindTotal(TrafficKind::kResends)).c_str(),
               mb(traffic_->KindTotal(TrafficKind::kRobotStatus)).c_str(), traffic_->CommSeconds(),
-              mb(summary.send_all_bytes).c_str());
+              mb(summary.send_all_bytes).c_str(), std::to_string(summary.policies_sent_bytes).c_str());
 }
 
 std::vector<ModuleMemory> ServerProcess::MemoryUse() const {

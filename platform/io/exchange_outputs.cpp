@@ -92,6 +92,7 @@ Status WriteExchangeSummary(const std::string& path, const MissionTraffic& traff
   put("other_bytes", std::to_string(traffic.other_bytes()));
   put("rounds", std::to_string(summary.rounds));
   put("send_all_bytes", std::to_string(summary.send_all_bytes));
+  put("policies_sent_bytes", std::to_string(summary.policies_sent_bytes));
   for (std::size_t r = 0; r < summary.keyframes.size(); ++r) {
     const int robot = static_cast<int>(r);
     const std::string p = "robot" + std::to_string(r) + "_";

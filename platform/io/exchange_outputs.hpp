@@ -3,7 +3,8 @@
 //   exchange_rounds.tsv   one row per merge round: when it ended, robots placed, pairs registered and kept, the
 //                         scans it requested and why (per pair), and the bytes received so far by kind and robot;
 //   exchange_summary.tsv  at exit, key<TAB>value: the paper's d_exch (eq. exchmetric) and t_comm (eq. commmetric),
-//                         bytes by kind and robot, what sending every stored scan would have cost;
+//                         bytes by kind and robot, what sending every stored scan would have cost, and the bytes of
+//                         the exchange policies the server itself sent;
 //   exchange_bytes.png    the bytes each robot sent over time, stacked (descriptors growing steadily, scans in a
 //                         few jumps), with a dotted line where each round ended.
 #pragma once
@@ -46,13 +47,16 @@ Status AppendExchangeRound(const std::string& path, const ExchangeRoundRow& row)
 struct ExchangeSummary {
   int rounds = 0;
   std::uint64_t send_all_bytes = 0;  ///< the keyframe records received plus every stored scan the robots reported
+  /// Exchange policies (scan requests, repeats included) the server published, encoded: its outgoing traffic,
+  /// not part of the received total.
+  std::uint64_t policies_sent_bytes = 0;
   std::vector<std::uint32_t> keyframes;       ///< per robot, held by the server
   std::vector<std::uint32_t> scans_received;  ///< per robot, complete scans held
 };
 
-/// key<TAB>value lines: d_exch_bytes, t_comm_s, total_bytes, <kind>_bytes, other_bytes, rounds, send_all_bytes, and
-/// per robot r robot<r>_bytes, robot<r>_first_s, robot<r>_last_s (-1: nothing sent), robot<r>_keyframes,
-/// robot<r>_scans_received.
+/// key<TAB>value lines: d_exch_bytes, t_comm_s, total_bytes, <kind>_bytes, other_bytes, rounds, send_all_bytes,
+/// policies_sent_bytes, and per robot r robot<r>_bytes, robot<r>_first_s, robot<r>_last_s (-1: nothing sent),
+/// robot<r>_keyframes, robot<r>_scans_received.
 Status WriteExchangeSummary(const std::string& path, const MissionTraffic& traffic, const ExchangeSummary& summary);
 
 /// The chart of exchange_bytes.png: robots 0..robots-1 stacked over the traffic's time series, marks at the

@@ -6,7 +6,9 @@
 //                         and as many robots listed in `placed`;
 //   exchange_summary.tsv  d_exch = total - robot status - other; the last round's bytes within the total; rounds = N;
 //                         the robots' bytes add up; first <= last transmission; t_comm = the sum of last - first;
-//                         the total equals RECEIVED_BYTES (the server's exit line) when given;
+//                         the total equals RECEIVED_BYTES (the server's exit line) when given; the policies the
+//                         server sent (policies_sent_bytes, its outgoing traffic) are counted, and not zero when a
+//                         round requested scans;
 //   exchange_bytes.png    decodes (tests/support/png_reader.hpp) at 1000 x 560, with pixels of every robot's colour
 //                         that sent bytes.
 // Prints one line and exits 0 when all hold, else names the first that does not and exits 1 (2: usage).
@@ -72,6 +74,10 @@ int main(int argc, char** argv) {
   const std::size_t first_kind = 9, total_column = first_kind + kTrafficKinds, first_robot = total_column + 1;
   std::vector<double> previous(columns.size(), 0.0);
   int rows = 0;
+  const std::size_t scans_requested_column =
+      static_cast<std::size_t>(std::find(columns.begin(), columns.end(), "scans_requested") - columns.begin());
+  if (scans_requested_column >= first_kind) return Fail("exchange_rounds.tsv has no scans_requested column");
+  double scans_requested = 0.0;  // over every round
   while (std::getline(rounds_file, line)) {
     const std::vector<std::string> f = SplitTabs(line);
     const std::string where = "exchange_rounds.tsv row " + std::to_string(rows + 1);
@@ -97,6 +103,7 @@ int main(int argc, char** argv) {
     for (std::size_t c = first_kind; c + 2 < f.size(); ++c) {
       if (v[c] < previous[c]) return Fail(where + ": " + columns[c] + " went down");
     }
+    scans_requested += v[scans_requested_column];
     previous = v;
     ++rows;
   }
@@ -114,11 +121,17 @@ int main(int argc, char** argv) {
     s[f[0]] = v;
   }
   for (const char* key : {"d_exch_bytes", "t_comm_s", "total_bytes", "robot_status_bytes", "other_bytes", "rounds",
-                          "send_all_bytes"}) {
+                          "send_all_bytes", "policies_sent_bytes"}) {
     if (!s.count(key)) return Fail(std::string("exchange_summary.tsv has no ") + key);
   }
   if (s["d_exch_bytes"] != s["total_bytes"] - s["robot_status_bytes"] - s["other_bytes"]) {
     return Fail("d_exch_bytes is not total - robot status - other");
+  }
+  // Scans come on request: a round that requested scans published a policy (its bytes are what the server sent,
+  // apart from what it received).
+  if (s["policies_sent_bytes"] < 0.0 || (scans_requested > 0.0 && s["policies_sent_bytes"] <= 0.0)) {
+    return Fail("policies_sent_bytes " + std::to_string(s["policies_sent_bytes"]) + " after " +
+                std::to_string(scans_requested) + " scans requested");
   }
   if (s["rounds"] != rows) return Fail("summary rounds " + std::to_string(s["rounds"]) + " for " + std::to_string(rows) + " rows");
   if (previous[total_column] > s["total_bytes"]) return Fail("the last round's total_B exceeds total_bytes");
@@ -154,7 +167,8 @@ int main(int argc, char** argv) {
     }
     if (pixels < 200) return Fail("exchange_bytes.png shows robot " + std::to_string(r) + " in " + std::to_string(pixels) + " pixels");
   }
-  std::printf("exchange outputs OK: %d rounds, %.0f bytes (d_exch %.0f), t_comm %.1f s, chart %d x %d\n", rows,
-              s["total_bytes"], s["d_exch_bytes"], s["t_comm_s"], png.width, png.height);
+  std::printf("exchange outputs OK: %d rounds, %.0f bytes (d_exch %.0f), t_comm %.1f s, %.0f policy bytes sent, "
+              "chart %d x %d\n", rows, s["total_bytes"], s["d_exch_bytes"], s["t_comm_s"], s["policies_sent_bytes"],
+              png.width, png.height);
   return 0;
 }

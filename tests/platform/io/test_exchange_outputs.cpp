@@ -109,6 +109,7 @@ TEST_CASE("Exchange outputs: rounds, summary and chart read back as written") {
   summary.send_all_bytes = 5000000;
   summary.keyframes = {60, 60};
   summary.scans_received = {0, 100};
+  summary.policies_sent_bytes = 3 * 212;  // three scan requests the server sent
   REQUIRE(platform::WriteExchangeSummary(summary_path, traffic, summary).ok());
   std::map<std::string, std::string> s;
   for (const auto& f : ReadTsv(summary_path)) {
@@ -123,6 +124,9 @@ TEST_CASE("Exchange outputs: rounds, summary and chart read back as written") {
   CHECK(s["robot_status_bytes"] == "2280");
   CHECK(s["rounds"] == "2");
   CHECK(s["send_all_bytes"] == "5000000");
+  // The server's own outgoing policies: written beside, never part of what it received.
+  CHECK(s["policies_sent_bytes"] == std::to_string(summary.policies_sent_bytes));
+  CHECK(s["total_bytes"] == std::to_string(traffic.Total()));
   CHECK(s["robot0_first_s"] == "1.000");
   CHECK(s["robot1_last_s"] == "60.500");
   CHECK(s["robot1_scans_received"] == "100");
