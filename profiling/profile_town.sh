@@ -40,8 +40,11 @@
 #                                  records (92 B each) plus B MB (decimal)
 #   --every-round                  the server registers every pair every round (commerge server --every-round):
 #                                  the exchange before rounds knew what they had verified
-# Then the exchange: what the server received by kind (its exchange_summary.tsv), against the keyframe records,
-# sending every stored scan and the raw scans (the dataset's .bin files); d_exch and t_comm (the paper's eqs.
+# Then the exchange: what the server received by kind (its exchange_summary.tsv: keyframe records, pose updates,
+# scans, re-sends, robot status, the total) and the exchange policies (scan requests) it sent the robots (its
+# outgoing traffic, policies_sent_bytes, not in the total), each with its bytes, MB and share of sending every
+# stored scan with the records (the stored send-all) and of the raw scans (the dataset's .bin files); the keyframe
+# records alone, the stored send-all and the raw scans themselves; d_exch and t_comm (the paper's eqs.
 # exchmetric, commmetric); the round at which each robot was first placed (exchange_rounds.tsv); each robot's final
 # transform error against the truth (inv(T_gt_start0) T_gt_start_r from start_transforms.txt: translation, and the
 # angle of the rotation error). The server's exchange_bytes.png is the bytes per robot over time.
@@ -255,19 +258,28 @@ exchange_table() {
   send_all=$(summary_value send_all_bytes)
   raw=$(find "$data" -name '*.bin' -printf '%s\n' | awk '{ s += $1 } END { printf "%.0f", s }')
   echo
-  echo "Exchange (bytes the server received; decimal MB):"
-  printf '  %-34s %14s %10s\n' what bytes MB
-  row() { printf '  %-34s %14s %10s\n' "$1" "$2" "$(awk -v b="$2" 'BEGIN { printf "%.2f", b / 1e6 }')"; }
+  echo "Exchange (bytes the server received, and the policies it sent; decimal MB; per row its share of every stored"
+  echo "scan with the records, the stored send-all, and of the raw scans):"
+  printf '  %-42s %14s %10s %11s %10s\n' what bytes MB "% send-all" "% raw"
+  row() {  # $1 = what, $2 = bytes ("" when the server did not write the key: "-")
+    awk -v w="$1" -v b="$2" -v a="$send_all" -v r="$raw" 'BEGIN {
+      if (b == "") { printf "  %-42s %14s %10s %11s %10s\n", w, "-", "-", "-", "-"; exit }
+      pa = "-"; if (a > 0) pa = sprintf("%.3f", 100 * b / a)
+      pr = "-"; if (r > 0) pr = sprintf("%.4f", 100 * b / r)
+      printf "  %-42s %14s %10.2f %11s %10s\n", w, b, b / 1e6, pa, pr }'
+  }
   row "keyframe records (in batches)" "$(summary_value keyframe_records_bytes)"
   row "pose updates" "$(summary_value pose_updates_bytes)"
   row "scans" "$(summary_value scans_bytes)"
   row "re-sends" "$(summary_value resends_bytes)"
   row "robot status" "$(summary_value robot_status_bytes)"
   row "total received" "$total"
+  row "policies sent (the server's outgoing)" "$(summary_value policies_sent_bytes)"
   row "d_exch (eq. exchmetric)" "$(summary_value d_exch_bytes)"
   row "the keyframe records alone (92 B)" "$records"
   row "every stored scan + the records" "$send_all"
   row "the raw scans (.bin files)" "$raw"
+  echo "  (policies sent: the scan requests the server published to the robots, repeats included; not in the total received)"
   awk -v t="$total" -v r="$records" -v a="$send_all" -v w="$raw" -v c="$(summary_value t_comm_s)" 'BEGIN {
     printf "  total - records: %.2f MB; %.2f %% less than every stored scan, %.4f %% of the raw scans; t_comm %s s\n",
            (t - r) / 1e6, 100 * (1 - t / a), 100 * t / w, c }'
