@@ -583,6 +583,16 @@ void WriteMetrics(const RunJob& job) {
     kv(p + "widened_pairs", std::to_string(widened_pairs));
     kv(p + "scan_bytes", std::to_string(m.scan_bytes()));
     kv(p + "total_bytes", std::to_string(job.stream_bytes() + m.ledger->Total().bytes));
+    // total_bytes by kind: the robots' stream (the same in every mode) plus this mode's ledger; "other" also takes
+    // what either ledger could not classify, so the kinds sum to total_bytes exactly.
+    for (std::size_t k = 0; k < kMessageKindCount; ++k) {
+      const auto kind = static_cast<MessageKind>(k);
+      std::uint64_t bytes = job.stream_ledger->KindTotal(kind).bytes + m.ledger->KindTotal(kind).bytes;
+      if (kind == MessageKind::kOther) {
+        bytes += job.stream_ledger->Unclassified().bytes + m.ledger->Unclassified().bytes;
+      }
+      kv(p + "bytes." + MessageKindName(kind), std::to_string(bytes));
+    }
     kv(p + "pairs_merged", std::to_string(m.pairs_merged()) + "/" + std::to_string(m.round.pairs.size()));
     kv(p + "merge_s", Fmt("%.3f", m.merge_s));
     double worst = -1.0;

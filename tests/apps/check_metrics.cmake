@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
-# cmake -DFILE=<metrics.tsv> -DEXPECT=<key=value|key<value|key==other_key;...> -P check_metrics.cmake
+# cmake -DFILE=<metrics.tsv> -DEXPECT=<key=value|key<value|key==other_key|key==sum(k1,k2,...);...> -P check_metrics.cmake
 # Checks figures of `commerge run`'s report/metrics.tsv: "k=v" the text equals v, "k<v" the number is below v,
-# "k==other" the two keys hold the same text. Fails naming the key, what it holds and what was expected.
+# "k==other" the two keys hold the same text, "k==sum(k1,k2,...)" the integer k is the sum of the integers k1, k2,
+# ... (each must be there). Fails naming the key, what it holds and what was expected.
 file(STRINGS "${FILE}" lines)
 set(values "")
 foreach(line IN LISTS lines)
@@ -15,7 +16,24 @@ foreach(line IN LISTS lines)
 endforeach()
 string(REPLACE "|" ";" expectations "${EXPECT}")
 foreach(e IN LISTS expectations)
-  if(e MATCHES "^([^=<]+)==(.+)$")
+  if(e MATCHES "^([^=<]+)==sum\\((.+)\\)$")
+    set(key "${CMAKE_MATCH_1}")
+    set(term_text "${CMAKE_MATCH_2}")
+    string(REPLACE "," ";" terms "${term_text}")
+    if(NOT "${m_${key}}" MATCHES "^[0-9]+$")
+      message(FATAL_ERROR "${FILE}: ${key} = '${m_${key}}', expected an integer")
+    endif()
+    set(sum 0)
+    foreach(term IN LISTS terms)
+      if(NOT "${m_${term}}" MATCHES "^[0-9]+$")
+        message(FATAL_ERROR "${FILE}: ${term} = '${m_${term}}', expected an integer (a term of ${key})")
+      endif()
+      math(EXPR sum "${sum} + ${m_${term}}")
+    endforeach()
+    if(NOT sum EQUAL "${m_${key}}")
+      message(FATAL_ERROR "${FILE}: ${key} = '${m_${key}}' but the sum of ${term_text} is ${sum}")
+    endif()
+  elseif(e MATCHES "^([^=<]+)==(.+)$")
     if(NOT "${m_${CMAKE_MATCH_1}}" STREQUAL "${m_${CMAKE_MATCH_2}}" OR "${m_${CMAKE_MATCH_1}}" STREQUAL "")
       message(FATAL_ERROR "${FILE}: ${CMAKE_MATCH_1} = '${m_${CMAKE_MATCH_1}}' but ${CMAKE_MATCH_2} = '${m_${CMAKE_MATCH_2}}'")
     endif()

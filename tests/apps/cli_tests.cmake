@@ -63,13 +63,24 @@ foreach(file report/affinity_0_1.png report/trajectories_selected.png report/map
   add_test(NAME "cli: demo wrote ${file}" COMMAND "${CMAKE_COMMAND}" -E cat "${CM_CLI_OUT}/demo/${file}")
   set_tests_properties("cli: demo wrote ${file}" PROPERTIES FIXTURES_REQUIRED demo_out LABELS heavy)
 endforeach()
-# The run's own verdict against ground truth, and send-all's bytes counted without the mode equal the mode's.
-add_test(NAME "cli: demo's metrics: robot 1 shares a place with robot 0 and is placed within 1 m (also where they met), send-all bytes as counted"
+# The run's own verdict against ground truth, send-all's bytes counted without the mode equal the mode's, and
+# each mode's bytes by kind (stream + mode ledger) add up to the total it reports.
+set(cm_kinds keyframes pose_updates policies scans status other)
+set(cm_kind_sums "")
+foreach(mode send-all A A+B A+C A+B+C)
+  set(terms "")
+  foreach(kind IN LISTS cm_kinds)
+    list(APPEND terms "mode.${mode}.bytes.${kind}")
+  endforeach()
+  string(REPLACE ";" "," terms "${terms}")
+  string(APPEND cm_kind_sums "|mode.${mode}.total_bytes==sum(${terms})")
+endforeach()
+set(cm_demo_metrics "cli: demo's metrics: robot 1 shares a place with robot 0 and is placed within 1 m (also where they met), send-all bytes as counted, bytes by kind sum to each mode's total")
+add_test(NAME "${cm_demo_metrics}"
          COMMAND "${CMAKE_COMMAND}" "-DFILE=${CM_CLI_OUT}/demo/report/metrics.tsv"
-                 "-DEXPECT=robot.1.reachable=1|robot.1.merged=1|robot.1.wrong=0|robot.1.error_m<1|robot.1.error_at_place_m<1|robot.1.place_partner=0|pair.0-1.stopped=merged|robot.1.loop_candidates_refused<1000000|stored_send_all_bytes==mode.send-all.total_bytes"
+                 "-DEXPECT=robot.1.reachable=1|robot.1.merged=1|robot.1.wrong=0|robot.1.error_m<1|robot.1.error_at_place_m<1|robot.1.place_partner=0|pair.0-1.stopped=merged|robot.1.loop_candidates_refused<1000000|stored_send_all_bytes==mode.send-all.total_bytes${cm_kind_sums}"
                  -P "${CMAKE_CURRENT_SOURCE_DIR}/apps/check_metrics.cmake")
-set_tests_properties("cli: demo's metrics: robot 1 shares a place with robot 0 and is placed within 1 m (also where they met), send-all bytes as counted"
-                     PROPERTIES FIXTURES_REQUIRED demo_out LABELS heavy)
+set_tests_properties("${cm_demo_metrics}" PROPERTIES FIXTURES_REQUIRED demo_out LABELS heavy)
 # Node limits of one node: stage B ends with a cover above its LP bound, printed per pair (status, incumbent,
 # bound, gap, nodes, LPs); stage C, stopped after its root, solves its LP bound as the certificate of its gap
 # (on this pair the LP closes it), and the run still merges from what it has.
