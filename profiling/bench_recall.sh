@@ -30,6 +30,13 @@
 # that shares a place and was not merged, and the worst translation error against the transform of the true
 # start poses (what drift adds). Then one summary line: recall, real splits merged, wrong merges, median byte
 # reductions. Exit 0 (it measures; it does not judge) unless a run fails (a crash, an unreadable input; "no pair merged" is a measurement, not a failure).
+# Bytes by kind: per scenario the A+B+C bytes split by message kind (metrics.tsv mode.A+B+C.bytes.<kind>: the
+# robots' stream plus the mode's own messages) go to WORK/bytes_by_kind.tsv: a header line, then one row per
+# scenario: name, keyframes, pose_updates, policies, scans, status, other (bytes each), total (their sum, the row's
+# A+B+C bytes; a run whose kinds do not sum to it counts as failed), stored send-all, raw scan bytes. After the
+# summary lines one "bytes by kind" block: per kind the median over the scenarios of its bytes, of its share of
+# the stored send-all and of its share of the raw scans (medians of the percentages), the same for the total, and
+# the median bytes of the stored send-all and of the raw scans.
 # --run-args adds options to every `commerge run` (e.g. the paper's cascade: "--profile paper").
 # --only runs just the scenarios whose name matches the extended regular expression (a before/after subset).
 # --send-all also runs mode send-all (each pair registers the two complete stored maps) and adds its column:
@@ -47,7 +54,8 @@
 # merges, median reductions. Tune seeds are those any threshold was chosen on; test seeds were never looked at
 # while choosing (core/agent/decisions/024-tune-and-test-seeds.md says which are which).
 # --summarise ROWS.tsv prints the summary lines of a rows file (WORK/rows.tsv of an earlier run) and runs nothing;
-# with --tune-seeds / --test-seeds the split lines too.
+# with --tune-seeds / --test-seeds the split lines too; and the bytes by kind block when a bytes_by_kind.tsv sits
+# beside the rows file (over the scenarios both files hold).
 set -euo pipefail
 bin=build/commerge
 work=${TMPDIR:-/tmp}/commerge-recall
@@ -142,6 +150,43 @@ summarise_split() {
     }
   }' "$1"
 }
+# The bytes by kind block: $1 = rows file, $2 = its bytes_by_kind.tsv; over the scenarios of both files, per kind
+# the median of the bytes and of the percentages of the stored send-all and of the raw scans. Nothing when $2 is
+# absent.
+summarise_kinds() {
+  [ -f "$2" ] || return 0
+  awk -F'\t' '
+  function median(a, k,   i, j, t) {
+    if (k == 0) return -1
+    for (i = 1; i <= k; i++) for (j = i + 1; j <= k; j++) if (a[j] < a[i]) { t = a[i]; a[i] = a[j]; a[j] = t }
+    return k % 2 ? a[(k + 1) / 2] : (a[k / 2] + a[k / 2 + 1]) / 2
+  }
+  function pct(v, digits) { return v < 0 ? "-" : sprintf("%." digits "f", v) }
+  FILENAME == ARGV[1] { if (NF >= 13) in_rows[$1] = 1; next }
+  FNR == 1 && $1 == "scenario" { for (c = 2; c <= 10; c++) kind[c] = $c; next }
+  ($1 in in_rows) && NF >= 10 {
+    n++
+    for (c = 2; c <= 10; c++) bytes[c, n] = $c
+    for (c = 2; c <= 8; c++) {
+      if ($9 > 0) { ns[c]++; stored[c, ns[c]] = 100 * $c / $9 }
+      if ($10 > 0) { nr[c]++; raw[c, nr[c]] = 100 * $c / $10 }
+    }
+  }
+  END {
+    if (n == 0) exit
+    printf "bytes by kind: A+B+C (the robots\047 stream + the mode\047s messages), medians over %d scenarios\n", n
+    printf "  %-16s %14s %18s %14s\n", "kind", "bytes", "% stored send-all", "% raw scans"
+    for (c = 2; c <= 10; c++) {
+      name = kind[c]; sub(/_bytes$/, "", name)
+      for (i = 1; i <= n; i++) b[i] = bytes[c, i]
+      for (i = 1; i <= ns[c]; i++) p[i] = stored[c, i]
+      for (i = 1; i <= nr[c]; i++) q[i] = raw[c, i]
+      if (c <= 8) printf "  %-16s %14.0f %18s %14s\n", name, median(b, n), pct(median(p, ns[c]), 3), pct(median(q, nr[c]), 4)
+      else printf "  %-16s %14.0f\n", c == 9 ? "stored send-all" : "raw scans", median(b, n)
+      delete b; delete p; delete q
+    }
+  }' "$1" "$2"
+}
 if [ -n "$tune_seeds$test_seeds" ]; then
   seeds=$(echo $tune_seeds $test_seeds)
   for seed in $seeds; do
@@ -155,6 +200,7 @@ if [ -n "$summarise_only" ]; then
   [ -f "$summarise_only" ] || { echo "bench_recall.sh: --summarise: no file $summarise_only" >&2; exit 2; }
   summarise summary "$summarise_only"
   [ -z "$tune_seeds$test_seeds" ] || summarise_split "$summarise_only"
+  summarise_kinds "$summarise_only" "$(dirname "$summarise_only")/bytes_by_kind.tsv"
   exit 0
 fi
 case "$slice" in quick|generated|long|livox|real|all) ;; *) echo "bench_recall.sh: --slice: quick, generated, long, livox, real or all" >&2; exit 2 ;; esac
@@ -166,7 +212,11 @@ here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$work"
 rows="$work/rows.tsv"
 base_rows="$work/baseline.tsv"
+by_kind="$work/bytes_by_kind.tsv"
+kinds="keyframes pose_updates policies scans status other"
 : > "$rows"
+{ printf 'scenario'; for k in $kinds; do printf '\t%s_bytes' "$k"; done
+  printf '\ttotal_bytes\tstored_send_all_bytes\traw_scan_bytes\n'; } > "$by_kind"
 [ "$baseline" = 0 ] || : > "$base_rows"
 failures=0
 get() { awk -F'\t' -v k="$1" '$1 == k { print $2 }' "$2"; }
@@ -229,6 +279,20 @@ run_one() {
       "$(awk -v a="$stored" -v b="$total" 'BEGIN { printf "%.2f", 100 * (1 - b / a) }')" "$raw" \
       "$(awk -v a="$raw" -v b="$total" 'BEGIN { printf "%.3f", 100 * (1 - b / a) }')" "${stops:--}" "$send_all_col" \
       "$(printf '%.2f m' "$worst_start_m")" | tee -a "$rows_file"
+  # The measured run's bytes by kind (the baseline's are not kept): they must sum to the row's A+B+C bytes.
+  if [ "$sub" = run ]; then
+    local kind_bytes=() sum=0 v k
+    for k in $kinds; do
+      v=$(get "mode.A+B+C.bytes.$k" "$m")
+      [ -n "$v" ] || { echo "bench_recall.sh: $name: metrics.tsv has no mode.A+B+C.bytes.$k (an older commerge): no bytes by kind" >&2; return; }
+      kind_bytes+=("$v"); sum=$((sum + v))
+    done
+    if [ "$sum" != "$total" ]; then
+      echo "bench_recall.sh: $name: the bytes by kind sum to $sum, not the A+B+C total $total" >&2
+      failures=$((failures + 1))
+    fi
+    (IFS=$'\t'; printf '%s\t%s\t%s\t%s\t%s\n' "$name" "${kind_bytes[*]}" "$total" "$stored" "$raw") >> "$by_kind"
+  fi
 }
 
 generated() {  # $1 = keyframes, $2 = seed, $3 = world, $4 = robots, $5 = overlap, $6 = direction, $7 = wobble,
@@ -315,4 +379,5 @@ fi
 summarise summary "$rows"
 [ -z "$tune_seeds$test_seeds" ] || summarise_split "$rows"
 [ "$baseline" = 0 ] || summarise "baseline summary" "$base_rows"
+summarise_kinds "$rows" "$by_kind"
 [ "$failures" -eq 0 ] || { echo "bench_recall.sh: $failures run(s) failed" >&2; exit 1; }

@@ -44,6 +44,9 @@ if(NOT CMAKE_CROSSCOMPILING)
   add_test(NAME "bench: recall benchmark summarises tune and test seeds per world as worked out by hand"
            COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/recall_split_test.sh" "${PROJECT_SOURCE_DIR}/profiling/bench_recall.sh"
                    "${CMAKE_CURRENT_BINARY_DIR}/recall-split")
+  add_test(NAME "bench: recall benchmark medians of the bytes by kind and their shares, as worked out by hand"
+           COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/recall_kinds_test.sh" "${PROJECT_SOURCE_DIR}/profiling/bench_recall.sh"
+                   "${CMAKE_CURRENT_BINARY_DIR}/recall-kinds")
   add_test(NAME "bench: placement evidence names why each unmerged pair stopped, as worked out by hand"
            COMMAND bash "${CMAKE_CURRENT_SOURCE_DIR}/apps/placement_pairs_test.sh"
                    "${PROJECT_SOURCE_DIR}/profiling/placement_evidence.sh" "${CMAKE_CURRENT_BINARY_DIR}/placement-pairs")
