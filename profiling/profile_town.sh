@@ -106,9 +106,10 @@ log() { printf '[profile_town %5d s] %s\n' "$((SECONDS - t_start))" "$*" >&2; }
 mib() { awk -v b="$1" 'BEGIN { if (b < 0) print "-"; else printf "%.1f MiB", b / 1048576 }'; }
 t_start=$SECONDS
 pids=()
+generated=0  # 1: the dataset is this run's (deleted at the end unless --keep)
 cleanup() {
   for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null || true; done
-  if [ "$keep" = 0 ] && [ -z "$data" ] && [ -d "$work/data" ]; then rm -rf "$work/data"; fi
+  if [ "$keep" = 0 ] && [ "$generated" = 1 ] && [ -d "$work/data" ]; then rm -rf "$work/data"; fi
 }
 trap cleanup EXIT
 
@@ -119,6 +120,7 @@ if [ -n "$data" ]; then
   log "using the dataset $data (not generated)"
 else
   data="$work/data"
+  generated=1
   log "sim: urban, $robots robots x $keyframes keyframes, VLP-16, overlap $overlap, same direction, flat road -> $data"
   sim_start=$SECONDS
   "$bin" sim --world urban --robots "$robots" --overlap "$overlap" --keyframes "$keyframes" --lidar vlp16 \
