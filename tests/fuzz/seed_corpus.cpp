@@ -33,6 +33,7 @@
 #include "tests/fuzz/codec_table.hpp"
 #include "tests/fuzz/fuzz_support.hpp"
 #include "tests/fuzz/server_inbox.hpp"
+#include "tests/support/batch_keyframes.hpp"
 
 namespace commerge::fuzz {
 namespace {
@@ -317,22 +318,9 @@ std::string Text(const char* stem, std::size_t bytes) {
 
 // The keyframes of one batch of either record kind the robots send for SOLiD (a compact batch, 92-byte records).
 std::vector<CompactKeyframe> BatchKeyframes(const KeyframeBatch& b) {
-  std::vector<CompactKeyframe> out;
-  if (b.record_kind == KeyframeRecordKind::kCompact40) {
-    Check(DecodeCompactBatch(Span<const std::uint8_t>(b.records), b.num_records(), &out), "a mission batch");
-    return out;
-  }
-  for (std::size_t i = 0; i < b.num_records(); ++i) {
-    auto record = DecodeKeyframeRecord(
-        Span<const std::uint8_t>(b.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
-    if (!record.ok()) Fail("seed: a mission record does not decode: %s", record.status().ToString().c_str());
-    CompactKeyframe k;
-    k.pose = KeyframePose{record->keyframe_index, record->T_map_sensor};
-    k.descriptor = record->descriptor;
-    k.stored_points = b.stored_points[i];
-    out.push_back(k);
-  }
-  return out;
+  auto keyframes = test::BatchKeyframes(b);
+  if (!keyframes.ok()) Fail("seed: a mission batch does not decode: %s", keyframes.status().ToString().c_str());
+  return *keyframes;
 }
 
 // The mission's keyframes, every batch's.

@@ -16,6 +16,7 @@
 #include "core/descriptor/solid.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/sim/synthetic_scan.hpp"
+#include "tests/support/batch_keyframes.hpp"
 
 using namespace commerge;
 
@@ -77,24 +78,9 @@ void Drive(RobotAgent* agent, int n, int empty_at) {
 
 // The keyframes of a batch of either kind a robot sends for SOLiD (92-byte records or a compact batch).
 std::vector<CompactKeyframe> BatchKeyframes(const KeyframeBatch& batch) {
-  std::vector<CompactKeyframe> out;
-  if (batch.record_kind == KeyframeRecordKind::kCompact40) {
-    const Status st = DecodeCompactBatch(Span<const std::uint8_t>(batch.records), batch.num_records(), &out);
-    REQUIRE_MESSAGE(st.ok(), st.ToString());
-    return out;
-  }
-  REQUIRE(batch.record_kind == KeyframeRecordKind::kUnit40);
-  for (std::size_t i = 0; i < batch.num_records(); ++i) {
-    auto rec = DecodeKeyframeRecord(
-        Span<const std::uint8_t>(batch.records.data() + i * kKeyframeRecordBytes, kKeyframeRecordBytes));
-    REQUIRE(rec.ok());
-    CompactKeyframe k;
-    k.pose = KeyframePose{rec->keyframe_index, rec->T_map_sensor};
-    k.descriptor = rec->descriptor;
-    k.stored_points = batch.stored_points.at(i);
-    out.push_back(k);
-  }
-  return out;
+  auto keyframes = test::BatchKeyframes(batch);
+  REQUIRE_MESSAGE(keyframes.ok(), keyframes.status().ToString());
+  return *keyframes;
 }
 
 }  // namespace
