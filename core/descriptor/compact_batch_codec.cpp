@@ -14,8 +14,7 @@ namespace {
 /// The integers a keyframe is coded as (its quantisation).
 struct Codes {
   std::uint32_t index = 0;
-  std::array<std::int64_t, 3> t{};
-  std::array<std::int64_t, 4> q{};
+  CompactPoseCodes pose;
   std::array<std::uint32_t, kKeyframeDescriptorDim> d{};
   std::uint32_t points = 0;
 };
@@ -39,8 +38,7 @@ Result<Codes> Quantise(const CompactKeyframe& k, int bits, const std::array<std:
   c.points = k.stored_points;
   auto pose = QuantiseCompactPose(k.pose.T_map_sensor, previous_q, Who(c.index));
   if (!pose.ok()) return pose.status();
-  c.t = pose->t;
-  c.q = pose->q;
+  c.pose = *pose;
   const double levels = static_cast<double>((1u << bits) - 1u);
   const float max_value = *std::max_element(k.descriptor.begin(), k.descriptor.end());
   for (std::size_t i = 0; i < kKeyframeDescriptorDim; ++i) {
@@ -55,7 +53,7 @@ CompactKeyframe Dequantise(const Codes& c) {
   CompactKeyframe k;
   k.pose.keyframe_index = c.index;
   k.stored_points = c.points;
-  k.pose.T_map_sensor = DequantiseCompactPose(CompactPoseCodes{c.t, c.q});
+  k.pose.T_map_sensor = DequantiseCompactPose(c.pose);
   double norm2 = 0.0;
   for (std::uint32_t v : c.d) norm2 += static_cast<double>(v) * static_cast<double>(v);
   const double norm = std::sqrt(norm2);
@@ -65,11 +63,10 @@ CompactKeyframe Dequantise(const Codes& c) {
   return k;
 }
 
-/// The residuals of record i >= 1, by stream: gap, translation, rotation, descriptor, stored points.
+/// The residuals of record i >= 1, by stream: gap, pose, descriptor, stored points.
 struct Residuals {
   std::uint64_t gap = 0;
-  std::array<std::uint64_t, 3> t{};
-  std::array<std::uint64_t, 4> q{};
+  CompactPoseResiduals pose;
   std::array<std::uint64_t, kKeyframeDescriptorDim> d{};
   std::uint64_t points = 0;
 };
@@ -77,9 +74,7 @@ struct Residuals {
 Residuals ResidualsOf(const std::vector<Codes>& c, std::size_t i) {
   Residuals r;
   r.gap = c[i].index - c[i - 1].index - 1;
-  const Codes& before = c[i >= 2 ? i - 2 : i - 1];
-  for (std::size_t a = 0; a < 3; ++a) r.t[a] = ZigZag(c[i].t[a] - PredictCompact(before.t[a], c[i - 1].t[a], i));
-  for (std::size_t a = 0; a < 4; ++a) r.q[a] = ZigZag(c[i].q[a] - PredictCompact(before.q[a], c[i - 1].q[a], i));
+  r.pose = CompactPoseResidualsOf(c[i >= 2 ? i - 2 : i - 1].pose, c[i - 1].pose, c[i].pose, i);
   for (std::size_t a = 0; a < kKeyframeDescriptorDim; ++a) {
     r.d[a] = ZigZag(static_cast<std::int64_t>(c[i].d[a]) - static_cast<std::int64_t>(c[i - 1].d[a]));
   }
@@ -105,7 +100,7 @@ Status EncodeCompactBatch(Span<const CompactKeyframe> keyframes, int descriptor_
   std::vector<Codes> codes;
   codes.reserve(keyframes.size());
   for (std::size_t i = 0; i < keyframes.size(); ++i) {
-    auto c = Quantise(keyframes[i], descriptor_bits, i == 0 ? nullptr : &codes.back().q);
+    auto c = Quantise(keyframes[i], descriptor_bits, i == 0 ? nullptr : &codes.back().pose.q);
     if (!c.ok()) return c.status();
     if (i > 0 && c->index <= codes.back().index) {
       return InvalidArgument(Who(c->index) + "keyframe indices must ascend (after " +
@@ -120,8 +115,8 @@ Status EncodeCompactBatch(Span<const CompactKeyframe> keyframes, int descriptor_
   for (const Residuals& r : residuals) {
     gaps.push_back(r.gap);
     points.push_back(r.points);
-    t.insert(t.end(), r.t.begin(), r.t.end());
-    q.insert(q.end(), r.q.begin(), r.q.end());
+    t.insert(t.end(), r.pose.t.begin(), r.pose.t.end());
+    q.insert(q.end(), r.pose.q.begin(), r.pose.q.end());
     d.insert(d.end(), r.d.begin(), r.d.end());
   }
   const int k_gap = BestExpGolombOrder(gaps), k_t = BestExpGolombOrder(t), k_q = BestExpGolombOrder(q), k_d = BestExpGolombOrder(d),
@@ -133,14 +128,12 @@ Status EncodeCompactBatch(Span<const CompactKeyframe> keyframes, int descriptor_
   for (int k : {k_gap, k_t, k_q, k_d, k_points}) w.Put(static_cast<std::uint64_t>(k), kExpGolombOrderBits);
   const Codes& first = codes.front();
   w.PutExpGolomb(first.index, 0);
-  for (std::int64_t v : first.t) w.PutExpGolomb(ZigZag(v), 0);
-  for (std::int64_t v : first.q) w.Put(static_cast<std::uint64_t>(v) & 0xFFFFu, kCompactQuaternionCodeBits);
+  PutCompactPoseWhole(first.pose, &w);
   for (std::uint32_t v : first.d) w.Put(v, descriptor_bits);
   w.PutExpGolomb(first.points, 0);
   for (const Residuals& r : residuals) {
     w.PutExpGolomb(r.gap, k_gap);
-    for (std::uint64_t v : r.t) w.PutExpGolomb(v, k_t);
-    for (std::uint64_t v : r.q) w.PutExpGolomb(v, k_q);
+    PutCompactPoseResiduals(r.pose, k_t, k_q, &w);
     for (std::uint64_t v : r.d) w.PutExpGolomb(v, k_d);
     w.PutExpGolomb(r.points, k_points);
   }
@@ -167,21 +160,24 @@ Status DecodeCompactBatch(Span<const std::uint8_t> bytes, std::size_t num_record
   for (std::size_t i = 0; i < num_records; ++i) {
     Codes c;
     std::uint64_t v = 0;
-    const auto ended = [i] {
-      return Corrupt(i, "the stream ends early, or an Exp-Golomb code has more than 48 leading zeros");
-    };
+    const auto ended = [i] { return Corrupt(i, CompactStreamEnded()); };
     if (i == 0) {
       if (!r.GetExpGolomb(0, &v)) return ended();
       if (v > std::numeric_limits<std::uint32_t>::max()) return Corrupt(i, "keyframe index beyond 2^32 - 1");
       c.index = static_cast<std::uint32_t>(v);
-      for (std::int64_t& t : c.t) {
-        if (!r.GetExpGolomb(0, &v)) return ended();
-        t = UnZigZag(v);
+    } else {
+      if (!r.GetExpGolomb(static_cast<int>(order[0]), &v)) return ended();
+      if (v >= std::numeric_limits<std::uint32_t>::max() - last.index) {
+        return Corrupt(i, "keyframe index beyond 2^32 - 1");
       }
-      for (std::int64_t& q : c.q) {
-        if (!r.Get(kCompactQuaternionCodeBits, &v)) return ended();
-        q = static_cast<std::int16_t>(static_cast<std::uint16_t>(v));
-      }
+      c.index = last.index + 1 + static_cast<std::uint32_t>(v);
+    }
+    if (const std::string error = GetCompactPose(&r, i, static_cast<int>(order[1]), static_cast<int>(order[2]),
+                                                 before.pose, last.pose, &c.pose);
+        !error.empty()) {
+      return Corrupt(i, error);
+    }
+    if (i == 0) {
       for (std::uint32_t& d : c.d) {
         if (!r.Get(bits, &v)) return ended();
         d = static_cast<std::uint32_t>(v);
@@ -190,21 +186,6 @@ Status DecodeCompactBatch(Span<const std::uint8_t> bytes, std::size_t num_record
       if (v > kCompactMaxStoredPoints) return Corrupt(i, "stored point count beyond 2^31 - 1");
       c.points = static_cast<std::uint32_t>(v);
     } else {
-      if (!r.GetExpGolomb(static_cast<int>(order[0]), &v)) return ended();
-      if (v >= std::numeric_limits<std::uint32_t>::max() - last.index) {
-        return Corrupt(i, "keyframe index beyond 2^32 - 1");
-      }
-      c.index = last.index + 1 + static_cast<std::uint32_t>(v);
-      for (std::size_t a = 0; a < 3; ++a) {
-        if (!r.GetExpGolomb(static_cast<int>(order[1]), &v)) return ended();
-        if (v >= (std::uint64_t{1} << 46)) return Corrupt(i, "translation residual beyond the grid");
-        c.t[a] = PredictCompact(before.t[a], last.t[a], i) + UnZigZag(v);
-      }
-      for (std::size_t a = 0; a < 4; ++a) {
-        if (!r.GetExpGolomb(static_cast<int>(order[2]), &v)) return ended();
-        if (v >= (std::uint64_t{1} << 20)) return Corrupt(i, "quaternion residual beyond the code range");
-        c.q[a] = PredictCompact(before.q[a], last.q[a], i) + UnZigZag(v);
-      }
       for (std::size_t a = 0; a < kKeyframeDescriptorDim; ++a) {
         if (!r.GetExpGolomb(static_cast<int>(order[3]), &v)) return ended();
         if (v > 2u * levels) return Corrupt(i, "descriptor difference beyond the code range");
@@ -221,9 +202,6 @@ Status DecodeCompactBatch(Span<const std::uint8_t> bytes, std::size_t num_record
         return Corrupt(i, "stored point count " + std::to_string(points) + " outside 0..2^31 - 1");
       }
       c.points = static_cast<std::uint32_t>(points);
-    }
-    if (const std::string error = CompactPoseCodesError(CompactPoseCodes{c.t, c.q}); !error.empty()) {
-      return Corrupt(i, error);
     }
     if (*std::max_element(c.d.begin(), c.d.end()) != levels) {
       return Corrupt(i, "the descriptor's largest code is not " + std::to_string(levels) + " (corrupt or all zero)");

@@ -4,8 +4,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/common/exp_golomb.hpp"
-
 namespace commerge {
 namespace {
 
@@ -78,6 +76,45 @@ std::string CompactPoseCodesError(const CompactPoseCodes& c) {
   return any ? std::string() : std::string("all-zero quaternion");
 }
 
+CompactPoseResiduals CompactPoseResidualsOf(const CompactPoseCodes& before, const CompactPoseCodes& last,
+                                            const CompactPoseCodes& codes, std::size_t i) {
+  CompactPoseResiduals r;
+  for (std::size_t a = 0; a < 3; ++a) r.t[a] = ZigZag(codes.t[a] - PredictCompact(before.t[a], last.t[a], i));
+  for (std::size_t a = 0; a < 4; ++a) r.q[a] = ZigZag(codes.q[a] - PredictCompact(before.q[a], last.q[a], i));
+  return r;
+}
+
+void PutCompactPoseWhole(const CompactPoseCodes& codes, BitWriter* w) {
+  for (std::int64_t v : codes.t) w->PutExpGolomb(ZigZag(v), 0);
+  for (std::int64_t v : codes.q) w->Put(static_cast<std::uint64_t>(v) & 0xFFFFu, kCompactQuaternionCodeBits);
+}
+
+void PutCompactPoseResiduals(const CompactPoseResiduals& r, int k_translation, int k_rotation, BitWriter* w) {
+  for (std::uint64_t v : r.t) w->PutExpGolomb(v, k_translation);
+  for (std::uint64_t v : r.q) w->PutExpGolomb(v, k_rotation);
+}
+
+std::string GetCompactPose(BitReader* r, std::size_t i, int k_translation, int k_rotation,
+                           const CompactPoseCodes& before, const CompactPoseCodes& last, CompactPoseCodes* codes) {
+  std::uint64_t v = 0;
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (!r->GetExpGolomb(i == 0 ? 0 : k_translation, &v)) return CompactStreamEnded();
+    if (v >= (std::uint64_t{1} << 47)) return "translation residual beyond the grid";
+    codes->t[a] = (i == 0 ? 0 : PredictCompact(before.t[a], last.t[a], i)) + UnZigZag(v);
+  }
+  for (std::size_t a = 0; a < 4; ++a) {
+    if (i == 0) {
+      if (!r->Get(kCompactQuaternionCodeBits, &v)) return CompactStreamEnded();
+      codes->q[a] = static_cast<std::int16_t>(static_cast<std::uint16_t>(v));
+      continue;
+    }
+    if (!r->GetExpGolomb(k_rotation, &v)) return CompactStreamEnded();
+    if (v >= (std::uint64_t{1} << 20)) return "quaternion residual beyond the code range";
+    codes->q[a] = PredictCompact(before.q[a], last.q[a], i) + UnZigZag(v);
+  }
+  return CompactPoseCodesError(*codes);
+}
+
 Status EncodeCompactPoses(Span<const std::uint32_t> keyframes, Span<const Eigen::Isometry3d> poses,
                           Span<const std::uint8_t> no_descriptor, std::vector<std::uint8_t>* out) {
   const std::size_t n = keyframes.size();
@@ -102,18 +139,16 @@ Status EncodeCompactPoses(Span<const std::uint32_t> keyframes, Span<const Eigen:
     codes.push_back(*c);
   }
   std::vector<std::uint64_t> gaps, t, q;
+  std::vector<CompactPoseResiduals> residuals;
   gaps.reserve(n);
   t.reserve(3 * n);
   q.reserve(4 * n);
+  residuals.reserve(n);
   for (std::size_t i = 1; i < n; ++i) {
     gaps.push_back(ZigZag(static_cast<std::int64_t>(keyframes[i]) - static_cast<std::int64_t>(keyframes[i - 1]) - 1));
-    const CompactPoseCodes& before = codes[i >= 2 ? i - 2 : i - 1];
-    for (std::size_t a = 0; a < 3; ++a) {
-      t.push_back(ZigZag(codes[i].t[a] - PredictCompact(before.t[a], codes[i - 1].t[a], i)));
-    }
-    for (std::size_t a = 0; a < 4; ++a) {
-      q.push_back(ZigZag(codes[i].q[a] - PredictCompact(before.q[a], codes[i - 1].q[a], i)));
-    }
+    residuals.push_back(CompactPoseResidualsOf(codes[i >= 2 ? i - 2 : i - 1], codes[i - 1], codes[i], i));
+    t.insert(t.end(), residuals.back().t.begin(), residuals.back().t.end());
+    q.insert(q.end(), residuals.back().q.begin(), residuals.back().q.end());
   }
   const int k_gap = BestExpGolombOrder(gaps), k_t = BestExpGolombOrder(t), k_q = BestExpGolombOrder(q);
   BitWriter w(out);
@@ -121,12 +156,10 @@ Status EncodeCompactPoses(Span<const std::uint32_t> keyframes, Span<const Eigen:
   for (std::size_t i = 0; i < n; ++i) {
     if (i == 0) {
       w.PutExpGolomb(keyframes[0], 0);
-      for (std::int64_t v : codes[0].t) w.PutExpGolomb(ZigZag(v), 0);
-      for (std::int64_t v : codes[0].q) w.Put(static_cast<std::uint64_t>(v) & 0xFFFFu, kCompactQuaternionCodeBits);
+      PutCompactPoseWhole(codes[0], &w);
     } else {
       w.PutExpGolomb(gaps[i - 1], k_gap);
-      for (std::size_t a = 0; a < 3; ++a) w.PutExpGolomb(t[3 * (i - 1) + a], k_t);
-      for (std::size_t a = 0; a < 4; ++a) w.PutExpGolomb(q[4 * (i - 1) + a], k_q);
+      PutCompactPoseResiduals(residuals[i - 1], k_t, k_q, &w);
     }
     w.Put(no_descriptor.empty() ? 0u : no_descriptor[i], 1);
   }
@@ -168,9 +201,7 @@ Status DecodeCompactPoses(Span<const std::uint8_t> bytes, std::size_t num_poses,
   CompactPoseCodes before, last;
   std::int64_t last_index = 0;
   for (std::size_t i = 0; i < num_poses; ++i) {
-    const auto ended = [i] {
-      return CorruptPose(i, "the stream ends early, or an Exp-Golomb code has more than 48 leading zeros");
-    };
+    const auto ended = [i] { return CorruptPose(i, CompactStreamEnded()); };
     CompactPoseCodes c;
     std::uint64_t v = 0;
     std::int64_t index = 0;
@@ -178,14 +209,6 @@ Status DecodeCompactPoses(Span<const std::uint8_t> bytes, std::size_t num_poses,
       if (!r.GetExpGolomb(0, &v)) return ended();
       if (v > kMaxPoseIndex) return CorruptPose(i, "keyframe index beyond 2^31 - 1");
       index = static_cast<std::int64_t>(v);
-      for (std::int64_t& t : c.t) {
-        if (!r.GetExpGolomb(0, &v)) return ended();
-        t = UnZigZag(v);
-      }
-      for (std::int64_t& q : c.q) {
-        if (!r.Get(kCompactQuaternionCodeBits, &v)) return ended();
-        q = static_cast<std::int16_t>(static_cast<std::uint16_t>(v));
-      }
     } else {
       if (!r.GetExpGolomb(static_cast<int>(order[0]), &v)) return ended();
       if (v >= (std::uint64_t{1} << 34)) return CorruptPose(i, "keyframe index step beyond 2^33");
@@ -193,19 +216,13 @@ Status DecodeCompactPoses(Span<const std::uint8_t> bytes, std::size_t num_poses,
       if (index < 0 || index > static_cast<std::int64_t>(kMaxPoseIndex)) {
         return CorruptPose(i, "keyframe index " + std::to_string(index) + " outside 0..2^31 - 1");
       }
-      for (std::size_t a = 0; a < 3; ++a) {
-        if (!r.GetExpGolomb(static_cast<int>(order[1]), &v)) return ended();
-        if (v >= (std::uint64_t{1} << 47)) return CorruptPose(i, "translation residual beyond the grid");
-        c.t[a] = PredictCompact(before.t[a], last.t[a], i) + UnZigZag(v);
-      }
-      for (std::size_t a = 0; a < 4; ++a) {
-        if (!r.GetExpGolomb(static_cast<int>(order[2]), &v)) return ended();
-        if (v >= (std::uint64_t{1} << 20)) return CorruptPose(i, "quaternion residual beyond the code range");
-        c.q[a] = PredictCompact(before.q[a], last.q[a], i) + UnZigZag(v);
-      }
+    }
+    if (const std::string error =
+            GetCompactPose(&r, i, static_cast<int>(order[1]), static_cast<int>(order[2]), before, last, &c);
+        !error.empty()) {
+      return CorruptPose(i, error);
     }
     if (!r.Get(1, &v)) return ended();
-    if (const std::string error = CompactPoseCodesError(c); !error.empty()) return CorruptPose(i, error);
     (*keyframes)[i] = static_cast<std::uint32_t>(index);
     (*poses)[i] = DequantiseCompactPose(c);
     (*no_descriptor)[i] = static_cast<std::uint8_t>(v);

@@ -37,6 +37,7 @@
 
 #include <Eigen/Geometry>
 
+#include "core/common/exp_golomb.hpp"
 #include "core/common/span.hpp"
 #include "core/common/status.hpp"
 
@@ -68,6 +69,25 @@ std::string CompactPoseCodesError(const CompactPoseCodes& codes);
 /// The linear prediction of element i of a list from the two before it (the one before for i = 1).
 inline std::int64_t PredictCompact(std::int64_t before_last, std::int64_t last, std::size_t i) {
   return i >= 2 ? 2 * last - before_last : last;
+}
+
+/// The pose part of one element of a compact list, shared by both codecs: element 0 whole (EG(0) of the 3
+/// zig-zagged grid values, 4 x 16-bit quaternion codes), element i >= 1 as the zig-zagged residuals against the
+/// linear prediction from `before` (element i - 2; i - 1 for i = 1) and `last` (element i - 1).
+struct CompactPoseResiduals {
+  std::array<std::uint64_t, 3> t{};
+  std::array<std::uint64_t, 4> q{};
+};
+CompactPoseResiduals CompactPoseResidualsOf(const CompactPoseCodes& before, const CompactPoseCodes& last,
+                                            const CompactPoseCodes& codes, std::size_t i);
+void PutCompactPoseWhole(const CompactPoseCodes& codes, BitWriter* w);
+void PutCompactPoseResiduals(const CompactPoseResiduals& r, int k_translation, int k_rotation, BitWriter* w);
+/// Reads element i's pose (whole for i = 0) and checks it (CompactPoseCodesError): "" or what is wrong.
+std::string GetCompactPose(BitReader* r, std::size_t i, int k_translation, int k_rotation,
+                           const CompactPoseCodes& before, const CompactPoseCodes& last, CompactPoseCodes* codes);
+/// What GetCompactPose and the codecs say when the stream ends early.
+inline const char* CompactStreamEnded() {
+  return "the stream ends early, or an Exp-Golomb code has more than 48 leading zeros";
 }
 
 /// Poses of one pose list at most (pose_update_t.MAX_POSES).

@@ -323,6 +323,19 @@ std::vector<CompactKeyframe> BatchKeyframes(const KeyframeBatch& b) {
   return *keyframes;
 }
 
+// Appends `k` to `m` as a 92-byte record and its point count.
+void AppendUnit40Record(const CompactKeyframe& k, KeyframeBatch* m) {
+  KeyframeRecord record;
+  record.keyframe_index = k.pose.keyframe_index;
+  record.T_map_sensor = k.pose.T_map_sensor;
+  record.descriptor = k.descriptor;
+  record.descriptor_valid = true;
+  const std::size_t at = m->records.size();
+  m->records.resize(at + kKeyframeRecordBytes);
+  Check(EncodeKeyframeRecord(record, Span<std::uint8_t>(m->records.data() + at, kKeyframeRecordBytes)), "record");
+  m->stored_points.push_back(k.stored_points);
+}
+
 // The mission's keyframes, every batch's.
 std::vector<CompactKeyframe> MissionKeyframes(const SampleBank& bank) {
   std::vector<CompactKeyframe> out;
@@ -342,16 +355,10 @@ KeyframeBatch LargestBatch(const SampleBank& bank) {
   const std::vector<CompactKeyframe> keyframes = MissionKeyframes(bank);
   if (keyframes.empty()) return m;
   for (std::size_t k = 0; k < kMaxRecordsPerBatch; ++k) {
-    const CompactKeyframe& from = keyframes[k % keyframes.size()];
-    KeyframeRecord record;
-    record.keyframe_index = static_cast<std::uint32_t>(k);
-    record.T_map_sensor = from.pose.T_map_sensor;
-    record.descriptor = from.descriptor;
-    record.descriptor_valid = true;
-    const std::size_t at = m.records.size();
-    m.records.resize(at + kKeyframeRecordBytes);
-    Check(EncodeKeyframeRecord(record, Span<std::uint8_t>(m.records.data() + at, kKeyframeRecordBytes)), "record");
-    m.stored_points.push_back(400 + static_cast<std::uint32_t>(k % 300));
+    CompactKeyframe from = keyframes[k % keyframes.size()];
+    from.pose.keyframe_index = static_cast<std::uint32_t>(k);
+    from.stored_points = 400 + static_cast<std::uint32_t>(k % 300);
+    AppendUnit40Record(from, &m);
   }
   return m;
 }
@@ -609,17 +616,7 @@ KeyframeBatch Reannouncement(const SampleBank& bank) {
     m.num_compact_records = keyframes.size();
     return m;
   }
-  for (const CompactKeyframe& k : keyframes) {
-    KeyframeRecord record;
-    record.keyframe_index = k.pose.keyframe_index;
-    record.T_map_sensor = k.pose.T_map_sensor;
-    record.descriptor = k.descriptor;
-    record.descriptor_valid = true;
-    const std::size_t at = m.records.size();
-    m.records.resize(at + kKeyframeRecordBytes);
-    Check(EncodeKeyframeRecord(record, Span<std::uint8_t>(m.records.data() + at, kKeyframeRecordBytes)), "record");
-    m.stored_points.push_back(k.stored_points);
-  }
+  for (const CompactKeyframe& k : keyframes) AppendUnit40Record(k, &m);
   return m;
 }
 
