@@ -85,8 +85,14 @@ const MergeFlag kMergeFlags[] = {
     {"--min-submap-scans", "cascade.policy.min_scans_per_robot", "scans", 0.0,
      static_cast<double>(kMaxMinScansPerRobot), "ours",
      "fewest scans asked of each robot per pair: L_K's keyframes plus the nearest other keyframes of stage A's "
-     "loops (0 = exactly L_K's, the paper's policy)",
+     "loops (0 = no such floor; with --min-submap-stored-points 0 too, exactly L_K's: the paper's policy)",
      FlagType::kUint32, [](MergeServerParams* p) -> void* { return &p->cascade.policy.min_scans_per_robot; }},
+    {"--min-submap-stored-points", "cascade.policy.min_points_per_robot", "points", 0.0,
+     static_cast<double>(kMaxMinPointsPerRobot), "ours",
+     "fewest stored points asked of each robot per pair, by the point counts the robots report with their "
+     "keyframes: L_K's keyframes plus the nearest other keyframes of stage A's loops until their scans hold this "
+     "many (0 = no such rule; with --min-submap-scans, both rules hold)",
+     FlagType::kUint32, [](MergeServerParams* p) -> void* { return &p->cascade.policy.min_points_per_robot; }},
     {"--min-submap-points", "min_submap_points", "points", 0.0, 1e7, "ours",
      "when the smaller submap of a pair keeps fewer points than this at 1 m voxels (a small scene), voxelise "
      "both finer, in steps of 1/sqrt(2) down to 0.25 m, while the smaller gains points (the robots' scans must hold "

@@ -457,7 +457,7 @@ int RunCascades(RunJob* job) {
         padded = " (policy " + std::to_string(c->policy.alpha.keyframes.size()) + " + " +
                  std::to_string(c->policy.beta.keyframes.size()) + " scans with " +
                  std::to_string(c->policy.alpha.padded_scans) + " + " + std::to_string(c->policy.beta.padded_scans) +
-                 " more of stage A's keyframes, --min-submap-scans)";
+                 " more of stage A's keyframes, --min-submap-scans, --min-submap-stored-points)";
       }
       if (c->stage_c.any_endpoint_fallback) padded += " (stage C over the loops with one endpoint selected: none had both)";
       if (c->verification) padded += " (to verify: stage A's " + c->verification_reason + ", --verify-area-fraction)";

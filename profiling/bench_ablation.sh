@@ -5,9 +5,11 @@
 # The exchange-mode ablation (the paper's Table "ablation2") under one rule for every mode, beside the paper's
 # exact policy. Per generated scenario (`commerge sim`, VLP-16, the simulator's default directions and wobble,
 # --keyframes per robot) `commerge run --modes send-all,A,A+B,A+C,A+B+C` runs twice on the same data:
-#   ours         the default flags: every mode's selection is padded to --min-submap-scans (10) per robot with
-#                stage A's keyframes, and a refused pair is widened up to --max-widen-steps (2) times
-#   paper-exact  --min-submap-scans 0 --max-widen-steps 0: exactly the mode's selection, one registration
+#   ours         the default flags: every mode's selection is padded with stage A's keyframes until each robot's
+#                scans hold --min-submap-stored-points (3 000) points, and a refused pair is widened up to
+#                --max-widen-steps (2) times
+#   paper-exact  --min-submap-scans 0 --min-submap-stored-points 0 --max-widen-steps 0: exactly the mode's
+#                selection, one registration
 # One row per scenario and mode: scans sent as selected + padded + widened (the mode's own selection: send-all
 # every stored scan, A L_seq's endpoints, A+B the cover, A+C the clique's endpoints, A+B+C L_K's endpoints),
 # total bytes exchanged (keyframe records included) and robots placed, for both columns. Then per mode the sums
@@ -62,7 +64,7 @@ for world in $worlds; do
       declare -A m=()
       for column in ours paper; do
         extra=""
-        [ "$column" = paper ] && extra="--min-submap-scans 0 --max-widen-steps 0"
+        [ "$column" = paper ] && extra="--min-submap-scans 0 --min-submap-stored-points 0 --max-widen-steps 0"
         out="$work/$name/$column"
         set +e
         # The simulator writes one scan per metre: a keyframe every 0.9 m keeps every scan despite odometry noise.

@@ -9,7 +9,7 @@
 # paper's baseline (every keyframe's raw scan), server time (cascade + registration), and the process's peak RSS
 # after the robots and at the end. --quick: urban only.
 # --direction/--wobble-deg/--detection-reflectivity go to `commerge sim` (defaults: alternate, 0.5, 0 = off);
-# --run-args adds options to every `commerge run` (e.g. "--min-submap-scans 0" for the paper's exact policy).
+# --run-args adds options to every `commerge run` (e.g. "--min-submap-stored-points 0" for the paper's exact policy).
 # --worlds: the worlds to run (default all four). --reuse-data: keep a scenario's dataset from an earlier run in
 # the same --work directory (with the same sim options) and only run `commerge run` again.
 set -euo pipefail

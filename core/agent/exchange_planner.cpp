@@ -340,8 +340,8 @@ Result<ExchangePlan> ExchangePlanner::Plan(ExchangeMode mode, const KeyframeData
       }
     }
     if (mode != ExchangeMode::kSendAll) {
-      // One rule for every mode: a robot's selection of the pair is padded to min_scans_per_robot with keyframes
-      // that stage A matched to the other robot (ExchangePolicyParams::min_scans_per_robot; A+B+C's policy has
+      // One rule for every mode: a robot's selection of the pair is padded with keyframes that stage A matched to
+      // the other robot (ExchangePolicyParams::min_scans_per_robot, min_points_per_robot; A+B+C's policy has
       // done it already, with the same pool and order). What the mode selected and what padding added are
       // counted apart.
       std::vector<std::uint32_t> own_a = s.alpha_keyframes, own_b = s.beta_keyframes;
@@ -349,9 +349,15 @@ Result<ExchangePlan> ExchangePlanner::Plan(ExchangeMode mode, const KeyframeData
         own_a = Endpoints(Span<const SequentialLoopCell>(p.cascade.stage_c.selected_loops), true);
         own_b = Endpoints(Span<const SequentialLoopCell>(p.cascade.stage_c.selected_loops), false);
       } else {
-        const std::uint32_t min_scans = params_.cascade.policy.min_scans_per_robot;
-        PadKeyframesFromPool(&s.alpha_keyframes, Endpoints(Span<const SequentialLoopCell>(l_seq), true), min_scans);
-        PadKeyframesFromPool(&s.beta_keyframes, Endpoints(Span<const SequentialLoopCell>(l_seq), false), min_scans);
+        const ExchangePolicyParams& policy = params_.cascade.policy;
+        const auto target = [&](int robot) {
+          return PadTarget{policy.min_scans_per_robot, policy.min_points_per_robot,
+                           Span<const std::uint32_t>(db.robot(robot).stored_points), policy.assumed_points_per_scan};
+        };
+        PadKeyframesFromPool(&s.alpha_keyframes, Endpoints(Span<const SequentialLoopCell>(l_seq), true),
+                             target(p.alpha));
+        PadKeyframesFromPool(&s.beta_keyframes, Endpoints(Span<const SequentialLoopCell>(l_seq), false),
+                             target(p.beta));
       }
       auto& oa = own[static_cast<std::size_t>(p.alpha)];
       auto& ob = own[static_cast<std::size_t>(p.beta)];
@@ -455,7 +461,9 @@ Result<ExchangePlan> ExchangePlanner::WidenPlan(const ExchangePlan& plan, Span<c
     PairSelection w = sel;
     const auto grow = [](std::vector<std::uint32_t>* keyframes, std::vector<std::uint32_t> pool) {
       const std::size_t target = std::min<std::size_t>(2 * keyframes->size(), std::numeric_limits<std::uint32_t>::max());
-      return PadKeyframesFromPool(keyframes, std::move(pool), static_cast<std::uint32_t>(target));
+      PadTarget twice;
+      twice.min_scans = static_cast<std::uint32_t>(target);
+      return PadKeyframesFromPool(keyframes, std::move(pool), twice);
     };
     const std::size_t added = grow(&w.alpha_keyframes, Endpoints(l_seq, true)) +
                               grow(&w.beta_keyframes, Endpoints(l_seq, false));

@@ -141,6 +141,7 @@ MergeServerParams MergeProfileParams(MergeProfile profile, const LidarScanTraits
   p.cascade.max_ambiguous_fraction = 1.0;
   p.cascade.consensus_max_cells = 0;
   p.cascade.policy.min_scans_per_robot = 0;
+  p.cascade.policy.min_points_per_robot = 0;
   p.decision.min_ambiguous_support = 0.0;
   p.decision.widen_ambiguous_support = 0.0;
   p.decision.chain_check_support = 0.0;

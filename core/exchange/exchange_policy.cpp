@@ -32,7 +32,9 @@ Status FillRequest(std::vector<std::uint32_t> keyframes, std::vector<std::uint32
   const std::uint32_t assumed_points = params.assumed_points_per_scan;
   std::sort(keyframes.begin(), keyframes.end());
   keyframes.erase(std::unique(keyframes.begin(), keyframes.end()), keyframes.end());
-  out->padded_scans = PadKeyframesFromPool(&keyframes, std::move(pool), params.min_scans_per_robot);
+  out->padded_scans = PadKeyframesFromPool(
+      &keyframes, std::move(pool),
+      PadTarget{params.min_scans_per_robot, params.min_points_per_robot, points, assumed_points});
   out->predicted_bytes = 0;
   out->estimated_scans = 0;
   for (std::uint32_t k : keyframes) {
@@ -57,8 +59,15 @@ Status FillRequest(std::vector<std::uint32_t> keyframes, std::vector<std::uint32
 }  // namespace
 
 std::size_t PadKeyframesFromPool(std::vector<std::uint32_t>* keyframes, std::vector<std::uint32_t> pool,
-                                 std::uint32_t min_scans) {
-  if (keyframes->empty() || keyframes->size() >= min_scans) return 0;
+                                 const PadTarget& target) {
+  const auto points_of = [&target](std::uint32_t k) -> std::uint64_t {
+    const std::uint32_t n = k < target.points.size() ? target.points[k] : 0;
+    return n > 0 ? n : target.assumed_points;
+  };
+  std::uint64_t held = 0;
+  for (std::uint32_t k : *keyframes) held += points_of(k);
+  const auto met = [&](std::size_t scans) { return scans >= target.min_scans && held >= target.min_points; };
+  if (keyframes->empty() || met(keyframes->size())) return 0;
   std::sort(pool.begin(), pool.end());
   pool.erase(std::unique(pool.begin(), pool.end()), pool.end());
   std::vector<std::pair<std::uint32_t, std::uint32_t>> ranked;  // (index distance to the selection, keyframe)
@@ -71,11 +80,15 @@ std::size_t PadKeyframesFromPool(std::vector<std::uint32_t>* keyframes, std::vec
     if (after != keyframes->begin()) d = std::min(d, k - *(after - 1));
     ranked.emplace_back(d, k);
   }
-  const std::size_t added = std::min<std::size_t>(min_scans - keyframes->size(), ranked.size());
-  std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(added), ranked.end());
-  for (std::size_t i = 0; i < added; ++i) keyframes->push_back(ranked[i].second);
+  std::sort(ranked.begin(), ranked.end());
+  const std::size_t before = keyframes->size();
+  for (const auto& [distance, k] : ranked) {
+    if (met(keyframes->size())) break;
+    keyframes->push_back(k);
+    held += points_of(k);
+  }
   std::sort(keyframes->begin(), keyframes->end());
-  return added;
+  return keyframes->size() - before;
 }
 
 Status ValidateExchangePolicyParams(const ExchangePolicyParams& params) {
@@ -85,6 +98,10 @@ Status ValidateExchangePolicyParams(const ExchangePolicyParams& params) {
   if (params.min_scans_per_robot > kMaxMinScansPerRobot) {
     return InvalidArgument("exchange policy: min_scans_per_robot = " + std::to_string(params.min_scans_per_robot) +
                            " is above " + std::to_string(kMaxMinScansPerRobot));
+  }
+  if (params.min_points_per_robot > kMaxMinPointsPerRobot) {
+    return InvalidArgument("exchange policy: min_points_per_robot = " + std::to_string(params.min_points_per_robot) +
+                           " is above " + std::to_string(kMaxMinPointsPerRobot));
   }
   return Status::Ok();
 }
@@ -96,7 +113,7 @@ Result<ExchangePolicy> MakeExchangePolicy(Span<const SequentialLoopCell> selecte
   if (Status s = ValidateExchangePolicyParams(params); !s.ok()) return s;
   std::vector<std::uint32_t> alpha, beta, alpha_pool, beta_pool;
   if (!SplitEndpoints(selected_loops, &alpha, &beta) ||
-      (params.min_scans_per_robot > 0 && !SplitEndpoints(overlap_loops, &alpha_pool, &beta_pool))) {
+      ((params.min_scans_per_robot > 0 || params.min_points_per_robot > 0) && !SplitEndpoints(overlap_loops, &alpha_pool, &beta_pool))) {
     return InvalidArgument("exchange policy: keyframe index beyond 2^32 - 1");
   }
   ExchangePolicy policy;

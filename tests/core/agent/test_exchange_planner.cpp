@@ -16,6 +16,7 @@
 #include <random>
 #include <set>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -42,9 +43,20 @@ using commerge::test::ShiftedPairBatches;
 
 namespace {
 
-// A server (stage A's tau_area 100) holding ShiftedPairBatches(n, shift), its cascades run.
-std::unique_ptr<MergeServer> ShiftedPairServer(int n, int shift) {
+// The padding rule of the first plan test: at least `scans` scans per robot, no points rule.
+ExchangePolicyParams ScanCountPolicy(std::uint32_t scans) {
+  ExchangePolicyParams policy;
+  policy.min_scans_per_robot = scans;
+  policy.min_points_per_robot = 0;
+  return policy;
+}
+
+// A server (stage A's tau_area 100, the given exchange policy) holding ShiftedPairBatches(n, shift), its cascades
+// run.
+std::unique_ptr<MergeServer> ShiftedPairServer(int n, int shift,
+                                               const ExchangePolicyParams& policy = ScanCountPolicy(10)) {
   MergeServerParams params = PaperStageA(100);
+  params.cascade.policy = policy;
   auto server = commerge::test::MakeTestServer(2, 100, params);
   for (const KeyframeBatch& b : ShiftedPairBatches(n, shift)) REQUIRE(server->OnKeyframeBatch(b).ok());
   REQUIRE(server->RunCascades().ok());
@@ -170,6 +182,47 @@ TEST_CASE("Merge server plans per exchange mode: stage A's loops equal the brute
   }
   CHECK(ExchangeModeFromName("a+b+c").ok());
   CHECK_FALSE(ExchangeModeFromName("B").ok());
+}
+
+TEST_CASE("Merge server plans: min_points_per_robot pads every mode by the points the robots reported") {
+  // ShiftedPairBatches: alpha reports 2 000 stored points a scan, beta 3 000; stage A's loops are (j + 5, j).
+  const int n = 40, shift = 5;
+  for (const std::uint32_t min_points : {1u, 9000u, 24000u, 1000000u}) {
+    CAPTURE(min_points);
+    ExchangePolicyParams policy;
+    policy.min_scans_per_robot = 0;
+    policy.min_points_per_robot = min_points;
+    const std::unique_ptr<MergeServer> owned = ShiftedPairServer(n, shift, policy);
+    const ExchangeCascadeResult* cascade = owned->cascade(0, 1);
+    REQUIRE(cascade != nullptr);
+    REQUIRE(cascade->stage_a.found);
+    std::set<std::uint32_t> pool_a, pool_b;
+    for (const SequentialLoopCell& l : cascade->stage_a.cells) {
+      pool_a.insert(static_cast<std::uint32_t>(l.alpha_index));
+      pool_b.insert(static_cast<std::uint32_t>(l.beta_index));
+    }
+    for (ExchangeMode mode : {ExchangeMode::kStageAB, ExchangeMode::kStageAC, ExchangeMode::kStageABC}) {
+      CAPTURE(ExchangeModeName(mode));
+      auto plan = owned->Plan(mode);
+      REQUIRE(plan.ok());
+      REQUIRE(plan->pairs.size() == 1);
+      const PairSelection& s = plan->pairs[0];
+      for (const auto& [side, per_scan, pool] :
+           {std::make_tuple(&s.alpha_keyframes, 2000u, &pool_a), std::make_tuple(&s.beta_keyframes, 3000u, &pool_b)}) {
+        REQUIRE_FALSE(side->empty());
+        for (std::uint32_t k : *side) CHECK(pool->count(k) == 1);  // only keyframes of stage A's loops
+        // At least the fewest scans whose counts reach min_points, or the whole pool when it holds fewer points
+        // (a mode's own selection may be larger).
+        const std::size_t need = (min_points + per_scan - 1) / per_scan;
+        CHECK(side->size() >= std::min(need, pool->size()));
+        if (mode == ExchangeMode::kStageABC) {  // exactly: L_K's keyframes, or the fewest that reach the points
+          const RobotScanRequest& r = side == &s.alpha_keyframes ? cascade->policy.alpha : cascade->policy.beta;
+          const std::size_t own = r.keyframes.size() - r.padded_scans;
+          CHECK(side->size() == std::max(own, std::min(need, pool->size())));
+        }
+      }
+    }
+  }
 }
 
 TEST_CASE("Merge server without the A+C ablation: the same A+B+C plan, no stage C over L_seq, and Plan(A+C) refused") {

@@ -48,6 +48,7 @@ TEST_CASE("Merge profiles: commerge is the defaults, paper the paper's cascade w
     CHECK(paper.cascade.max_ambiguous_fraction == 1.0);
     CHECK(paper.cascade.consensus_max_cells == 0);
     CHECK(paper.cascade.policy.min_scans_per_robot == 0);
+    CHECK(paper.cascade.policy.min_points_per_robot == 0);
     CHECK(paper.decision.min_ambiguous_support == 0.0);
     CHECK(paper.decision.widen_ambiguous_support == 0.0);
     CHECK(paper.decision.chain_check_support == 0.0);

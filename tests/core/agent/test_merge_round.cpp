@@ -38,12 +38,19 @@ namespace {
 constexpr int kN = 40, kShift = 5;
 
 // Robots 0 and 1 whose descriptors repeat with a shift (stage A finds the diagonal), stage A's tau_area 100.
-std::unique_ptr<MergeServer> ShiftedServer(int max_widen_steps) {
+MergeServerParams ShiftedParams(int max_widen_steps) {
   MergeServerParams params;
   params.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
   params.cascade.stage_a.tau_area = 100;
   params.max_widen_steps = max_widen_steps;
-  auto server = commerge::test::MakeTestServer(2, 100, params);
+  // Both robots start at 10 scans and grow in step: each widening asks both (the widening test expects it).
+  params.cascade.policy.min_scans_per_robot = 10;
+  params.cascade.policy.min_points_per_robot = 0;
+  return params;
+}
+
+std::unique_ptr<MergeServer> ShiftedServer(int max_widen_steps) {
+  auto server = commerge::test::MakeTestServer(2, 100, ShiftedParams(max_widen_steps));
   for (const KeyframeBatch& b : ShiftedPairBatches(kN, kShift)) REQUIRE(server->OnKeyframeBatch(b).ok());
   return server;
 }
@@ -512,11 +519,7 @@ TEST_CASE("Server link emits the merge result the direct round makes on the same
                                Span<const std::uint32_t>(std::vector<std::uint32_t>{kN, kN}), 500, 0);
 
     // Over messages, as commerge server does.
-    MergeServerParams mp;
-    mp.cascade.stage_a = SequentialMatchParams{};  // the paper's stage A: B_ij = [A_ij <= tau_inter]
-    mp.cascade.stage_a.tau_area = 100;
-    mp.max_widen_steps = steps;
-    std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, mp);
+    std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, ShiftedParams(steps));
     MergeServer& server = *server_owner;
     ServerLinkParams lp;
     lp.automatic_rounds = false;

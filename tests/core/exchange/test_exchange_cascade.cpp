@@ -69,6 +69,7 @@ TEST_CASE("Cascade: two robots on one street in opposite directions - only true 
   ExchangeCascadeParams params;
   params.stage_a.tau_area = 400;  // a 20 x 20 keyframe span: the overlap here is ~50 m (the paper: 100 x 100)
   params.policy.min_scans_per_robot = 0;  // the paper's policy: exactly L_K's endpoints (padding: below)
+  params.policy.min_points_per_robot = 0;
   auto r = RunExchangeCascade(Input(alpha), Input(beta), params);
   REQUIRE(r.ok());
   INFO("stage A: clusters ", r->stage_a.num_clusters, ", cells below tau ", r->stage_a.num_cells_below_threshold,
@@ -150,6 +151,7 @@ TEST_CASE("Cascade: two robots on one street in opposite directions - only true 
   for (std::uint32_t min_scans : {12u, 200u}) {
     ExchangeCascadeParams padded_params = params;
     padded_params.policy.min_scans_per_robot = min_scans;
+    padded_params.policy.min_points_per_robot = 0;
     auto padded = RunExchangeCascade(Input(alpha), Input(beta), padded_params);
     REQUIRE(padded.ok());
     REQUIRE(padded->outcome == CascadeOutcome::kPolicy);
@@ -243,6 +245,7 @@ TEST_CASE("Cascade: a cluster below tau_area is passed on to verify only above t
   ExchangeCascadeParams params;  // the paper's stage A at tau_area 400
   params.stage_a.tau_area = 400;
   params.policy.min_scans_per_robot = 0;
+  params.policy.min_points_per_robot = 0;
 
   auto r = RunExchangeCascade(a, b, params);  // verification off: the paper's answer
   REQUIRE(r.ok());

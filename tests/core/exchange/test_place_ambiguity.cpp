@@ -65,6 +65,7 @@ ExchangeCascadeParams SmallClusterParams() {
   params.stage_a.tau_inter = 0.2;
   params.stage_a.tau_area = 100;
   params.policy.min_scans_per_robot = 0;
+  params.policy.min_points_per_robot = 0;
   return params;
 }
 

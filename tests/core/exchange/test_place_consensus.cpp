@@ -229,6 +229,7 @@ TEST_CASE("Cascade: with place consensus, stage A passes on a true place instead
   params.stage_a.tau_inter = 0.2;
   params.stage_a.tau_area = 100;
   params.policy.min_scans_per_robot = 0;
+  params.policy.min_points_per_robot = 0;
 
   auto off = RunExchangeCascade(a, b, params);  // off (the paper): the look-alike, mean distance 0
   REQUIRE(off.ok());
