@@ -349,10 +349,8 @@ Result<ExchangePlan> ExchangePlanner::Plan(ExchangeMode mode, const KeyframeData
         own_a = Endpoints(Span<const SequentialLoopCell>(p.cascade.stage_c.selected_loops), true);
         own_b = Endpoints(Span<const SequentialLoopCell>(p.cascade.stage_c.selected_loops), false);
       } else {
-        const ExchangePolicyParams& policy = params_.cascade.policy;
         const auto target = [&](int robot) {
-          return PadTarget{policy.min_scans_per_robot, policy.min_points_per_robot,
-                           Span<const std::uint32_t>(db.robot(robot).stored_points), policy.assumed_points_per_scan};
+          return PolicyPadTarget(params_.cascade.policy, Span<const std::uint32_t>(db.robot(robot).stored_points));
         };
         PadKeyframesFromPool(&s.alpha_keyframes, Endpoints(Span<const SequentialLoopCell>(l_seq), true),
                              target(p.alpha));

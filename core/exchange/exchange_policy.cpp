@@ -32,9 +32,7 @@ Status FillRequest(std::vector<std::uint32_t> keyframes, std::vector<std::uint32
   const std::uint32_t assumed_points = params.assumed_points_per_scan;
   std::sort(keyframes.begin(), keyframes.end());
   keyframes.erase(std::unique(keyframes.begin(), keyframes.end()), keyframes.end());
-  out->padded_scans = PadKeyframesFromPool(
-      &keyframes, std::move(pool),
-      PadTarget{params.min_scans_per_robot, params.min_points_per_robot, points, assumed_points});
+  out->padded_scans = PadKeyframesFromPool(&keyframes, std::move(pool), PolicyPadTarget(params, points));
   out->predicted_bytes = 0;
   out->estimated_scans = 0;
   for (std::uint32_t k : keyframes) {
@@ -91,6 +89,10 @@ std::size_t PadKeyframesFromPool(std::vector<std::uint32_t>* keyframes, std::vec
   return keyframes->size() - before;
 }
 
+PadTarget PolicyPadTarget(const ExchangePolicyParams& params, Span<const std::uint32_t> points) {
+  return PadTarget{params.min_scans_per_robot, params.min_points_per_robot, points, params.assumed_points_per_scan};
+}
+
 Status ValidateExchangePolicyParams(const ExchangePolicyParams& params) {
   if (params.assumed_points_per_scan == 0) {
     return InvalidArgument("exchange policy: assumed_points_per_scan must be > 0");
@@ -112,8 +114,9 @@ Result<ExchangePolicy> MakeExchangePolicy(Span<const SequentialLoopCell> selecte
                                           Span<const std::uint32_t> beta_points, const ExchangePolicyParams& params) {
   if (Status s = ValidateExchangePolicyParams(params); !s.ok()) return s;
   std::vector<std::uint32_t> alpha, beta, alpha_pool, beta_pool;
+  const bool pads = params.min_scans_per_robot > 0 || params.min_points_per_robot > 0;
   if (!SplitEndpoints(selected_loops, &alpha, &beta) ||
-      ((params.min_scans_per_robot > 0 || params.min_points_per_robot > 0) && !SplitEndpoints(overlap_loops, &alpha_pool, &beta_pool))) {
+      (pads && !SplitEndpoints(overlap_loops, &alpha_pool, &beta_pool))) {
     return InvalidArgument("exchange policy: keyframe index beyond 2^32 - 1");
   }
   ExchangePolicy policy;

@@ -40,8 +40,11 @@ struct PadTarget {
   std::uint32_t min_scans = 0;
   std::uint64_t min_points = 0;
   Span<const std::uint32_t> points;
-  std::uint32_t assumed_points = 4300;
+  std::uint32_t assumed_points = ExchangePolicyParams{}.assumed_points_per_scan;
 };
+
+/// The policy's padding rules for one robot whose reported stored point counts are `points`.
+PadTarget PolicyPadTarget(const ExchangePolicyParams& params, Span<const std::uint32_t> points);
 
 /// Largest min_scans_per_robot accepted (a policy of more scans than this is not "a few scans").
 inline constexpr std::uint32_t kMaxMinScansPerRobot = 1000;
