@@ -455,10 +455,9 @@ bool ServerLink::Settled(std::int64_t now_us) const {
          DeliveredKeyframes() == delivered_at_last_round_;
 }
 
-Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
-  if (!params_status_.ok()) return params_status_;
-  // Round bookkeeping first, so the statuses below already show a new or finished request.
-  bool round_work = false;
+// Continues an active round whose scans are complete (or timed out), or starts one when it is due; `worked`: it did.
+Status ServerLink::AdvanceRound(std::int64_t now_us, std::vector<ServerOutgoing>* out, bool* worked) {
+  *worked = false;
   if (round_active_) {
     bool complete = true;
     for (int r = 0; r < static_cast<int>(robots_.size()); ++r) {
@@ -470,7 +469,7 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
     const bool timed_out = Elapsed(round_start_us_, now_us, params_.request_timeout_s);
     if (!params_.follow_recorded_steps && (complete || timed_out)) {
       if (!complete) ++stats_.rounds_timed_out;
-      round_work = true;
+      *worked = true;
       if (Status st = ContinueRound(now_us, out); !st.ok()) return st;
     }
   } else {
@@ -487,13 +486,30 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
                (fresh >= params_.round_min_new_keyframes || Elapsed(last_message_us_, now_us, params_.round_quiet_s)));
     }
     if (start) {
-      round_work = true;
+      *worked = true;
       Status st = StartRound(now_us, out);
       if (!st.ok()) {
         round_active_ = false;
         return st;
       }
     }
+  }
+  return Status::Ok();
+}
+
+Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
+  if (!params_status_.ok()) return params_status_;
+  // Round bookkeeping first, so the statuses below already show a new or finished request; but after a Poll with
+  // round work, due statuses go out first (rounds back to back would otherwise never let one out).
+  bool status_due = false;
+  for (const RobotState& state : robots_) {
+    status_due = status_due || (state.session != 0 && Elapsed(state.last_status_us, now_us, params_.status_interval_s));
+  }
+  const bool statuses_first = statuses_owed_ && status_due;
+  statuses_owed_ = false;
+  bool round_work = false;
+  if (!statuses_first) {
+    if (Status st = AdvanceRound(now_us, out, &round_work); !st.ok()) return st;
   }
   for (int r = 0; r < static_cast<int>(robots_.size()); ++r) {
     RobotState& state = robots_[static_cast<std::size_t>(r)];
@@ -520,6 +536,7 @@ Status ServerLink::Poll(std::int64_t now_us, std::vector<ServerOutgoing>* out) {
       ++stats_.statuses;
     }
   }
+  statuses_owed_ = round_work;
   return Status::Ok();
 }
 

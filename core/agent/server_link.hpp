@@ -6,7 +6,10 @@
 //     keyframes and scans (the robot restarted), an older one is stale and refused (counted).
 //   * Every status_interval_s each robot with a session gets a TransferStatus: which keyframes the server holds
 //     (contiguous prefix + gaps), the pose-update sequences it received, and for the robot's active scan request
-//     the chunks it still misses. The robot re-announces and retransmits from it (RobotLink).
+//     the chunks it still misses. The robot re-announces and retransmits from it (RobotLink). A Poll that did
+//     round work sends none (the robots' messages of those seconds still wait in the caller's queue); the next
+//     Poll sends the due ones before it may do round work, so rounds longer than their interval cannot starve
+//     the robots of statuses.
 //   * Rounds: when enough keyframes arrived (or the robots went quiet with new data), the server begins a
 //     MergeRound (core/agent/merge_round.hpp: cascade, plan, registration, widening, frames) and sends each robot
 //     the round's scan request (its exchange policy, repeated every policy_repeat_s until the scans are complete).
@@ -163,6 +166,7 @@ class ServerLink {
   Status StartRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
   /// Continues the round until it waits for scans it asked for, or is finished (then emits the result).
   Status ContinueRound(std::int64_t now_us, std::vector<ServerOutgoing>* out);
+  Status AdvanceRound(std::int64_t now_us, std::vector<ServerOutgoing>* out, bool* worked);
   /// Withdraws the robots' incomplete requests (the robot stops sending once its status shows no request).
   void WithdrawIncompleteRequests();
   /// Sends `requests` (not to robots that left); returns how many it sent.
@@ -184,6 +188,7 @@ class ServerLink {
   MergeRound merge_round_;
   std::vector<ScanRequest> round_requests_;
   bool round_active_ = false, round_requested_ = false;
+  bool statuses_owed_ = false;  ///< the last Poll did round work: the next sends due statuses before any round work
   std::int64_t round_start_us_ = -1, last_round_us_ = -1, last_message_us_ = -1, last_round_check_us_ = -1;
   std::size_t delivered_at_last_round_ = 0;
   std::vector<std::uint32_t> round_keyframes_;  ///< per robot: delivered keyframes when the round started

@@ -256,6 +256,52 @@ TEST_CASE("Server link: with rounds on request, keyframes delivered after the la
   CHECK(link.Settled(now + quiet));
 }
 
+TEST_CASE("Server link: rounds that take longer than their interval still let every robot's status out") {
+  // Keyframes keep arriving and each poll that does round work costs 2.5 round intervals of wall time (a slow
+  // registration), so a new round is due at every poll after one: between two rounds each robot must still get
+  // a status (its acknowledgements), or it sends everything again.
+  MergeServerParams mp = PaperStageA(100);
+  std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(2, 100, mp);
+  MergeServer& server = *server_owner;
+  ServerLinkParams lp;
+  lp.round_interval_s = 1.0;
+  lp.round_min_new_keyframes = 1;
+  ServerLink link(500, lp, &server);
+  std::int64_t now = 1000000;
+  for (const KeyframeBatch& b : ShiftedPairBatches(40, 5, 1000)) REQUIRE(link.OnKeyframeBatch(b, now).ok());
+  std::mt19937 rng(5);
+  std::vector<int> statuses_since_round_start(2, 0);
+  int round_starts = 0, rounds_checked = 0;
+  std::vector<ServerOutgoing> out;
+  for (std::uint32_t k = 40; k < 100; ++k) {
+    KeyframeBatch more =
+        MakeBatch(1, k, {RandomDescriptor(&rng)}, {Eigen::Vector3d(-static_cast<double>(k), 3.0, 0.0)}, 3000);
+    more.session = 1001;
+    more.sequence = static_cast<std::int32_t>(k - 39);
+    REQUIRE(link.OnKeyframeBatch(more, now).ok());
+    const std::uint64_t started = link.stats().rounds_started, merged = link.stats().rounds_merged;
+    const std::uint64_t widened = link.stats().widened_pairs;
+    out.clear();
+    REQUIRE(link.Poll(now, &out).ok());
+    (void)AnswerWithTinyScans(&link, out, now);
+    if (link.stats().rounds_started > started) {
+      if (++round_starts > 1) {
+        ++rounds_checked;
+        CHECK(*std::min_element(statuses_since_round_start.begin(), statuses_since_round_start.end()) >= 1);
+      }
+      std::fill(statuses_since_round_start.begin(), statuses_since_round_start.end(), 0);
+    }
+    for (const ServerOutgoing& o : out) {
+      if (o.kind == ServerOutgoing::Kind::kTransferStatus) ++statuses_since_round_start[o.status.robot_id];
+    }
+    const bool round_work = link.stats().rounds_started > started || link.stats().rounds_merged > merged ||
+                            link.stats().widened_pairs > widened;
+    now += round_work ? static_cast<std::int64_t>(2.5 * lp.round_interval_s * 1e6) : 100000;
+  }
+  CHECK(link.stats().rounds_merged >= 5);
+  CHECK(rounds_checked >= 5);
+}
+
 TEST_CASE("Server link: the status columns give each robot with a session its keyframes, scans and descriptor id") {
   const std::uint32_t kId = 0x761BEAA5u, kOtherId = 0x12345678u;
   std::unique_ptr<MergeServer> server_owner = commerge::test::MakeTestServer(3, 100, MergeServerParams{});
@@ -303,6 +349,16 @@ TEST_CASE("Server link: a refused pair is widened, the extra scans are asked for
     REQUIRE(link.Poll(now, &out).ok());
     std::vector<ScanRequest> asked = AnswerWithTinyScans(&link, out, now);
     REQUIRE(asked.size() == 2);
+    // The poll after that round work sends the robots' statuses (due since they never had one) before the round
+    // goes on.
+    out.clear();
+    now += 100000;
+    REQUIRE(link.Poll(now, &out).ok());
+    CHECK(std::count_if(out.begin(), out.end(), [](const ServerOutgoing& o) {
+            return o.kind == ServerOutgoing::Kind::kTransferStatus;
+          }) == 2);
+    CHECK(link.stats().widened_pairs == 0);
+    CHECK(FindResult(out) == nullptr);
     std::vector<std::uint32_t> selected_a = asked[0].keyframes, selected_b = asked[1].keyframes;
     std::size_t scans_sent = selected_a.size() + selected_b.size();
     for (int step = 1; step <= steps; ++step) {
