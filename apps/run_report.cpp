@@ -16,6 +16,7 @@
 #include "core/eval/loop_errors.hpp"
 #include "core/eval/merge_judgement.hpp"
 #include "core/eval/shared_place.hpp"
+#include "core/eval/path_agreement.hpp"
 #include "core/eval/stage_a_truth.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
@@ -91,6 +92,23 @@ std::vector<RobotVerdict> RobotVerdicts(const RunJob& job, const ModeOutcome& m)
   const JudgementInput in = JudgementInputOf(job, m);
   return JudgeRobots(Span<const RobotTrajectoryTruth>(in.robots), Span<const RobotPlacement>(in.placements),
                      Span<const JudgedPair>(in.pairs), JudgementParamsFor(job));
+}
+
+// How the placed robots agree along the path they share (core/eval/path_agreement.hpp), under mode m's
+// placement; pairs 0 without ground truth or without two placed robots that came within 10 m.
+PathAgreement PathAgreementOf(const RunJob& job, const ModeOutcome& m) {
+  std::vector<std::vector<Eigen::Isometry3d>> world(static_cast<std::size_t>(job.num_robots()));
+  std::vector<RobotPathTruth> robots;
+  for (int r = 0; r < job.num_robots(); ++r) {
+    const Trajectories& t = job.trajectories[static_cast<std::size_t>(r)];
+    std::vector<Eigen::Isometry3d>& w = world[static_cast<std::size_t>(r)];
+    if (m.round.in_world(r) && t.ground_truth.size() == t.estimated.size()) {
+      for (const Eigen::Isometry3d& T : t.estimated) w.push_back(m.round.T_world_map(r) * T);
+    }
+    robots.push_back({Span<const Eigen::Isometry3d>(w), Span<const Eigen::Isometry3d>(t.ground_truth)});
+  }
+  auto agreement = MeasurePathAgreement(Span<const RobotPathTruth>(robots));
+  return agreement.ok() ? *agreement : PathAgreement{};
 }
 
 // The stage that stopped pair i (PairStopName): "merged", the frame solver, registration with its verdict, or where
@@ -258,6 +276,11 @@ void FinalResult(const RunJob& job, const ModeOutcome& m, const std::function<vo
          " robots share a place with robot 0's team, " + std::to_string(merged) + " placed right, " +
          std::to_string(wrong) + " wrong (> " + Fmt("%.0f m", criterion.max_translation_m) + " or " +
          Fmt("%.0f deg", criterion.max_rotation_deg) + " off where it met a placed robot)");
+  }
+  if (const PathAgreement a = PathAgreementOf(job, m); a.pairs > 0) {
+    line("  along the shared path: keyframes of two robots within 10 m, relative position against ground truth " +
+         Fmt("%.3f m RMS", a.rms_m) + ", " + Fmt("%.3f m", a.p95_m) + " at the 95th percentile, " +
+         Fmt("%.3f m", a.max_m) + " at most (" + std::to_string(a.pairs) + " pairs)");
   }
   for (const MeasurementOutcome& mo : m.round.frames.measurements) {
     if (mo.verdict == MeasurementVerdict::kRejected) {
@@ -501,6 +524,12 @@ void WriteMetrics(const RunJob& job) {
   }
   kv("stored_send_all_bytes", std::to_string(job.send_all_bytes));
   const ModeOutcome& final_mode = job.outcomes.back();
+  if (const PathAgreement a = PathAgreementOf(job, final_mode); a.pairs > 0) {
+    kv("path_agreement_pairs", std::to_string(a.pairs));
+    kv("path_agreement_rms_m", Fmt("%.4f", a.rms_m));
+    kv("path_agreement_p95_m", Fmt("%.4f", a.p95_m));
+    kv("path_agreement_max_m", Fmt("%.4f", a.max_m));
+  }
   const std::vector<SharedPlace> shared = SharedPlaces(job, final_mode);
   for (std::size_t i = 0; i < final_mode.round.pairs.size(); ++i) {
     const PairMergeResult& p = final_mode.round.pairs[i];

@@ -28,7 +28,9 @@
 # such error, the worst e_rmse, bytes of
 # A+B+C against sending every stored scan and against every raw keyframe scan, the stage that stopped each pair
 # that shares a place and was not merged, and the worst translation error against the transform of the true
-# start poses (what drift adds). Then one summary line: recall, real splits merged, wrong merges, median byte
+# start poses (what drift adds), and how the placed robots agree along the path they share (keyframes of two robots
+# within 10 m: RMS and 95th percentile of their relative position's error, core/eval/path_agreement.hpp; "-"
+# without ground truth or two placed robots that came that close). Then one summary line: recall, real splits merged, wrong merges, median byte
 # reductions. Exit 0 (it measures; it does not judge) unless a run fails (a crash, an unreadable input; "no pair merged" is a measurement, not a failure).
 # Bytes by kind: per scenario the A+B+C bytes split by message kind (metrics.tsv mode.A+B+C.bytes.<kind>: the
 # robots' stream plus the mode's own messages) go to WORK/bytes_by_kind.tsv: a header line, then one row per
@@ -274,11 +276,13 @@ run_one() {
   total=$(get mode.A+B+C.total_bytes "$m"); stored=$(get stored_send_all_bytes "$m"); raw=$(get raw_keyframe_scan_bytes "$m")
   local send_all_col=-
   if [ "$send_all" = 1 ]; then send_all_col="$(get mode.send-all.robots_merged "$m") ($(get mode.send-all.worst_rmse_m "$m") m)"; fi
-  printf '%s\t%d\t%d\t%d\t%d\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name$label" "$((robots - 1))" "$reachable" "$merged" "$wrong" \
+  local agreement=-
+  if [ -n "$(get path_agreement_rms_m "$m")" ]; then agreement="$(get path_agreement_rms_m "$m") / $(get path_agreement_p95_m "$m")"; fi
+  printf '%s\t%d\t%d\t%d\t%d\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name$label" "$((robots - 1))" "$reachable" "$merged" "$wrong" \
       "$(printf '%.2f m / %.2f deg' "$worst_m" "$worst_deg")" "$(get mode.A+B+C.worst_rmse_m "$m")" "$total" "$stored" \
       "$(awk -v a="$stored" -v b="$total" 'BEGIN { printf "%.2f", 100 * (1 - b / a) }')" "$raw" \
       "$(awk -v a="$raw" -v b="$total" 'BEGIN { printf "%.3f", 100 * (1 - b / a) }')" "${stops:--}" "$send_all_col" \
-      "$(printf '%.2f m' "$worst_start_m")" | tee -a "$rows_file"
+      "$(printf '%.2f m' "$worst_start_m")" "$agreement" | tee -a "$rows_file"
   # The measured run's bytes by kind (the baseline's are not kept): they must sum to the row's A+B+C bytes.
   if [ "$sub" = run ]; then
     local kind_bytes=() sum=0 v k
@@ -334,7 +338,7 @@ else
   echo "commerge recall benchmark: slice $slice, seeds $seeds, $keyframes keyframes (long: $long_keyframes)${run_args:+, run options: $run_args}"
 fi
 [ "$baseline" = 0 ] || echo "baseline: $base_bin${base_args:+, run options: $base_args}"
-printf 'scenario\tother robots\tsharing robots\tmerged\twrong\tworst transform error\tworst e_rmse [m]\tA+B+C bytes\tstored send-all bytes\treduction %%\traw scan bytes\treduction vs raw %%\tunmerged pairs stopped at\tsend-all placed (worst e_rmse)\tworst error vs start poses\n'
+printf 'scenario\tother robots\tsharing robots\tmerged\twrong\tworst transform error\tworst e_rmse [m]\tA+B+C bytes\tstored send-all bytes\treduction %%\traw scan bytes\treduction vs raw %%\tunmerged pairs stopped at\tsend-all placed (worst e_rmse)\tworst error vs start poses\tshared-path agreement RMS / p95 [m]\n'
 for seed in $seeds; do
   case "$slice" in
     quick)
