@@ -293,6 +293,15 @@ exchange_table() {
     err=$(transform_error "$r")
     printf '    robot %d: round %s; %s\n' "$r" "${first:-never}" "$( [ "$err" = unmerged ] && echo unmerged || awk -v e="$err" 'BEGIN { split(e, v, " "); printf "%s m, %s deg", v[1], v[2] }')"
   done
+  # Along the whole shared path, not only where the robots were registered (profiling/path_agreement.cpp).
+  local agreement_tool
+  agreement_tool="$(dirname "$bin")/profiling/path_agreement"
+  if [ -x "$agreement_tool" ] && [ -f "$data/robot_0/poses_gt.txt" ]; then
+    echo "  along the shared path (the server's last trajectories against the truth):"
+    echo "    $("$agreement_tool" --trajectories "$work/server/trajectories" --data "$data" 2>&1)"
+  else
+    echo "  along the shared path: not measured (no $agreement_tool or no ground truth in $data)"
+  fi
 }
 
 # ---- The table ---------------------------------------------------------------------------------------------
