@@ -52,8 +52,8 @@ inline PoseGraphParams DefaultJointSolverParams() {
   p.loop_kernel = RobustKernel::kCauchy;
   p.loop_kernel_width = 3.0;
   p.max_iterations = 30;
-  p.convergence_step = 1e-4;
-  p.relative_cost_tolerance = 1e-6;
+  p.convergence_step = 1e-3;
+  p.relative_cost_tolerance = 1e-4;
   return p;
 }
 
