@@ -2,11 +2,9 @@
 // Joint multi-robot pose graph (core/merge/joint_graph.hpp): solve time and memory on synthetic teams.
 // Usage: bench_joint_graph [--robots R] [--keyframes N]... [--edge-every K] [--wrong-share W] [--reps N] [--seed S]
 //   default: --robots 3 --keyframes 1000 --keyframes 10000 --edge-every 100 --wrong-share 0.3 --reps 3
-// The robots walk one winding route (x = s, y = 200 sin(s / 300), 1 m keyframes; odd robots the other way, 1 m to
-// the side; robot r > 1 starts 40 r m on). Odometry = the true steps with noise 5 mm / 0.002 deg per axis and a yaw
-// bias of 0.001 deg/m (alternating sign). Every K keyframes of each pair's lower robot, an edge to the other's
-// nearest keyframe within 3 m (truth * noise 2 cm / 0.1 deg); then wrong edges (random keyframes, 3-15 m and any yaw
-// off) until they are W of all edges. Reports per size: keyframes, edges (right + wrong), edges used, wrong used,
+// The team of core/sim/synthetic_team.hpp on the route y = 200 sin(s / 300): odometry noise 5 mm / 0.002 deg per
+// axis and a yaw bias of 0.001 deg/m; every K keyframes of each pair's lower robot, an edge to the other's nearest
+// keyframe within 3 m (truth * noise 2 cm / 0.1 deg); then wrong edges until they are W of all edges. Reports per size: keyframes, edges (right + wrong), edges used, wrong used,
 // LM iterations (all, and those of the least-squares phase), the median CPU and wall time of SolveJointGraph over
 // --reps runs (consistency check, placement, graph
 // and solve), the solver workspace, and the relative-position RMS of keyframes of two robots within 10 m against
@@ -18,21 +16,20 @@
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
-#include <random>
 #include <string>
 #include <vector>
 
 #include "core/common/bytes.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
+#include "core/eval/path_agreement.hpp"
 #include "core/merge/joint_graph.hpp"
+#include "core/sim/synthetic_team.hpp"
 #include "platform/memory/peak_rss.hpp"
 
 namespace {
 
 using commerge::InterRobotEdge;
-using commerge::kDegToRad;
-using commerge::kPi;
 
 struct Options {
   int robots = 3;
@@ -43,115 +40,30 @@ struct Options {
   unsigned seed = 1;
 };
 
-Eigen::Isometry3d Noise(std::mt19937& rng, double sigma_m, double sigma_deg) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  commerge::Vector6d xi;
-  xi << sigma_m * n(rng), sigma_m * n(rng), sigma_m * n(rng), sigma_deg * kDegToRad * n(rng),
-      sigma_deg * kDegToRad * n(rng), sigma_deg * kDegToRad * n(rng);
-  return commerge::ExpSE3(xi);
+commerge::SyntheticTeamParams TeamParams(const Options& o, int n) {
+  commerge::SyntheticTeamParams p;
+  p.robots = o.robots;
+  p.keyframes = n;
+  p.route_amplitude_m = 200.0;
+  p.route_wavelength_m = 300.0;
+  p.yaw_bias_deg_per_m = 0.001;
+  p.step_noise_deg = 0.002;
+  p.edge_every = o.edge_every;
+  p.seed = o.seed;
+  return p;
 }
 
-Eigen::Isometry3d Pose(double x, double y, double yaw) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  T.translation() = Eigen::Vector3d(x, y, 0.0);
-  return T;
-}
-
-Eigen::Isometry3d RoutePose(double s, double lateral_m, bool backwards) {
-  const double heading = std::atan2(200.0 / 300.0 * std::cos(s / 300.0), 1.0);
-  const Eigen::Vector2d left(-std::sin(heading), std::cos(heading));
-  const Eigen::Vector2d p = Eigen::Vector2d(s, 200.0 * std::sin(s / 300.0)) + lateral_m * left;
-  return Pose(p.x(), p.y(), backwards ? heading + kPi : heading);
-}
-
-struct Team {
-  std::vector<std::vector<Eigen::Isometry3d>> truth, maps;
-  std::vector<InterRobotEdge> edges;
-  std::vector<bool> wrong;
-};
-
-Team MakeTeam(const Options& o, int n) {
-  std::mt19937 rng(o.seed);
-  Team t;
-  for (int r = 0; r < o.robots; ++r) {
-    const bool back = r % 2 == 1;
-    const double start = back ? n - 1.0 : (r > 1 ? 40.0 * r : 0.0);
-    std::vector<Eigen::Isometry3d> truth, map;
-    for (int k = 0; k < n; ++k) truth.push_back(RoutePose(back ? start - k : start + k, back ? 1.0 : 0.0, back));
-    map.push_back(Eigen::Isometry3d::Identity());
-    const double bias = (r % 2 ? -1.0 : 1.0) * 0.001 * kDegToRad;
-    for (int k = 1; k < n; ++k) {
-      map.push_back(map.back() * truth[static_cast<std::size_t>(k - 1)].inverse() * truth[static_cast<std::size_t>(k)] *
-                    Pose(0.0, 0.0, bias) * Noise(rng, 0.005, 0.002));
-    }
-    t.truth.push_back(std::move(truth));
-    t.maps.push_back(std::move(map));
+// The relative-position RMS of two robots' keyframes within 10 m (core/eval/path_agreement.hpp, every 7th keyframe).
+double RelativeRms(const commerge::SyntheticTeam& t, const std::vector<std::vector<Eigen::Isometry3d>>& T_world_keyframe) {
+  std::vector<commerge::RobotPathTruth> robots;
+  for (std::size_t r = 0; r < t.T_gt_keyframe.size(); ++r) {
+    robots.push_back({commerge::Span<const Eigen::Isometry3d>(T_world_keyframe[r]),
+                      commerge::Span<const Eigen::Isometry3d>(t.T_gt_keyframe[r])});
   }
-  for (int a = 0; a < o.robots; ++a) {
-    for (int b = a + 1; b < o.robots; ++b) {
-      const auto& A = t.truth[static_cast<std::size_t>(a)];
-      const auto& B = t.truth[static_cast<std::size_t>(b)];
-      for (int i = 0; i < n; i += o.edge_every) {
-        int best = -1;
-        double best_d = 3.0;
-        for (int j = 0; j < n; ++j) {
-          const double d = (A[static_cast<std::size_t>(i)].translation() - B[static_cast<std::size_t>(j)].translation()).norm();
-          if (d < best_d) {
-            best_d = d;
-            best = j;
-          }
-        }
-        if (best < 0) continue;
-        InterRobotEdge e;
-        e.robot_a = a;
-        e.robot_b = b;
-        e.keyframe_a = static_cast<std::uint32_t>(i);
-        e.keyframe_b = static_cast<std::uint32_t>(best);
-        e.T_a_b = A[e.keyframe_a].inverse() * B[e.keyframe_b] * Noise(rng, 0.02, 0.1);
-        t.edges.push_back(e);
-        t.wrong.push_back(false);
-      }
-    }
-  }
-  const std::size_t right = t.edges.size();
-  const auto wrong = static_cast<std::size_t>(std::lround(o.wrong_share / (1.0 - o.wrong_share) * static_cast<double>(right)));
-  std::uniform_int_distribution<int> robot(0, o.robots - 1), keyframe(0, n - 1);
-  std::uniform_real_distribution<double> dist(3.0, 15.0), angle(-kPi, kPi);
-  while (t.edges.size() < right + wrong) {
-    InterRobotEdge e;
-    e.robot_a = robot(rng);
-    e.robot_b = robot(rng);
-    if (e.robot_a == e.robot_b) continue;
-    e.keyframe_a = static_cast<std::uint32_t>(keyframe(rng));
-    e.keyframe_b = static_cast<std::uint32_t>(keyframe(rng));
-    const double d = dist(rng), dir = angle(rng);
-    e.T_a_b = t.truth[static_cast<std::size_t>(e.robot_a)][e.keyframe_a].inverse() *
-              t.truth[static_cast<std::size_t>(e.robot_b)][e.keyframe_b] * Pose(d * std::cos(dir), d * std::sin(dir), angle(rng));
-    t.edges.push_back(e);
-    t.wrong.push_back(true);
-  }
-  return t;
-}
-
-double RelativeRms(const Team& t, const std::vector<std::vector<Eigen::Isometry3d>>& T_world_keyframe) {
-  double sum = 0.0;
-  std::size_t count = 0;
-  for (std::size_t a = 0; a < t.truth.size(); ++a) {
-    for (std::size_t b = a + 1; b < t.truth.size(); ++b) {
-      if (T_world_keyframe[a].empty() || T_world_keyframe[b].empty()) continue;
-      for (std::size_t i = 0; i < t.truth[a].size(); i += 7) {
-        for (std::size_t j = 0; j < t.truth[b].size(); j += 7) {
-          const Eigen::Vector3d truth = (t.truth[a][i].inverse() * t.truth[b][j]).translation();
-          if (truth.norm() > 10.0) continue;
-          const Eigen::Vector3d got = (T_world_keyframe[a][i].inverse() * T_world_keyframe[b][j]).translation();
-          sum += (got - truth).squaredNorm();
-          ++count;
-        }
-      }
-    }
-  }
-  return count ? std::sqrt(sum / static_cast<double>(count)) : -1.0;
+  commerge::PathAgreementParams params;
+  params.keyframe_stride = 7;
+  auto a = commerge::MeasurePathAgreement(commerge::Span<const commerge::RobotPathTruth>(robots), params);
+  return a.ok() && a->pairs > 0 ? a->rms_m : -1.0;
 }
 
 }  // namespace
@@ -197,15 +109,20 @@ int main(int argc, char** argv) {
   std::printf("%9s %7s %6s %6s %6s %3s %3s %9s %9s %11s %11s %11s\n", "keyframes", "right", "wrong", "used", "wrongU", "it",
               "ls", "CPU ms", "wall ms", "workspace", "rigid RMS", "joint RMS");
   for (int n : o.keyframes) {
-    const Team t = MakeTeam(o, n);
+    const commerge::SyntheticTeam team = commerge::MakeSyntheticTeam(TeamParams(o, n));
+    const std::size_t right_count = team.right_edges.size();
+    const auto wrong_count = static_cast<std::size_t>(
+        std::lround(o.wrong_share / (1.0 - o.wrong_share) * static_cast<double>(right_count)));
+    std::vector<InterRobotEdge> edges = team.right_edges;
+    for (const InterRobotEdge& e : commerge::MakeWrongEdges(team, wrong_count, o.seed + 1)) edges.push_back(e);
     std::vector<double> ms, cpu_ms;
     commerge::JointGraphResult last;
     for (int rep = 0; rep < o.reps; ++rep) {
       const auto start = std::chrono::steady_clock::now();
       const std::clock_t cpu_start = std::clock();
       auto r = commerge::SolveJointGraph(
-          commerge::Span<const std::vector<Eigen::Isometry3d>>(t.maps.data(), t.maps.size()),
-          commerge::Span<const InterRobotEdge>(t.edges.data(), t.edges.size()));
+          commerge::Span<const std::vector<Eigen::Isometry3d>>(team.T_map_keyframe.data(), team.T_map_keyframe.size()),
+          commerge::Span<const InterRobotEdge>(edges.data(), edges.size()));
       ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
       cpu_ms.push_back(1000.0 * static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC);
       if (!r.ok()) {
@@ -216,19 +133,16 @@ int main(int argc, char** argv) {
     }
     std::sort(ms.begin(), ms.end());
     std::sort(cpu_ms.begin(), cpu_ms.end());
-    std::size_t right = 0, wrong = 0, used_wrong = 0;
-    for (std::size_t i = 0; i < t.edges.size(); ++i) {
-      (t.wrong[i] ? wrong : right) += 1;
-      if (t.wrong[i] && last.verdicts[i] == commerge::JointEdgeVerdict::kUsed) ++used_wrong;
-    }
-    std::vector<std::vector<Eigen::Isometry3d>> rigid(t.maps.size());
-    for (std::size_t r = 0; r < t.maps.size(); ++r) {
+    std::size_t used_wrong = 0;
+    for (std::size_t i = right_count; i < edges.size(); ++i) used_wrong += last.verdicts[i] == commerge::JointEdgeVerdict::kUsed;
+    std::vector<std::vector<Eigen::Isometry3d>> rigid(team.T_map_keyframe.size());
+    for (std::size_t r = 0; r < rigid.size(); ++r) {
       if (!last.placed[r]) continue;
-      for (const Eigen::Isometry3d& T : t.maps[r]) rigid[r].push_back(last.T_world_map[r] * T);
+      for (const Eigen::Isometry3d& T : team.T_map_keyframe[r]) rigid[r].push_back(last.T_world_map[r] * T);
     }
-    std::printf("%9zu %7zu %6zu %6zu %6zu %3d %3d %9.1f %9.1f %11s %9.3f m %9.3f m\n", last.nodes, right, wrong, last.used_edges,
+    std::printf("%9zu %7zu %6zu %6zu %6zu %3d %3d %9.1f %9.1f %11s %9.3f m %9.3f m\n", last.nodes, right_count, wrong_count, last.used_edges,
                 used_wrong, last.solve.iterations, last.least_squares_iterations, cpu_ms[cpu_ms.size() / 2], ms[ms.size() / 2], commerge::FormatBytes(last.solve.workspace_bytes).c_str(),
-                RelativeRms(t, rigid), RelativeRms(t, last.T_world_keyframe));
+                RelativeRms(team, rigid), RelativeRms(team, last.T_world_keyframe));
   }
   std::printf("peak RSS: %s\n", commerge::FormatBytes(commerge::platform::ReadRss().peak_bytes).c_str());
   return 0;

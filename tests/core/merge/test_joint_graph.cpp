@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The joint multi-robot pose graph against ground truth: three robots walk one winding route (one of them the
 // other way), their odometry drifts (a yaw bias and noise), registrations where they pass each other are the
-// truth's relative poses with noise. References: the truth (the relative position of the robots' keyframes where
+// truth's relative poses with noise (core/sim/synthetic_team.hpp). References: the truth (the relative position of the robots' keyframes where
 // they are within 10 m, the measure of issue 57), the rigid merge of the same maps, and the clean solution (only
 // right edges) that wrong edges must not move.
 #include <doctest/doctest.h>
@@ -15,7 +15,9 @@
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 #include "core/merge/frame_solver.hpp"
+#include "core/eval/path_agreement.hpp"
 #include "core/merge/joint_graph.hpp"
+#include "core/sim/synthetic_team.hpp"
 
 namespace commerge {
 namespace joint_graph_test {
@@ -36,116 +38,26 @@ Eigen::Isometry3d Pose(double x, double y, double yaw) {
   return T;
 }
 
-// The route: x = s, y = 20 sin(s / 30), heading along it; `lateral_m` to its left.
-Eigen::Isometry3d RoutePose(double s, double lateral_m, bool backwards) {
-  const double dy = 20.0 / 30.0 * std::cos(s / 30.0);
-  const double heading = std::atan2(dy, 1.0);
-  const Eigen::Vector2d left(-std::sin(heading), std::cos(heading));
-  const Eigen::Vector2d p = Eigen::Vector2d(s, 20.0 * std::sin(s / 30.0)) + lateral_m * left;
-  return Pose(p.x(), p.y(), backwards ? heading + kPi : heading);
+// Three robots, 300 keyframes each on one winding route (core/sim/synthetic_team.hpp): robot 1 the other way, robot
+// 2 from 80 m on; yaw bias +-0.005 deg/m; an edge every `every` keyframes where two robots pass within 3 m.
+SyntheticTeam MakeTeam(unsigned seed, int every = 15) {
+  SyntheticTeamParams p;
+  p.seed = seed;
+  p.edge_every = every;
+  return MakeSyntheticTeam(p);
 }
 
-struct Team {
-  std::vector<std::vector<Eigen::Isometry3d>> truth;  // T_world_keyframe
-  std::vector<std::vector<Eigen::Isometry3d>> maps;   // T_map_keyframe: the robots' drifted odometry
-  std::vector<InterRobotEdge> right;
-};
-
-// Robots 0 and 2 walk the route forwards (2 starting 40 m on), robot 1 backwards 1 m to the side, 300 keyframes
-// 1 m apart each; odometry = the true steps with noise (5 mm / 0.01 deg) and a yaw bias of +-0.005 deg/m. Every
-// `every` keyframes of the lower robot of each pair, an edge to the other's nearest keyframe (within 3 m) with noise
-// 2 cm / 0.1 deg.
-Team MakeTeam(unsigned seed, int every = 15) {
-  std::mt19937 rng(seed);
-  Team t;
-  const int n = 300;
-  const double start[3] = {0.0, 299.0, 40.0};
-  const double bias_deg[3] = {0.005, -0.005, 0.004};
-  for (int r = 0; r < 3; ++r) {
-    std::vector<Eigen::Isometry3d> truth, map;
-    for (int k = 0; k < n; ++k) {
-      const double s = r == 1 ? start[r] - k : start[r] + k;
-      truth.push_back(RoutePose(s, r == 1 ? 1.0 : 0.0, r == 1));
-    }
-    map.push_back(Eigen::Isometry3d::Identity());
-    for (int k = 1; k < n; ++k) {
-      const Eigen::Isometry3d step = truth[static_cast<std::size_t>(k - 1)].inverse() * truth[static_cast<std::size_t>(k)];
-      map.push_back(map.back() * step * Pose(0.0, 0.0, bias_deg[r] * kDegToRad) * Noise(rng, 0.005, 0.01));
-    }
-    t.truth.push_back(std::move(truth));
-    t.maps.push_back(std::move(map));
+// The issue's measure (core/eval/path_agreement.hpp, tested against a brute force): the RMS error of the relative
+// position of two robots' keyframes within 10 m of each other.
+double RelativeRms(const SyntheticTeam& t, const std::vector<std::vector<Eigen::Isometry3d>>& T_world_keyframe) {
+  std::vector<RobotPathTruth> robots;
+  for (std::size_t r = 0; r < t.T_gt_keyframe.size(); ++r) {
+    robots.push_back({Span<const Eigen::Isometry3d>(T_world_keyframe[r]), Span<const Eigen::Isometry3d>(t.T_gt_keyframe[r])});
   }
-  for (int a = 0; a < 3; ++a) {
-    for (int b = a + 1; b < 3; ++b) {
-      for (int i = 0; i < n; i += every) {
-        int best = -1;
-        double best_d = 3.0;
-        for (int j = 0; j < n; ++j) {
-          const double d = (t.truth[static_cast<std::size_t>(a)][static_cast<std::size_t>(i)].translation() -
-                            t.truth[static_cast<std::size_t>(b)][static_cast<std::size_t>(j)].translation())
-                               .norm();
-          if (d < best_d) {
-            best_d = d;
-            best = j;
-          }
-        }
-        if (best < 0) continue;
-        InterRobotEdge e;
-        e.robot_a = a;
-        e.robot_b = b;
-        e.keyframe_a = static_cast<std::uint32_t>(i);
-        e.keyframe_b = static_cast<std::uint32_t>(best);
-        e.T_a_b = t.truth[static_cast<std::size_t>(a)][e.keyframe_a].inverse() *
-                  t.truth[static_cast<std::size_t>(b)][e.keyframe_b] * Noise(rng, 0.02, 0.1);
-        t.right.push_back(e);
-      }
-    }
-  }
-  return t;
-}
-
-// Wrong edges: random keyframes of a random pair, related by a transform 3-15 m and any yaw from the truth's.
-std::vector<InterRobotEdge> WrongEdges(const Team& t, std::size_t count, std::mt19937& rng) {
-  std::uniform_int_distribution<int> robot(0, 2), keyframe(0, 299);
-  std::uniform_real_distribution<double> dist(3.0, 15.0), angle(-kPi, kPi);
-  std::vector<InterRobotEdge> out;
-  while (out.size() < count) {
-    InterRobotEdge e;
-    e.robot_a = robot(rng);
-    e.robot_b = robot(rng);
-    if (e.robot_a == e.robot_b) continue;
-    e.keyframe_a = static_cast<std::uint32_t>(keyframe(rng));
-    e.keyframe_b = static_cast<std::uint32_t>(keyframe(rng));
-    const double d = dist(rng), dir = angle(rng);
-    e.T_a_b = t.truth[static_cast<std::size_t>(e.robot_a)][e.keyframe_a].inverse() *
-              t.truth[static_cast<std::size_t>(e.robot_b)][e.keyframe_b] *
-              Pose(d * std::cos(dir), d * std::sin(dir), angle(rng));
-    out.push_back(e);
-  }
-  return out;
-}
-
-// Over every pair of keyframes of two different robots within 10 m of each other in the truth: the RMS error of
-// their relative position (the second in the first's frame, so no frame's choice enters) in `T_world_keyframe`
-// against the truth's.
-double RelativeRms(const Team& t, const std::vector<std::vector<Eigen::Isometry3d>>& T_world_keyframe) {
-  double sum = 0.0;
-  std::size_t count = 0;
-  for (std::size_t a = 0; a < t.truth.size(); ++a) {
-    for (std::size_t b = a + 1; b < t.truth.size(); ++b) {
-      for (std::size_t i = 0; i < t.truth[a].size(); i += 3) {
-        for (std::size_t j = 0; j < t.truth[b].size(); j += 3) {
-          const Eigen::Vector3d truth = (t.truth[a][i].inverse() * t.truth[b][j]).translation();
-          if (truth.norm() > 10.0) continue;
-          const Eigen::Vector3d got = (T_world_keyframe[a][i].inverse() * T_world_keyframe[b][j]).translation();
-          sum += (got - truth).squaredNorm();
-          ++count;
-        }
-      }
-    }
-  }
-  REQUIRE(count > 100);
-  return std::sqrt(sum / static_cast<double>(count));
+  auto a = MeasurePathAgreement(Span<const RobotPathTruth>(robots));
+  REQUIRE(a.ok());
+  REQUIRE(a->pairs > 100);
+  return a->rms_m;
 }
 
 double LargestMove(const JointGraphResult& a, const JointGraphResult& b) {
@@ -159,8 +71,8 @@ double LargestMove(const JointGraphResult& a, const JointGraphResult& b) {
   return worst;
 }
 
-Span<const std::vector<Eigen::Isometry3d>> Maps(const Team& t) {
-  return Span<const std::vector<Eigen::Isometry3d>>(t.maps.data(), t.maps.size());
+Span<const std::vector<Eigen::Isometry3d>> Maps(const SyntheticTeam& t) {
+  return Span<const std::vector<Eigen::Isometry3d>>(t.T_map_keyframe.data(), t.T_map_keyframe.size());
 }
 
 }  // namespace
@@ -169,24 +81,24 @@ TEST_CASE("Joint graph: right edges along a shared route bring the robots' relat
           "than the rigid merge") {
   for (unsigned seed : {1u, 2u, 3u}) {
     CAPTURE(seed);
-    const Team t = MakeTeam(seed);
-    REQUIRE(t.right.size() >= 30);
-    REQUIRE(t.right.size() <= kFrameSolverMaxMeasurements);
-    auto result = SolveJointGraph(Maps(t), Span<const InterRobotEdge>(t.right.data(), t.right.size()));
+    const SyntheticTeam t = MakeTeam(seed);
+    REQUIRE(t.right_edges.size() >= 30);
+    REQUIRE(t.right_edges.size() <= kFrameSolverMaxMeasurements);
+    auto result = SolveJointGraph(Maps(t), Span<const InterRobotEdge>(t.right_edges.data(), t.right_edges.size()));
     REQUIRE(result.ok());
-    CHECK(result->used_edges == t.right.size());
+    CHECK(result->used_edges == t.right_edges.size());
     CHECK(std::all_of(result->verdicts.begin(), result->verdicts.end(),
                       [](JointEdgeVerdict v) { return v == JointEdgeVerdict::kUsed; }));
     CHECK(result->solve.final_cost <= result->solve.initial_cost);
     // The rigid merge (the server's frame solver over the same registrations read as map transforms, every one
     // accepted): each robot's map as it is, one transform per robot.
     std::vector<FrameMeasurement> measurements;
-    for (const InterRobotEdge& e : t.right) {
+    for (const InterRobotEdge& e : t.right_edges) {
       FrameMeasurement m;
       m.robot_a = e.robot_a;
       m.robot_b = e.robot_b;
-      m.T_a_b = t.maps[static_cast<std::size_t>(e.robot_a)][e.keyframe_a] * e.T_a_b *
-                t.maps[static_cast<std::size_t>(e.robot_b)][e.keyframe_b].inverse();
+      m.T_a_b = t.T_map_keyframe[static_cast<std::size_t>(e.robot_a)][e.keyframe_a] * e.T_a_b *
+                t.T_map_keyframe[static_cast<std::size_t>(e.robot_b)][e.keyframe_b].inverse();
       measurements.push_back(m);
     }
     FrameSolverParams fp;
@@ -198,7 +110,7 @@ TEST_CASE("Joint graph: right edges along a shared route bring the robots' relat
     std::vector<std::vector<Eigen::Isometry3d>> rigid(3);
     for (std::size_t r = 0; r < 3; ++r) {
       REQUIRE(result->placed[r]);
-      for (const Eigen::Isometry3d& T : t.maps[r]) rigid[r].push_back(frames->robots[r].T_world_map * T);
+      for (const Eigen::Isometry3d& T : t.T_map_keyframe[r]) rigid[r].push_back(frames->robots[r].T_world_map * T);
     }
     const double joint_rms = RelativeRms(t, result->T_world_keyframe);
     const double rigid_rms = RelativeRms(t, rigid);
@@ -213,24 +125,23 @@ TEST_CASE("Joint graph: 20 % and 50 % wrong edges, and a consistent cluster of t
           "clean solution") {
   for (unsigned seed : {4u, 5u, 6u}) {
     CAPTURE(seed);
-    const Team t = MakeTeam(seed);
-    auto clean = SolveJointGraph(Maps(t), Span<const InterRobotEdge>(t.right.data(), t.right.size()));
+    const SyntheticTeam t = MakeTeam(seed);
+    auto clean = SolveJointGraph(Maps(t), Span<const InterRobotEdge>(t.right_edges.data(), t.right_edges.size()));
     REQUIRE(clean.ok());
-    std::mt19937 rng(seed * 7919u);
     for (double wrong_share : {0.2, 0.5, -1.0}) {
       CAPTURE(wrong_share);
-      std::vector<InterRobotEdge> edges = t.right;
+      std::vector<InterRobotEdge> edges = t.right_edges;
       std::vector<InterRobotEdge> wrong;
       if (wrong_share > 0.0) {
         const auto count = static_cast<std::size_t>(std::lround(wrong_share / (1.0 - wrong_share) *
-                                                                static_cast<double>(t.right.size())));
-        wrong = WrongEdges(t, count, rng);
+                                                                static_cast<double>(t.right_edges.size())));
+        wrong = MakeWrongEdges(t, count, seed * 7919u);
       } else {
         // Three wrong edges that agree with each other: robot 1's map placed 8 m and 20 deg off, read at three
         // nearby keyframes of each robot.
         const Eigen::Isometry3d T_world_map1_wrong = clean->T_world_map[1] * Pose(8.0, 0.0, 20.0 * kDegToRad);
         for (std::uint32_t k : {100u, 104u, 108u}) {
-          wrong.push_back(EdgeFromMapTransform(0, k, t.maps[0][k], 1, 300 - 1 - k, t.maps[1][300 - 1 - k],
+          wrong.push_back(EdgeFromMapTransform(0, k, t.T_map_keyframe[0][k], 1, 300 - 1 - k, t.T_map_keyframe[1][300 - 1 - k],
                                                T_world_map1_wrong));
         }
       }
@@ -253,7 +164,7 @@ TEST_CASE("Joint graph: 20 % and 50 % wrong edges, and a consistent cluster of t
       }
       REQUIRE(used > 0);
       CHECK(static_cast<double>(used - used_wrong) >= 0.99 * static_cast<double>(used));
-      CHECK(used >= t.right.size() * 9 / 10);
+      CHECK(used >= t.right_edges.size() * 9 / 10);
       const double moved = LargestMove(*result, *clean);
       MESSAGE("seed " << seed << ", wrong " << wrong.size() << ": used " << used << " (" << used_wrong
                       << " wrong), largest move from the clean solution " << moved << " m");
@@ -264,18 +175,17 @@ TEST_CASE("Joint graph: 20 % and 50 % wrong edges, and a consistent cluster of t
 
 TEST_CASE("Joint graph: a pair whose edges all disagree keeps none, a single edge is used, robots not reached stay "
           "out") {
-  const Team t = MakeTeam(9);
-  std::mt19937 rng(9);
+  const SyntheticTeam t = MakeTeam(9);
   // Robots 0 and 1: two edges that disagree (one right, one 10 m off); robot 2 joined by one right edge to 0.
   std::vector<InterRobotEdge> edges;
-  for (const InterRobotEdge& e : t.right) {
+  for (const InterRobotEdge& e : t.right_edges) {
     if (e.robot_a == 0 && e.robot_b == 1 && edges.empty()) edges.push_back(e);
   }
   REQUIRE(edges.size() == 1);
   InterRobotEdge off = edges[0];
   off.T_a_b = off.T_a_b * Pose(10.0, 0.0, 0.0);
   edges.push_back(off);
-  for (const InterRobotEdge& e : t.right) {
+  for (const InterRobotEdge& e : t.right_edges) {
     if (e.robot_a == 0 && e.robot_b == 2) {
       edges.push_back(e);
       break;
@@ -314,11 +224,11 @@ TEST_CASE("Joint graph: EdgeFromMapTransform reads a map transform at two keyfra
 }
 
 TEST_CASE("Joint graph: bad input is refused with the value named") {
-  const Team t = MakeTeam(1, 100);
+  const SyntheticTeam t = MakeTeam(1, 100);
   const auto solve = [&](std::vector<InterRobotEdge> edges, JointGraphParams p = {}) {
     return SolveJointGraph(Maps(t), Span<const InterRobotEdge>(edges.data(), edges.size()), p).status();
   };
-  InterRobotEdge e = t.right.front();
+  InterRobotEdge e = t.right_edges.front();
   InterRobotEdge bad = e;
   bad.robot_b = 3;
   CHECK(solve({bad}).message().find("robot 3 out of range") != std::string::npos);
@@ -351,7 +261,7 @@ TEST_CASE("Joint graph: bad input is refused with the value named") {
   std::vector<std::vector<Eigen::Isometry3d>> none;
   CHECK(SolveJointGraph(Span<const std::vector<Eigen::Isometry3d>>(none.data(), 0), {}).status().code() ==
         StatusCode::kInvalidArgument);
-  std::vector<std::vector<Eigen::Isometry3d>> nan_pose = t.maps;
+  std::vector<std::vector<Eigen::Isometry3d>> nan_pose = t.T_map_keyframe;
   nan_pose[2][17].translation().y() = std::nan("");
   CHECK(SolveJointGraph(Span<const std::vector<Eigen::Isometry3d>>(nan_pose.data(), nan_pose.size()), {})
             .status()
