@@ -2,29 +2,28 @@
 #include "core/sim/synthetic_team.hpp"
 
 #include <cmath>
-#include <random>
 #include <utility>
 
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
 
 namespace commerge {
-namespace {
 
-Eigen::Isometry3d Noise(std::mt19937& rng, double sigma_m, double sigma_deg) {
-  std::normal_distribution<double> n(0.0, 1.0);
+Eigen::Isometry3d RandomPerturbation(SimRandom& rng, double sigma_m, double sigma_deg) {
   Vector6d xi;
-  xi << sigma_m * n(rng), sigma_m * n(rng), sigma_m * n(rng), sigma_deg * kDegToRad * n(rng),
-      sigma_deg * kDegToRad * n(rng), sigma_deg * kDegToRad * n(rng);
+  for (int i = 0; i < 3; ++i) xi(i) = sigma_m * rng.Gaussian();
+  for (int i = 3; i < 6; ++i) xi(i) = sigma_deg * kDegToRad * rng.Gaussian();
   return ExpSE3(xi);
 }
 
-Eigen::Isometry3d PlanarPose(double x, double y, double yaw) {
+Eigen::Isometry3d PlanarPose(double x, double y, double yaw_rad) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.linear() = Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T.translation() = Eigen::Vector3d(x, y, 0.0);
   return T;
 }
+
+namespace {
 
 Eigen::Isometry3d RoutePose(const SyntheticTeamParams& p, double s, double lateral_m, bool backwards) {
   const double heading =
@@ -37,7 +36,7 @@ Eigen::Isometry3d RoutePose(const SyntheticTeamParams& p, double s, double later
 }  // namespace
 
 SyntheticTeam MakeSyntheticTeam(const SyntheticTeamParams& p) {
-  std::mt19937 rng(p.seed);
+  SimRandom rng(p.seed);
   SyntheticTeam team;
   const int n = p.keyframes;
   for (int r = 0; r < p.robots; ++r) {
@@ -48,7 +47,7 @@ SyntheticTeam MakeSyntheticTeam(const SyntheticTeamParams& p) {
     const Eigen::Isometry3d bias = PlanarPose(0.0, 0.0, (back ? -1.0 : 1.0) * p.yaw_bias_deg_per_m * kDegToRad);
     map.push_back(Eigen::Isometry3d::Identity());
     for (std::size_t k = 1; k < truth.size(); ++k) {
-      map.push_back(map.back() * truth[k - 1].inverse() * truth[k] * bias * Noise(rng, p.step_noise_m, p.step_noise_deg));
+      map.push_back(map.back() * truth[k - 1].inverse() * truth[k] * bias * RandomPerturbation(rng, p.step_noise_m, p.step_noise_deg));
     }
     team.T_gt_keyframe.push_back(std::move(truth));
     team.T_map_keyframe.push_back(std::move(map));
@@ -73,7 +72,7 @@ SyntheticTeam MakeSyntheticTeam(const SyntheticTeamParams& p) {
         e.robot_b = b;
         e.keyframe_a = static_cast<std::uint32_t>(i);
         e.keyframe_b = static_cast<std::uint32_t>(best);
-        e.T_a_b = A[i].inverse() * B[best] * Noise(rng, p.edge_noise_m, p.edge_noise_deg);
+        e.T_a_b = A[i].inverse() * B[best] * RandomPerturbation(rng, p.edge_noise_m, p.edge_noise_deg);
         team.right_edges.push_back(e);
       }
     }
@@ -82,32 +81,30 @@ SyntheticTeam MakeSyntheticTeam(const SyntheticTeamParams& p) {
 }
 
 std::vector<InterRobotEdge> MakeWrongEdges(const SyntheticTeam& team, std::size_t count, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  const int robots = static_cast<int>(team.T_gt_keyframe.size());
-  std::uniform_int_distribution<int> robot(0, robots - 1);
-  std::uniform_real_distribution<double> near(0.0, 5.0), off(3.0, 15.0), angle(-kPi, kPi);
+  SimRandom rng(seed);
+  const std::uint64_t robots = team.T_gt_keyframe.size();
   std::vector<InterRobotEdge> out;
   for (int attempt = 0; out.size() < count && attempt < 1000000; ++attempt) {
     InterRobotEdge e;
-    e.robot_a = robot(rng);
-    e.robot_b = robot(rng);
+    e.robot_a = static_cast<int>(rng.Below(robots));
+    e.robot_b = static_cast<int>(rng.Below(robots));
     if (e.robot_a == e.robot_b) continue;
     const auto& A = team.T_gt_keyframe[static_cast<std::size_t>(e.robot_a)];
     const auto& B = team.T_gt_keyframe[static_cast<std::size_t>(e.robot_b)];
-    e.keyframe_a = std::uniform_int_distribution<std::uint32_t>(0, static_cast<std::uint32_t>(A.size() - 1))(rng);
-    e.keyframe_b = std::uniform_int_distribution<std::uint32_t>(0, static_cast<std::uint32_t>(B.size() - 1))(rng);
+    e.keyframe_a = static_cast<std::uint32_t>(rng.Below(A.size()));
+    e.keyframe_b = static_cast<std::uint32_t>(rng.Below(B.size()));
     const double apart_m = (A[e.keyframe_a].translation() - B[e.keyframe_b].translation()).norm();
-    const double dir = angle(rng);
+    const double dir = rng.Uniform(-kPi, kPi);
     if (out.size() % 2 == 0) {
       // A look-alike place: keyframes more than 20 m apart, registered as if they were within a few metres.
       if (apart_m <= 20.0) continue;
-      const double d = near(rng);
-      e.T_a_b = PlanarPose(d * std::cos(dir), d * std::sin(dir), angle(rng));
+      const double d = rng.Uniform(0.0, 5.0);
+      e.T_a_b = PlanarPose(d * std::cos(dir), d * std::sin(dir), rng.Uniform(-kPi, kPi));
     } else {
       // The right place, a wrong transform: keyframes within 10 m, the truth's relative pose 3-15 m and any yaw off.
       if (apart_m > 10.0) continue;
-      const double d = off(rng);
-      e.T_a_b = A[e.keyframe_a].inverse() * B[e.keyframe_b] * PlanarPose(d * std::cos(dir), d * std::sin(dir), angle(rng));
+      const double d = rng.Uniform(3.0, 15.0);
+      e.T_a_b = A[e.keyframe_a].inverse() * B[e.keyframe_b] * PlanarPose(d * std::cos(dir), d * std::sin(dir), rng.Uniform(-kPi, kPi));
     }
     out.push_back(e);
   }

@@ -7,7 +7,7 @@
 // each pair's lower robot to the other's nearest keyframe within edge_max_distance_m. Wrong edges, alternately: a
 // look-alike place (random keyframes of a random pair more than 20 m apart, related by a transform within 5 m and any
 // yaw, as a registration of two alike places gives) and the right place with a wrong transform (keyframes within
-// 10 m, 3-15 m and any yaw off the truth). Deterministic in the seed.
+// 10 m, 3-15 m and any yaw off the truth). Deterministic in the seed with every standard library (SimRandom).
 #pragma once
 
 #include <cstddef>
@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 
 #include "core/merge/joint_graph.hpp"
+#include "core/sim/sim_random.hpp"
 
 namespace commerge {
 
@@ -40,6 +41,12 @@ struct SyntheticTeam {
   std::vector<std::vector<Eigen::Isometry3d>> T_map_keyframe;  ///< per robot, its drifted map
   std::vector<InterRobotEdge> right_edges;
 };
+
+/// ExpSE3 of a twist with independent normal components: sigma_m per axis [m], sigma_deg per axis [deg].
+Eigen::Isometry3d RandomPerturbation(SimRandom& rng, double sigma_m, double sigma_deg);
+
+/// The pose at (x, y, 0) turned by yaw_rad about z.
+Eigen::Isometry3d PlanarPose(double x, double y, double yaw_rad);
 
 /// The team (precondition: robots >= 2, keyframes >= 2, edge_every >= 1).
 SyntheticTeam MakeSyntheticTeam(const SyntheticTeamParams& params);

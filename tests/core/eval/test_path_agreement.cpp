@@ -1,48 +1,38 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The shared-path agreement measure against a brute force over every keyframe pair (written here: a double loop,
 // a full sort for the percentile), and against cases whose answer is known: a whole map moved (0), one robot
-// shifted by a known vector (that vector's length for every pair).
+// shifted by a known vector (that vector's length for every pair). Random poses: core/sim/synthetic_team.hpp.
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cmath>
-#include <random>
 #include <string>
 #include <vector>
 
 #include "core/eval/path_agreement.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
+#include "core/sim/synthetic_team.hpp"
 
 namespace commerge {
 namespace path_agreement_test {
 namespace {
 
-Eigen::Isometry3d RandomPose(std::mt19937& rng, double sigma_m, double sigma_deg) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  Vector6d xi;
-  xi << sigma_m * n(rng), sigma_m * n(rng), sigma_m * n(rng), sigma_deg * kDegToRad * n(rng),
-      sigma_deg * kDegToRad * n(rng), sigma_deg * kDegToRad * n(rng);
-  return ExpSE3(xi);
+Eigen::Isometry3d RandomPose(SimRandom& rng, double sigma_m, double sigma_deg) {
+  return RandomPerturbation(rng, sigma_m, sigma_deg);
 }
 
 // A wandering walk of n keyframes 1 m apart around the origin.
-std::vector<Eigen::Isometry3d> Walk(std::mt19937& rng, int n) {
+std::vector<Eigen::Isometry3d> Walk(SimRandom& rng, int n) {
   std::vector<Eigen::Isometry3d> poses{RandomPose(rng, 5.0, 180.0)};
-  std::normal_distribution<double> turn(0.0, 45.0 * kDegToRad);
-  for (int k = 1; k < n; ++k) {
-    Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
-    step.linear() = Eigen::AngleAxisd(turn(rng), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    step.translation() = Eigen::Vector3d(1.0, 0.0, 0.0);
-    poses.push_back(poses.back() * step);
-  }
+  for (int k = 1; k < n; ++k) poses.push_back(poses.back() * PlanarPose(1.0, 0.0, 45.0 * kDegToRad * rng.Gaussian()));
   return poses;
 }
 
 }  // namespace
 
 TEST_CASE("Path agreement: equals a brute force over every keyframe pair within the radius") {
-  std::mt19937 rng(17);
+  SimRandom rng(17);
   for (std::size_t stride : {std::size_t{1}, std::size_t{3}}) {
     CAPTURE(stride);
     std::vector<std::vector<Eigen::Isometry3d>> gt, est;
@@ -85,8 +75,10 @@ TEST_CASE("Path agreement: equals a brute force over every keyframe pair within 
 }
 
 TEST_CASE("Path agreement: a whole map moved agrees exactly, one robot shifted disagrees by the shift everywhere") {
-  std::mt19937 rng(5);
-  const std::vector<Eigen::Isometry3d> gt_a = Walk(rng, 120), gt_b = Walk(rng, 120);
+  SimRandom rng(5);
+  const std::vector<Eigen::Isometry3d> gt_a = Walk(rng, 120);
+  std::vector<Eigen::Isometry3d> gt_b;  // beside robot a's walk, 2 m to its left, turned 0.3 rad
+  for (const Eigen::Isometry3d& T : gt_a) gt_b.push_back(T * PlanarPose(0.0, 2.0, 0.3));
   const Eigen::Isometry3d G = RandomPose(rng, 100.0, 120.0);
   Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
   shift.translation() = Eigen::Vector3d(0.3, -0.4, 0.0);  // 0.5 m, in the world frame
@@ -117,7 +109,7 @@ TEST_CASE("Path agreement: a whole map moved agrees exactly, one robot shifted d
 }
 
 TEST_CASE("Path agreement: bad input is refused with the robot or field named") {
-  std::mt19937 rng(2);
+  SimRandom rng(2);
   std::vector<Eigen::Isometry3d> gt = Walk(rng, 20), est = gt;
   std::vector<Eigen::Isometry3d> shorter(est.begin(), est.end() - 1);
   std::vector<RobotPathTruth> robots = {{Span<const Eigen::Isometry3d>(est), Span<const Eigen::Isometry3d>(gt)},

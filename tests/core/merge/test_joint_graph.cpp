@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -23,20 +22,7 @@ namespace commerge {
 namespace joint_graph_test {
 namespace {
 
-Eigen::Isometry3d Noise(std::mt19937& rng, double sigma_m, double sigma_deg) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  Vector6d xi;
-  xi << sigma_m * n(rng), sigma_m * n(rng), sigma_m * n(rng), sigma_deg * kDegToRad * n(rng),
-      sigma_deg * kDegToRad * n(rng), sigma_deg * kDegToRad * n(rng);
-  return ExpSE3(xi);
-}
-
-Eigen::Isometry3d Pose(double x, double y, double yaw) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  T.translation() = Eigen::Vector3d(x, y, 0.0);
-  return T;
-}
+Eigen::Isometry3d Pose(double x, double y, double yaw) { return PlanarPose(x, y, yaw); }
 
 // Three robots, 300 keyframes each on one winding route (core/sim/synthetic_team.hpp): robot 1 the other way, robot
 // 2 from 80 m on; yaw bias +-0.005 deg/m; an edge every `every` keyframes where two robots pass within 3 m.
@@ -209,9 +195,9 @@ TEST_CASE("Joint graph: a pair whose edges all disagree keeps none, a single edg
 }
 
 TEST_CASE("Joint graph: EdgeFromMapTransform reads a map transform at two keyframes") {
-  std::mt19937 rng(3);
-  const Eigen::Isometry3d T_mapa_ka = Noise(rng, 20.0, 60.0), T_mapb_kb = Noise(rng, 20.0, 60.0);
-  const Eigen::Isometry3d T_mapa_mapb = Noise(rng, 30.0, 90.0);
+  SimRandom rng(3);
+  const Eigen::Isometry3d T_mapa_ka = RandomPerturbation(rng, 20.0, 60.0), T_mapb_kb = RandomPerturbation(rng, 20.0, 60.0);
+  const Eigen::Isometry3d T_mapa_mapb = RandomPerturbation(rng, 30.0, 90.0);
   const InterRobotEdge e = EdgeFromMapTransform(2, 5, T_mapa_ka, 4, 7, T_mapb_kb, T_mapa_mapb);
   CHECK(e.robot_a == 2);
   CHECK(e.robot_b == 4);
