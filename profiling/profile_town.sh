@@ -47,7 +47,10 @@
 # records alone, the stored send-all and the raw scans themselves; d_exch and t_comm (the paper's eqs.
 # exchmetric, commmetric); the round at which each robot was first placed (exchange_rounds.tsv); each robot's final
 # transform error against the truth (inv(T_gt_start0) T_gt_start_r from start_transforms.txt: translation, and the
-# angle of the rotation error). The server's exchange_bytes.png is the bytes per robot over time.
+# angle of the rotation error); how the placed robots agree along the whole path they share (profiling/path_agreement
+# on the server's last trajectories against the dataset's truth: keyframes of two robots within 10 m, the error of
+# their relative position; core/eval/path_agreement.hpp). The server's exchange_bytes.png is the bytes per robot
+# over time.
 # Exit status: 0 when every process exited 0 (and, with --check, every check passed); 1 otherwise; 2 usage.
 # Prints "CM-SKIP: ..." and exits 0 when no private network namespace can be created.
 set -euo pipefail
