@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
   std::printf("joint pose graph: %d robots on one route, an edge every %d keyframes where they pass, %.0f %% wrong "
               "edges, seed %u, median of %d runs\n",
               o.robots, o.edge_every, 100.0 * o.wrong_share, o.seed, o.reps);
-  std::printf("%9s %7s %6s %6s %6s %3s %3s %9s %9s %11s %11s %11s\n", "keyframes", "right", "wrong", "used", "wrongU", "it",
+  std::printf("%9s %6s %7s %6s %6s %6s %3s %3s %9s %9s %11s %11s %11s\n", "keyframes", "nodes", "right", "wrong", "used", "wrongU", "it",
               "ls", "CPU ms", "wall ms", "workspace", "rigid RMS", "joint RMS");
   for (int n : o.keyframes) {
     const commerge::SyntheticTeam team = commerge::MakeSyntheticTeam(TeamParams(o, n));
@@ -140,7 +140,7 @@ int main(int argc, char** argv) {
       if (!last.placed[r]) continue;
       for (const Eigen::Isometry3d& T : team.T_map_keyframe[r]) rigid[r].push_back(last.T_world_map[r] * T);
     }
-    std::printf("%9zu %7zu %6zu %6zu %6zu %3d %3d %9.1f %9.1f %11s %9.3f m %9.3f m\n", last.nodes, right_count, wrong_count, last.used_edges,
+    std::printf("%9zu %6zu %7zu %6zu %6zu %6zu %3d %3d %9.1f %9.1f %11s %9.3f m %9.3f m\n", static_cast<std::size_t>(o.robots) * static_cast<std::size_t>(n), last.nodes, right_count, wrong_count, last.used_edges,
                 used_wrong, last.solve.iterations, last.least_squares_iterations, cpu_ms[cpu_ms.size() / 2], ms[ms.size() / 2], commerge::FormatBytes(last.solve.workspace_bytes).c_str(),
                 RelativeRms(team, rigid), RelativeRms(team, last.T_world_keyframe));
   }

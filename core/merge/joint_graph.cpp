@@ -69,6 +69,7 @@ Status ValidateJointGraphParams(const JointGraphParams& p) {
       {"drift_deg_per_m", nonnegative(p.drift_deg_per_m)},
       {"max_edges_per_pair", p.max_edges_per_pair >= 1 && p.max_edges_per_pair <= 4096},
       {"max_nodes", p.max_nodes >= 1},
+      {"node_stride", p.node_stride >= 1},
   };
   for (const auto& [name, ok] : checks) {
     if (!ok) return InvalidArgument(std::string("joint graph: ") + name + " is out of range");
@@ -220,6 +221,26 @@ void Place(Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe, const Pair
   }
 }
 
+// Every keyframe of one robot in the world frame from its solved nodes: a node as solved; a keyframe between nodes p
+// and q with the correction C = T_world_node T_map_node^-1 interpolated on SE(3) between theirs (by index).
+void InterpolateKeyframes(const std::vector<Eigen::Isometry3d>& T_map_keyframe, const std::vector<std::uint32_t>& nodes,
+                          Span<const Eigen::Isometry3d> T_world_node, std::vector<Eigen::Isometry3d>* out) {
+  out->clear();
+  out->reserve(T_map_keyframe.size());
+  std::size_t i = 0;  // nodes[i] <= k < nodes[i + 1]
+  for (std::size_t k = 0; k < T_map_keyframe.size(); ++k) {
+    while (i + 1 < nodes.size() && nodes[i + 1] <= k) ++i;
+    if (nodes[i] == k || i + 1 == nodes.size()) {
+      out->push_back(T_world_node[i] * T_map_keyframe[nodes[i]].inverse() * T_map_keyframe[k]);
+      continue;
+    }
+    const Eigen::Isometry3d C_p = T_world_node[i] * T_map_keyframe[nodes[i]].inverse();
+    const Eigen::Isometry3d C_q = T_world_node[i + 1] * T_map_keyframe[nodes[i + 1]].inverse();
+    const double alpha = static_cast<double>(k - nodes[i]) / static_cast<double>(nodes[i + 1] - nodes[i]);
+    out->push_back(C_p * ExpSE3(alpha * LogSE3(C_p.inverse() * C_q)) * T_map_keyframe[k]);
+  }
+}
+
 }  // namespace
 
 Result<JointGraphResult> SolveJointGraph(Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe,
@@ -232,41 +253,59 @@ Result<JointGraphResult> SolveJointGraph(Span<const std::vector<Eigen::Isometry3
   out.residuals.assign(edges.size(), -1.0);
   Place(T_map_keyframe, kept, &out);
   const int robots = static_cast<int>(T_map_keyframe.size());
-  // The graph: placed robots' keyframes (robot 0's first is node 0), chains, kept edges between placed robots.
-  std::vector<std::size_t> offset(static_cast<std::size_t>(robots), 0);
-  std::size_t nodes = 0, chain_edges = 0, used = 0;
-  for (int r = 0; r < robots; ++r) {
-    if (!out.placed[static_cast<std::size_t>(r)]) continue;
-    offset[static_cast<std::size_t>(r)] = nodes;
-    const std::size_t n = T_map_keyframe[static_cast<std::size_t>(r)].size();
-    nodes += n;
-    chain_edges += n > 0 ? n - 1 : 0;
-  }
+  // The graph's nodes: per placed robot, every node_stride-th keyframe, its last and the used edges' anchors.
   for (const auto& [pair, list] : kept) {
     const bool both = out.placed[static_cast<std::size_t>(pair.first)] && out.placed[static_cast<std::size_t>(pair.second)];
     for (const Oriented& o : list) {
       out.verdicts[o.input] = both ? JointEdgeVerdict::kUsed : JointEdgeVerdict::kNotConnected;
-      used += both ? 1 : 0;
+      out.used_edges += both ? 1 : 0;
     }
   }
-  PoseGraph graph(nodes, chain_edges + used);
+  std::vector<std::vector<std::uint32_t>> node_keyframes(static_cast<std::size_t>(robots));
+  std::vector<std::size_t> offset(static_cast<std::size_t>(robots), 0);
   for (int r = 0; r < robots; ++r) {
     if (!out.placed[static_cast<std::size_t>(r)]) continue;
-    for (const Eigen::Isometry3d& T : T_map_keyframe[static_cast<std::size_t>(r)]) {
-      if (Status st = graph.AddNode(out.T_world_map[static_cast<std::size_t>(r)] * T); !st.ok()) return st;
+    std::vector<std::uint32_t>& nk = node_keyframes[static_cast<std::size_t>(r)];
+    const std::size_t n = T_map_keyframe[static_cast<std::size_t>(r)].size();
+    for (std::size_t k = 0; k < n; k += params.node_stride) nk.push_back(static_cast<std::uint32_t>(k));
+    nk.push_back(static_cast<std::uint32_t>(n - 1));
+    for (const auto& [pair, list] : kept) {
+      for (const Oriented& o : list) {
+        if (out.verdicts[o.input] != JointEdgeVerdict::kUsed) continue;
+        if (pair.first == r) nk.push_back(o.k_lo);
+        if (pair.second == r) nk.push_back(o.k_hi);
+      }
     }
+    std::sort(nk.begin(), nk.end());
+    nk.erase(std::unique(nk.begin(), nk.end()), nk.end());
+    offset[static_cast<std::size_t>(r)] = out.nodes;
+    out.nodes += nk.size();
+    out.chain_edges += nk.size() - 1;
   }
+  const auto node_of = [&](int r, std::uint32_t k) {
+    const std::vector<std::uint32_t>& nk = node_keyframes[static_cast<std::size_t>(r)];
+    return static_cast<std::uint32_t>(offset[static_cast<std::size_t>(r)] +
+                                      static_cast<std::size_t>(std::lower_bound(nk.begin(), nk.end(), k) - nk.begin()));
+  };
+  PoseGraph graph(out.nodes, out.chain_edges + out.used_edges);
   const Matrix6d chain_info = Information(params.chain_sigma_m, params.chain_sigma_deg);
   const Matrix6d edge_info = Information(params.edge_sigma_m, params.edge_sigma_deg);
   for (int r = 0; r < robots; ++r) {
-    if (!out.placed[static_cast<std::size_t>(r)]) continue;
     const std::vector<Eigen::Isometry3d>& poses = T_map_keyframe[static_cast<std::size_t>(r)];
-    for (std::size_t k = 0; k + 1 < poses.size(); ++k) {
-      PoseGraphEdge e;
-      e.from = static_cast<std::uint32_t>(offset[static_cast<std::size_t>(r)] + k);
+    const std::vector<std::uint32_t>& nk = node_keyframes[static_cast<std::size_t>(r)];
+    for (std::uint32_t k : nk) {
+      if (Status st = graph.AddNode(out.T_world_map[static_cast<std::size_t>(r)] * poses[k]); !st.ok()) return st;
+    }
+  }
+  for (int r = 0; r < robots; ++r) {
+    const std::vector<Eigen::Isometry3d>& poses = T_map_keyframe[static_cast<std::size_t>(r)];
+    const std::vector<std::uint32_t>& nk = node_keyframes[static_cast<std::size_t>(r)];
+    for (std::size_t i = 0; i + 1 < nk.size(); ++i) {
+      PoseGraphEdge e;  // the chain between two nodes: its steps' covariances add up
+      e.from = static_cast<std::uint32_t>(offset[static_cast<std::size_t>(r)] + i);
       e.to = e.from + 1;
-      e.T_from_to = poses[k].inverse() * poses[k + 1];
-      e.information = chain_info;
+      e.T_from_to = poses[nk[i]].inverse() * poses[nk[i + 1]];
+      e.information = chain_info / static_cast<double>(nk[i + 1] - nk[i]);
       e.kind = EdgeKind::kOdometry;
       if (Status st = graph.AddEdge(e); !st.ok()) return st;
     }
@@ -276,8 +315,8 @@ Result<JointGraphResult> SolveJointGraph(Span<const std::vector<Eigen::Isometry3
     for (const Oriented& o : list) {
       if (out.verdicts[o.input] != JointEdgeVerdict::kUsed) continue;
       PoseGraphEdge e;
-      e.from = static_cast<std::uint32_t>(offset[static_cast<std::size_t>(pair.first)] + o.k_lo);
-      e.to = static_cast<std::uint32_t>(offset[static_cast<std::size_t>(pair.second)] + o.k_hi);
+      e.from = node_of(pair.first, o.k_lo);
+      e.to = node_of(pair.second, o.k_hi);
       e.T_from_to = o.T_lo_hi;
       e.information = edge_info;
       e.kind = EdgeKind::kLoop;
@@ -297,16 +336,12 @@ Result<JointGraphResult> SolveJointGraph(Span<const std::vector<Eigen::Isometry3
   out.solve.initial_cost = coarse->initial_cost;
   out.solve.iterations += coarse->iterations;
   out.least_squares_iterations = coarse->iterations;
-  out.nodes = nodes;
-  out.chain_edges = chain_edges;
-  out.used_edges = used;
   out.T_world_keyframe.resize(static_cast<std::size_t>(robots));
   for (int r = 0; r < robots; ++r) {
     if (!out.placed[static_cast<std::size_t>(r)]) continue;
-    const std::size_t n = T_map_keyframe[static_cast<std::size_t>(r)].size();
-    std::vector<Eigen::Isometry3d>& T = out.T_world_keyframe[static_cast<std::size_t>(r)];
-    T.reserve(n);
-    for (std::size_t k = 0; k < n; ++k) T.push_back(graph.pose(offset[static_cast<std::size_t>(r)] + k));
+    InterpolateKeyframes(T_map_keyframe[static_cast<std::size_t>(r)], node_keyframes[static_cast<std::size_t>(r)],
+                         graph.poses().subspan(offset[static_cast<std::size_t>(r)], node_keyframes[static_cast<std::size_t>(r)].size()),
+                         &out.T_world_keyframe[static_cast<std::size_t>(r)]);
   }
   for (const auto& [input, e] : inter) {
     const Vector6d res = PoseGraphEdgeResidual(graph.pose(e.from), graph.pose(e.to), e.T_from_to);

@@ -12,7 +12,10 @@
 //     two edges' keyframes on both robots. The largest set of mutually agreeing edges (maximum clique,
 //     core/solvers/max_clique.hpp) is kept; a pair with several edges none of which agrees with another keeps
 //     none (nothing verifies any); a pair with a single edge keeps it (as the rigid merge does).
-//  2. The kept edges enter the graph with a Cauchy kernel (PoseGraph's loop kernel), chain edges by least squares.
+//  2. The kept edges enter the graph with a Cauchy kernel (PoseGraph's loop kernel), chain edges by least squares,
+//     after a least-squares pass over all of them from the rigid placement.
+// The graph's nodes are every node_stride-th keyframe (and every used edge's anchor, each robot's last); the
+// keyframes between take the SE(3) interpolation of their two nodes' corrections.
 // Robots reached from robot 0 through kept edges are solved; the others are left out (empty trajectories). The
 // gauge is robot 0's first keyframe, held where robot 0's map has it: the world frame is robot 0's map frame.
 #pragma once
@@ -72,8 +75,12 @@ struct JointGraphParams {
   double drift_deg_per_m = 0.02;
   /// Edges per robot pair at most (the consistency graph is dense: n^2 / 8 bytes), in [1, 4096].
   std::size_t max_edges_per_pair = 1024;
-  /// Keyframes of all robots at most (PoseGraph capacity), >= 1.
+  /// Keyframes of all robots at most, >= 1.
   std::size_t max_nodes = 200000;
+  /// The graph's nodes: every node_stride-th keyframe of each robot, its last and the used edges' anchors (>= 1; 1 =
+  /// every keyframe). A chain edge spans the keyframes between two nodes (information divided by their count); a
+  /// keyframe between nodes takes the SE(3) interpolation of its two nodes' corrections.
+  std::size_t node_stride = 5;
   /// Solver; its loop_kernel / loop_kernel_width apply to the inter-robot edges (default Cauchy, width 3).
   PoseGraphParams solver = DefaultJointSolverParams();
 };
@@ -104,7 +111,7 @@ struct JointGraphResult {
   /// The solve (its iterations: both phases; initial_cost: before the first).
   PoseGraphResult solve;
   int least_squares_iterations = 0;  ///< of solve.iterations, those of the first phase (no kernel)
-  std::size_t nodes = 0, chain_edges = 0, used_edges = 0;
+  std::size_t nodes = 0, chain_edges = 0, used_edges = 0;  ///< the graph's (nodes: see node_stride)
 };
 
 /// Solves the joint graph. `T_map_keyframe[r]`: robot r's keyframe poses in its own map frame (robot 0 first;

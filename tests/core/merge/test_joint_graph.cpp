@@ -186,12 +186,44 @@ TEST_CASE("Joint graph: a pair whose edges all disagree keeps none, a single edg
   CHECK(result->placed == std::vector<std::uint8_t>{1, 0, 1});
   CHECK(result->T_world_keyframe[1].empty());
   CHECK(result->T_world_keyframe[2].size() == 300);
-  CHECK(result->nodes == 600);
+  CHECK(result->nodes < 600);  // robots 0 and 2, every 5th keyframe, the last and the anchor
   // A single edge is satisfied exactly: robot 2's keyframe sits where the edge puts it from robot 0's.
   const Eigen::Isometry3d implied = result->T_world_keyframe[0][edges[2].keyframe_a] * edges[2].T_a_b;
   CHECK((implied.translation() - result->T_world_keyframe[2][edges[2].keyframe_b].translation()).norm() < 1e-3);
   CHECK(result->residuals[2] < 1e-3);
   CHECK(result->residuals[0] == -1.0);
+}
+
+TEST_CASE("Joint graph: nodes every 5th keyframe agree with the truth as well as the graph of all keyframes, every "
+          "keyframe within 0.1 m of it") {
+  for (unsigned seed : {1u, 2u}) {
+    CAPTURE(seed);
+    const SyntheticTeam t = MakeTeam(seed);
+    const Span<const InterRobotEdge> edges(t.right_edges.data(), t.right_edges.size());
+    JointGraphParams every;
+    every.node_stride = 1;
+    auto all = SolveJointGraph(Maps(t), edges, every);
+    auto fifth = SolveJointGraph(Maps(t), edges);  // the default, node_stride 5
+    REQUIRE(all.ok());
+    REQUIRE(fifth.ok());
+    CHECK(all->nodes == 900);
+    CHECK(fifth->nodes < 300);
+    double worst_m = 0.0, worst_deg = 0.0;
+    for (std::size_t r = 0; r < 3; ++r) {
+      REQUIRE(fifth->T_world_keyframe[r].size() == 300);
+      for (std::size_t k = 0; k < 300; ++k) {
+        const Eigen::Isometry3d d = all->T_world_keyframe[r][k].inverse() * fifth->T_world_keyframe[r][k];
+        worst_m = std::max(worst_m, d.translation().norm());
+        worst_deg = std::max(worst_deg, LogSO3(d.linear()).norm() / kDegToRad);
+      }
+    }
+    const double rms_all = RelativeRms(t, all->T_world_keyframe), rms_fifth = RelativeRms(t, fifth->T_world_keyframe);
+    MESSAGE("seed " << seed << ": nodes " << fifth->nodes << " of 900, largest difference " << worst_m << " m, "
+                    << worst_deg << " deg; relative-position RMS " << rms_all << " / " << rms_fifth << " m");
+    CHECK(worst_m <= 0.1);
+    CHECK(worst_deg <= 0.5);
+    CHECK(rms_fifth <= 1.05 * rms_all);
+  }
 }
 
 TEST_CASE("Joint graph: EdgeFromMapTransform reads a map transform at two keyframes") {
@@ -231,7 +263,7 @@ TEST_CASE("Joint graph: bad input is refused with the value named") {
   bad.T_a_b.linear() *= 1.01;
   CHECK(solve({bad}).code() == StatusCode::kInvalidArgument);
   JointGraphParams p;
-  p.max_nodes = 899;
+  p.max_nodes = 899;  // keyframes, whatever the node stride
   const Status big = solve({e}, p);
   CHECK(big.code() == StatusCode::kResourceExhausted);
   CHECK(big.message().find("900 keyframes") != std::string::npos);
