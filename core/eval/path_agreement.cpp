@@ -93,8 +93,8 @@ Result<PathAgreement> MeasurePathAgreement(Span<const RobotPathTruth> robots, co
   out.rms_m = std::sqrt(sum2 / static_cast<double>(errors.size()));
   const std::size_t rank = static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(errors.size()))) - 1;
   std::nth_element(errors.begin(), errors.begin() + static_cast<std::ptrdiff_t>(rank), errors.end());
-  out.p95_m = errors[rank];
-  out.max_m = *std::max_element(errors.begin(), errors.end());
+  out.p95_m = static_cast<double>(errors[rank]);
+  out.max_m = static_cast<double>(*std::max_element(errors.begin(), errors.end()));
   return out;
 }
 
