@@ -17,13 +17,6 @@
 namespace commerge {
 namespace {
 
-bool Rigid(const Eigen::Isometry3d& T) {
-  if (!T.matrix().allFinite()) return false;
-  const Eigen::Matrix3d R = T.linear();
-  return (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-6 &&
-         std::abs(R.determinant() - 1.0) <= 1e-6;
-}
-
 double AngleDeg(const Eigen::Matrix3d& R) { return LogSO3(R).norm() / kDegToRad; }
 
 Matrix6d Information(double sigma_m, double sigma_deg) {
@@ -102,7 +95,7 @@ Status CheckAndGroup(Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe, 
     const std::vector<Eigen::Isometry3d>& poses = T_map_keyframe[static_cast<std::size_t>(r)];
     total += poses.size();
     for (std::size_t k = 0; k < poses.size(); ++k) {
-      if (!Rigid(poses[k])) {
+      if (!IsValidRigidTransform(poses[k])) {
         return InvalidArgument("joint graph: robot " + std::to_string(r) + " keyframe " + std::to_string(k) +
                                ": pose is not finite and rigid");
       }
@@ -127,7 +120,7 @@ Status CheckAndGroup(Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe, 
                              std::to_string(e.robot_a) + " or " + std::to_string(e.keyframe_b) + " of robot " +
                              std::to_string(e.robot_b) + " out of range");
     }
-    if (!Rigid(e.T_a_b)) return InvalidArgument(name + ": T_a_b is not finite and rigid");
+    if (!IsValidRigidTransform(e.T_a_b)) return InvalidArgument(name + ": T_a_b is not finite and rigid");
     Oriented o;
     o.input = i;
     const bool flip = e.robot_a > e.robot_b;
