@@ -582,7 +582,7 @@ Command AddRobotCommand(CLI::App& root) {
                   "first SIGINT/SIGTERM; a second one ends the robot) [s]")
       ->check(CLI::Range(0.1, 86400.0))
       ->capture_default_str();
-  cmd->add_option("--lidar", o->lidar, "SOLiD sensor preset (hdl-64e, vlp-16, os1-64, os1-128, os2-128, avia, aeva)")->capture_default_str();
+  cmd->add_option("--lidar", o->lidar, "SOLiD sensor preset (hdl-64e, vlp-16, os1-64, os1-128, os2-128, os0-128, avia, aeva)")->capture_default_str();
   AddDescriptorFlags(cmd, &o->descriptor);
   cmd->add_option("--rate-hz", o->rate_hz, "scans replayed per second")->check(CLI::Range(0.1, 1000.0))->capture_default_str();
   cmd->add_option("--keyframe-spacing-m", o->keyframe_spacing_m, "distance between keyframes [m]")->capture_default_str();

@@ -860,7 +860,7 @@ Command AddServerCommand(CLI::App& root) {
                                        "exchange_summary.tsv at exit)")->capture_default_str();
   cmd->add_option("--mode", o->mode, "exchange mode: send-all, A, A+B, A+C, A+B+C")->capture_default_str();
   cmd->add_option("--lcm-url", o->lcm_url, "LCM provider URL (default: LCM_DEFAULT_URL)");
-  cmd->add_option("--lidar", o->lidar, "the robots' --lidar preset (hdl-64e, vlp-16, os1-64, os1-128, os2-128, avia, "
+  cmd->add_option("--lidar", o->lidar, "the robots' --lidar preset (hdl-64e, vlp-16, os1-64, os1-128, os2-128, os0-128, avia, "
                   "aeva): a forward-looking sensor's field of view limits which keyframes see one scene "
                   "(--max-colocated-chance)")->capture_default_str();
   cmd->add_option("--descriptor", o->descriptor,

@@ -316,8 +316,8 @@ Command AddSimCommand(CLI::App& root) {
   auto o = std::make_shared<SimOptions>();
   CLI::App* cmd = root.add_subcommand(
       "sim", "Write a simulated multi-robot LiDAR dataset (KITTI layout per robot, ground truth, drifting odometry)");
-  cmd->add_option("--world", o->world, "World: urban, campus, indoor (repetitive corridors) or cave")
-      ->check(CLI::IsMember({"urban", "campus", "indoor", "cave"}, CLI::ignore_case))
+  cmd->add_option("--world", o->world, "World: urban, campus, indoor (repetitive corridors), cave or courtyard (a small scene walked with a handheld sensor)")
+      ->check(CLI::IsMember({"urban", "campus", "indoor", "cave", "courtyard"}, CLI::ignore_case))
       ->capture_default_str();
   cmd->add_option("--robots", o->robots, "Number of robots")->check(CLI::Range(2, 5))->capture_default_str();
   cmd->add_option("--overlap", o->overlap, "Path overlap: complete (~100 %), moderate (~50 %) or partial (~15 %)")
@@ -326,8 +326,8 @@ Command AddSimCommand(CLI::App& root) {
   cmd->add_option("--keyframes", o->keyframes, "Keyframes per robot (one per metre of travel)")
       ->check(CLI::Range(2, 1000000))
       ->capture_default_str();
-  cmd->add_option("--lidar", o->lidar, "Sensor: vlp16, hdl64, os128 (OS1-128), os2-128 or livox (Mid-70-like)")
-      ->check(CLI::IsMember({"vlp16", "hdl64", "os128", "os2-128", "livox"}, CLI::ignore_case))
+  cmd->add_option("--lidar", o->lidar, "Sensor: vlp16, hdl64, os128 (OS1-128), os2-128, os0-128 (wide field) or livox (Mid-70-like)")
+      ->check(CLI::IsMember({"vlp16", "hdl64", "os128", "os2-128", "os0-128", "livox"}, CLI::ignore_case))
       ->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of the world, the routes, the noise and the drift")->capture_default_str();
   cmd->add_option("--direction", o->direction,

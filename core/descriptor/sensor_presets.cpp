@@ -33,7 +33,8 @@ constexpr NamedSensor kNames[] = {
     {"velodynevlp16", LidarSensor::kVelodyneVlp16}, {"os164", LidarSensor::kOusterOs1_64},
     {"ousteros164", LidarSensor::kOusterOs1_64},   {"os1128", LidarSensor::kOusterOs1_128},
     {"ousteros1128", LidarSensor::kOusterOs1_128}, {"os2128", LidarSensor::kOusterOs2_128},
-    {"ousteros2128", LidarSensor::kOusterOs2_128}, {"avia", LidarSensor::kLivoxAvia},
+    {"ousteros2128", LidarSensor::kOusterOs2_128}, {"os0128", LidarSensor::kOusterOs0_128},
+    {"ousteros0128", LidarSensor::kOusterOs0_128}, {"avia", LidarSensor::kLivoxAvia},
     {"livoxavia", LidarSensor::kLivoxAvia},        {"aeva", LidarSensor::kAeva},
 };
 
@@ -58,6 +59,7 @@ SolidParams SolidPreset(LidarSensor sensor) noexcept {
     case LidarSensor::kOusterOs1_64: return Make(64, -22.5, 22.5, 80.0);
     case LidarSensor::kOusterOs1_128: return Make(128, -22.5, 22.5, 80.0);
     case LidarSensor::kOusterOs2_128: return Make(128, -11.25, 11.25, 120.0);
+    case LidarSensor::kOusterOs0_128: return Make(128, -45.0, 45.0, 80.0);
     case LidarSensor::kLivoxAvia: return Make(64, -38.6, 38.6, 120.0);
     case LidarSensor::kAeva: return Make(64, -9.6, 9.6, 120.0);
   }
@@ -71,6 +73,7 @@ const char* LidarSensorName(LidarSensor sensor) noexcept {
     case LidarSensor::kOusterOs1_64: return "os1-64";
     case LidarSensor::kOusterOs1_128: return "os1-128";
     case LidarSensor::kOusterOs2_128: return "os2-128";
+    case LidarSensor::kOusterOs0_128: return "os0-128";
     case LidarSensor::kLivoxAvia: return "avia";
     case LidarSensor::kAeva: return "aeva";
   }
@@ -83,7 +86,7 @@ Result<LidarSensor> LidarSensorFor(const std::string& name) {
     if (key == n.key) return n.sensor;
   }
   return NotFound("no SOLiD preset for sensor '" + name +
-                  "'; known: hdl-64e (kitti), vlp-16, os1-64, os1-128, os2-128, avia (livox-avia), aeva");
+                  "'; known: hdl-64e (kitti), vlp-16, os1-64, os1-128, os2-128, os0-128, avia (livox-avia), aeva");
 }
 
 Result<SolidParams> SolidPresetFor(const std::string& sensor) {
@@ -104,7 +107,8 @@ LidarScanTraits ScanTraits(LidarSensor sensor) noexcept {
     case LidarSensor::kVelodyneVlp16:
     case LidarSensor::kOusterOs1_64:
     case LidarSensor::kOusterOs1_128:
-    case LidarSensor::kOusterOs2_128: break;
+    case LidarSensor::kOusterOs2_128:
+    case LidarSensor::kOusterOs0_128: break;
   }
   return t;
 }

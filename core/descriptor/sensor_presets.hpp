@@ -46,6 +46,7 @@ enum class LidarSensor {
   kOusterOs1_64,    ///< -22.5 .. +22.5 deg, 64 bins, 80 m
   kOusterOs1_128,   ///< -22.5 .. +22.5 deg, 128 bins, 80 m
   kOusterOs2_128,   ///< -11.25 .. +11.25 deg, 128 bins, 120 m
+  kOusterOs0_128,   ///< -45 .. +45 deg, 128 bins, 80 m (wide-field, handheld / indoor)
   kLivoxAvia,       ///< -38.6 .. +38.6 deg, 64 bins (no beams), 120 m
   kAeva,            ///< -9.6 .. +9.6 deg, 64 bins, 120 m
 };

@@ -88,6 +88,15 @@ LidarModel MakeLidarModel(LidarKind kind) {
       m.max_range_m = 240.0f;
       m.range_noise_std_m = 0.025f;
       break;
+    case LidarKind::kOs0_128:
+      // Ouster OS0 datasheet (rev 06): 128 channels uniformly over a 90 deg vertical FOV (+45 .. -45 deg,
+      // 0.7 deg spacing); 1024x10; 50 m range (80 % reflectivity); precision ~+-3 cm.
+      m.elevation_deg = UniformTable(128, -45.0, 45.0);
+      m.azimuth_steps = 1024;
+      m.min_range_m = 0.3f;
+      m.max_range_m = 50.0f;
+      m.range_noise_std_m = 0.02f;
+      break;
     case LidarKind::kLivox:
       // Livox Mid-70 specifications: circular 70.4 deg FOV, 100 000 points/s (10 000 per 10 Hz frame),
       // non-repetitive scanning, 90 m range at 10 % reflectivity, 2 cm range precision (1 sigma).
@@ -109,6 +118,7 @@ const char* LidarKindName(LidarKind kind) noexcept {
     case LidarKind::kHdl64e: return "hdl64";
     case LidarKind::kOs1_128: return "os128";
     case LidarKind::kOs2_128: return "os2-128";
+    case LidarKind::kOs0_128: return "os0-128";
     case LidarKind::kLivox: return "livox";
   }
   return "?";
@@ -120,8 +130,9 @@ Result<LidarKind> LidarKindFromName(const std::string& name) {
   if (c == "hdl64" || c == "hdl64e" || c == "velodynehdl64e" || c == "kitti") return LidarKind::kHdl64e;
   if (c == "os128" || c == "os1128" || c == "ousteros1128") return LidarKind::kOs1_128;
   if (c == "os2128" || c == "ousteros2128") return LidarKind::kOs2_128;
+  if (c == "os0128" || c == "ousteros0128") return LidarKind::kOs0_128;
   if (c == "livox" || c == "mid70" || c == "livoxmid70") return LidarKind::kLivox;
-  return InvalidArgument("unknown lidar '" + name + "' (known: vlp16, hdl64, os128, os2-128, livox)");
+  return InvalidArgument("unknown lidar '" + name + "' (known: vlp16, hdl64, os128, os2-128, os0-128, livox)");
 }
 
 const char* SolidPresetNameFor(LidarKind kind) noexcept {
@@ -130,6 +141,7 @@ const char* SolidPresetNameFor(LidarKind kind) noexcept {
     case LidarKind::kHdl64e: return "hdl-64e";
     case LidarKind::kOs1_128: return "os1-128";
     case LidarKind::kOs2_128: return "os2-128";
+    case LidarKind::kOs0_128: return "os0-128";
     case LidarKind::kLivox: return "avia";
   }
   return "?";

@@ -22,6 +22,7 @@ enum class LidarKind {
   kHdl64e,   ///< Velodyne HDL-64E: 64 beams, +2.0..-24.33 deg (KITTI's sensor)
   kOs1_128,  ///< Ouster OS1-128: 128 beams, -22.5..+22.5 deg
   kOs2_128,  ///< Ouster OS2-128: 128 beams, -11.25..+11.25 deg (HeLiPR's sensor)
+  kOs0_128,  ///< Ouster OS0-128: 128 beams, -45..+45 deg (wide field: handheld and indoor rigs)
   kLivox,    ///< Livox Mid-70-like: forward cone of 70.4 deg, non-repetitive rosette
 };
 
@@ -53,15 +54,15 @@ struct LidarModel {
 /// The model of `kind` at its default resolution (sources in lidar_models.cpp).
 LidarModel MakeLidarModel(LidarKind kind);
 
-/// "vlp16", "hdl64", "os128", "os2-128", "livox".
+/// "vlp16", "hdl64", "os128", "os2-128", "os0-128", "livox".
 const char* LidarKindName(LidarKind kind) noexcept;
 
-/// Model by name: vlp16 (vlp-16), hdl64 (hdl-64e), os128 (os1-128), os2-128, livox (mid-70); case-insensitive.
+/// Model by name: vlp16 (vlp-16), hdl64 (hdl-64e), os128 (os1-128), os2-128, os0-128, livox (mid-70); case-insensitive.
 /// Unknown name: invalid argument listing the known names.
 Result<LidarKind> LidarKindFromName(const std::string& name);
 
 /// The name of the SOLiD preset (core/descriptor/sensor_presets.hpp) matching the model: "vlp-16",
-/// "hdl-64e", "os1-128", "os2-128", "avia" (the Livox preset).
+/// "hdl-64e", "os1-128", "os2-128", "os0-128", "avia" (the Livox preset).
 const char* SolidPresetNameFor(LidarKind kind) noexcept;
 
 /// OK or invalid argument naming the field: an empty or unsorted elevation table, elevations outside

@@ -9,6 +9,7 @@
 
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
+#include "core/sim/courtyard.hpp"
 #include "core/sim/sim_random.hpp"
 
 namespace commerge {
@@ -35,6 +36,7 @@ WorldLayout LayoutOf(WorldKind kind) {
     case WorldKind::kCampus: return {70.0, 35.0, 0.12, 0.10, 0.6, 1.5, 1.0, 3.0};
     case WorldKind::kIndoor: return {24.0, 12.0, 0.0, 0.0, 0.3, 1.0, 0.6, 1.5};
     case WorldKind::kCave: return {40.0, 25.0, 0.22, 0.10, 0.0, 1.0, 0.8, 3.0};
+    case WorldKind::kCourtyard: break;  // no network: core/sim/courtyard.cpp
   }
   return {80.0, 40.0, 0.0, 0.0, 1.0, 1.0, 1.8, 3.0};
 }
@@ -271,6 +273,7 @@ const char* WorldKindName(WorldKind kind) noexcept {
     case WorldKind::kCampus: return "campus";
     case WorldKind::kIndoor: return "indoor";
     case WorldKind::kCave: return "cave";
+    case WorldKind::kCourtyard: return "courtyard";
   }
   return "?";
 }
@@ -290,7 +293,8 @@ Result<WorldKind> WorldKindFromName(const std::string& name) {
   if (n == "campus") return WorldKind::kCampus;
   if (n == "indoor") return WorldKind::kIndoor;
   if (n == "cave" || n == "tunnel") return WorldKind::kCave;
-  return InvalidArgument("unknown world '" + name + "' (known: urban, campus, indoor, cave)");
+  if (n == "courtyard") return WorldKind::kCourtyard;
+  return InvalidArgument("unknown world '" + name + "' (known: urban, campus, indoor, cave, courtyard)");
 }
 
 Result<OverlapMode> OverlapModeFromName(const std::string& name) {
@@ -349,8 +353,38 @@ std::uint64_t ScanNoiseSeed(const MissionParams& params, int robot, std::size_t 
   return MixSeed(params.seed ^ 0x5CA9ull, static_cast<std::uint64_t>(robot) + 1, static_cast<std::uint64_t>(k));
 }
 
+void AddDriftingOdometry(const MissionParams& params, int robot_index, RobotMission* robot) {
+  robot->odometry.clear();
+  const DriftParams& d = params.drift;
+  SimRandom drift_rng(MixSeed(params.seed, 0x33ull + static_cast<std::uint64_t>(robot_index), 7));
+  robot->scale_bias = d.scale * d.scale_bias_std * drift_rng.Gaussian();
+  robot->yaw_bias_rad_per_m = d.scale * d.yaw_bias_std_deg_per_m * kDegToRad * drift_rng.Gaussian();
+  robot->odometry.push_back(Eigen::Isometry3d::Identity());
+  for (std::size_t k = 1; k < robot->gt.size(); ++k) {
+    const Eigen::Isometry3d dT = robot->gt[k - 1].inverse() * robot->gt[k];
+    const double step = dT.translation().norm();
+    const double rs = std::sqrt(step);
+    Eigen::Vector3d e_t(d.scale * d.translation_noise_frac * step * drift_rng.Gaussian(),
+                        d.scale * d.translation_noise_frac * step * drift_rng.Gaussian(),
+                        d.scale * d.z_noise_frac * step * drift_rng.Gaussian());
+    const double rp = d.scale * d.roll_pitch_noise_deg_per_sqrt_m * kDegToRad * rs;
+    const Eigen::Vector3d e_r(rp * drift_rng.Gaussian(), rp * drift_rng.Gaussian(),
+                              robot->yaw_bias_rad_per_m * step +
+                                  d.scale * d.yaw_noise_deg_per_sqrt_m * kDegToRad * rs * drift_rng.Gaussian());
+    Eigen::Isometry3d reported = Eigen::Isometry3d::Identity();
+    reported.linear() = dT.linear() * ExpSO3(e_r);
+    reported.translation() = (1.0 + robot->scale_bias) * dT.translation() + e_t;
+    Eigen::Isometry3d next = robot->odometry.back() * reported;
+    // Keep the rotation orthonormal over long chains.
+    const Eigen::Quaterniond q(next.linear());
+    next.linear() = q.normalized().toRotationMatrix();
+    robot->odometry.push_back(next);
+  }
+}
+
 Result<MissionPlan> PlanMission(const MissionParams& params) {
   if (Status st = ValidateMissionParams(params); !st.ok()) return st;
+  if (params.world == WorldKind::kCourtyard) return PlanCourtyardMission(params);
   const WorldLayout layout = LayoutOf(params.world);
   SimRandom rng(MixSeed(params.seed, 0x11ull, static_cast<std::uint64_t>(params.world)));
   MissionPlan plan;
@@ -657,32 +691,7 @@ Result<MissionPlan> PlanMission(const MissionParams& params) {
       robot.gt.push_back(g);
     }
 
-    // Odometry with drift.
-    const DriftParams& d = params.drift;
-    SimRandom drift_rng(MixSeed(params.seed, 0x33ull + static_cast<std::uint64_t>(r), 7));
-    robot.scale_bias = d.scale * d.scale_bias_std * drift_rng.Gaussian();
-    robot.yaw_bias_rad_per_m = d.scale * d.yaw_bias_std_deg_per_m * kDegToRad * drift_rng.Gaussian();
-    robot.odometry.push_back(Eigen::Isometry3d::Identity());
-    for (std::size_t k = 1; k < robot.gt.size(); ++k) {
-      const Eigen::Isometry3d dT = robot.gt[k - 1].inverse() * robot.gt[k];
-      const double step = dT.translation().norm();
-      const double rs = std::sqrt(step);
-      Eigen::Vector3d e_t(d.scale * d.translation_noise_frac * step * drift_rng.Gaussian(),
-                          d.scale * d.translation_noise_frac * step * drift_rng.Gaussian(),
-                          d.scale * d.z_noise_frac * step * drift_rng.Gaussian());
-      const double rp = d.scale * d.roll_pitch_noise_deg_per_sqrt_m * kDegToRad * rs;
-      const Eigen::Vector3d e_r(rp * drift_rng.Gaussian(), rp * drift_rng.Gaussian(),
-                                robot.yaw_bias_rad_per_m * step +
-                                    d.scale * d.yaw_noise_deg_per_sqrt_m * kDegToRad * rs * drift_rng.Gaussian());
-      Eigen::Isometry3d reported = Eigen::Isometry3d::Identity();
-      reported.linear() = dT.linear() * ExpSO3(e_r);
-      reported.translation() = (1.0 + robot.scale_bias) * dT.translation() + e_t;
-      Eigen::Isometry3d next = robot.odometry.back() * reported;
-      // Keep the rotation orthonormal over long chains.
-      const Eigen::Quaterniond q(next.linear());
-      next.linear() = q.normalized().toRotationMatrix();
-      robot.odometry.push_back(next);
-    }
+    AddDriftingOdometry(params, r, &robot);
     robot.route_nodes = std::move(walk);
     plan.robots.push_back(std::move(robot));
   }

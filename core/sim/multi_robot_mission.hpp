@@ -35,10 +35,10 @@
 
 namespace commerge {
 
-enum class WorldKind { kUrban, kCampus, kIndoor, kCave };
+enum class WorldKind { kUrban, kCampus, kIndoor, kCave, kCourtyard };
 enum class OverlapMode { kComplete, kModerate, kPartial };
 
-/// "urban", "campus", "indoor", "cave" / "complete", "moderate", "partial".
+/// "urban", "campus", "indoor", "cave", "courtyard" / "complete", "moderate", "partial".
 const char* WorldKindName(WorldKind kind) noexcept;
 const char* OverlapModeName(OverlapMode mode) noexcept;
 Result<WorldKind> WorldKindFromName(const std::string& name);
@@ -122,9 +122,14 @@ struct MissionPlan {
   std::vector<int> shared_tour;  ///< closed node walk of the shared area
 };
 
-/// Plans the network, the routes, the keyframe poses and the odometry of every robot. Deterministic in
+/// Plans the network, the routes, the keyframe poses and the odometry of every robot (the courtyard:
+/// core/sim/courtyard.hpp, without a network). Deterministic in
 /// params (same params, same plan bit for bit on one build). Errors: invalid params.
 Result<MissionPlan> PlanMission(const MissionParams& params);
+
+/// Fills robot->odometry (and its drawn biases) from robot->gt with the drift model of params.drift; the draws
+/// depend on (params.seed, robot_index) only.
+void AddDriftingOdometry(const MissionParams& params, int robot_index, RobotMission* robot);
 
 /// Overlap of the robots' true keyframe positions: fraction[i][j] = share of robot i's keyframes within
 /// `radius_m` (horizontal) of some keyframe of robot j; any[i] = within radius of any other robot.

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/geometry/angles.hpp"
+#include "core/sim/courtyard.hpp"
 #include "core/sim/sim_random.hpp"
 
 namespace commerge {
@@ -474,6 +475,115 @@ void BuildCave(const MissionPlan& plan, World* w) {
   }
 }
 
+
+/// The facades of a courtyard share one style, as the ranges of a college quad do: one eaves height (each
+/// range within 0.6 m of it), one bay pitch, window sills and thin pilasters that stand out of the wall by
+/// less than a metre.
+struct CourtyardStyle {
+  double height_m = 12.0;
+  double bay_m = 3.0;
+  double floor_m = 3.2;
+};
+
+/// One side of the courtyard from `a` to `b` (the courtyard on its left): ranges of 8-20 m, each a body behind
+/// the facade line with a pilaster per bay and a sill under every window; a passage of 3.5 m (floors above it
+/// from 4 m) at `passage_at_m` (< 0: none).
+void AddCourtyardSide(World* w, SimRandom* rng, const CourtyardStyle& style, const Eigen::Vector2d& a,
+                      const Eigen::Vector2d& b, double passage_at_m) {
+  const std::vector<Eigen::Vector2d> poly{a, b};
+  const EdgePath side(poly);
+  const double len = side.length();
+  constexpr double kDepthM = 8.0, kPassageM = 3.5;
+  auto body = [&](double from, double to, double z0, double height, float reflect) {
+    if (to - from < 0.5) return;
+    w->AddBox(BoxOf(FootprintAt(side, 0.5 * (from + to), -1, kDepthM / 2, 0.5 * (to - from), kDepthM / 2),
+                    static_cast<float>(z0), static_cast<float>(height), reflect));
+  };
+  const double p0 = passage_at_m - kPassageM / 2, p1 = passage_at_m + kPassageM / 2;
+  for (double s = 0.0; s < len;) {
+    double width = std::min(rng->Uniform(8.0, 20.0), len - s);
+    if (len - s - width < 4.0) width = len - s;  // no sliver at the end
+    const double height = style.height_m + rng->Uniform(-0.6, 0.6);
+    const float reflect = static_cast<float>(rng->Uniform(0.3, 0.8));
+    if (passage_at_m >= s && passage_at_m < s + width) {
+      body(s, std::max(s, p0), 0.0, height, reflect);
+      body(std::min(s + width, p1), s + width, 0.0, height, reflect);
+      body(std::max(s, p0), std::min(s + width, p1), 4.0, height, reflect);
+    } else {
+      body(s, s + width, 0.0, height, reflect);
+    }
+    s += width;
+  }
+  // Bays: a pilaster between bays, a sill under each window of each floor.
+  for (double u = 0.5 * style.bay_m; u < len - 0.3; u += style.bay_m) {
+    if (passage_at_m >= 0 && u > p0 - 0.4 && u < p1 + 0.4) continue;
+    w->AddBox(BoxOf(FootprintAt(side, u, 1, 0.05, 0.15, 0.05), 0.0f, static_cast<float>(style.height_m - 0.6), 0.5f));
+    for (double z = 0.9; z < style.height_m - 1.5; z += style.floor_m) {
+      w->AddBox(BoxOf(FootprintAt(side, u + 0.5 * style.bay_m, 1, 0.08, 0.6, 0.08), static_cast<float>(z),
+                      static_cast<float>(z + 0.1), 0.6f));
+    }
+  }
+}
+
+void BuildCourtyard(const MissionPlan& plan, World* w) {
+  const CourtyardGeometry g = CourtyardOf(plan.params);
+  SimRandom rng(MixSeed(plan.params.seed, 0xC0A9ull, 2));
+  const double hx = 0.5 * g.width_m, hy = 0.5 * g.length_m;
+  CourtyardStyle style;
+  style.height_m = rng.Uniform(8.0, 14.0);
+  style.bay_m = rng.Uniform(2.5, 4.0);
+  const int passage_side = static_cast<int>(rng.Below(4));
+  const Eigen::Vector2d c[4] = {{hx, -hy}, {hx, hy}, {-hx, hy}, {-hx, -hy}};
+  for (int k = 0; k < 4; ++k) {
+    const double len = (c[(k + 1) % 4] - c[k]).norm();
+    AddCourtyardSide(w, &rng, style, c[k], c[(k + 1) % 4], k == passage_side ? rng.Uniform(0.25, 0.75) * len : -1.0);
+  }
+  // Furniture at random places clear of the walking loop (the carrier wanders up to 0.7 m off it).
+  const double loop_inner = g.walk_inset_m;
+  auto place = [&](double clearance_m, double* x, double* y) {
+    for (int attempt = 0; attempt < 50; ++attempt) {
+      *x = rng.Uniform(-hx + 0.8, hx - 0.8);
+      *y = rng.Uniform(-hy + 0.8, hy - 0.8);
+      if (CourtyardLoopDistance(g, *x, *y) > 0.9 + clearance_m) return true;
+    }
+    return false;
+  };
+  double x = 0, y = 0;
+  // The fountain: inside the loop, off centre.
+  VerticalCylinder fountain;
+  fountain.cx_m = static_cast<float>(rng.Uniform(-0.3, 0.3) * (hx - loop_inner));
+  fountain.cy_m = static_cast<float>(rng.Uniform(-0.4, 0.4) * (hy - loop_inner));
+  fountain.radius_m = static_cast<float>(rng.Uniform(1.2, 2.0));
+  fountain.z_max_m = 0.7f;
+  fountain.reflectivity = 0.6f;
+  if (CourtyardLoopDistance(g, fountain.cx_m, fountain.cy_m) > static_cast<double>(fountain.radius_m) + 1.2) w->AddCylinder(fountain);
+  const int trees = 1 + static_cast<int>(rng.Below(3));
+  for (int t = 0; t < trees; ++t) {
+    if (place(0.6, &x, &y)) AddTree(w, &rng, x, y, rng.Uniform(0.12, 0.25), rng.Uniform(2.0, 3.0), rng.Uniform(1.2, 2.2));
+  }
+  const int benches = 2 + static_cast<int>(rng.Below(3));
+  for (int k = 0; k < benches; ++k) {
+    if (!place(0.9, &x, &y)) continue;
+    w->AddBox(BoxOf({x, y, 0.9, 0.3, rng.Uniform(0.0, kPi)}, 0.0f, 0.45f, 0.5f));
+  }
+  const int planters = static_cast<int>(rng.Below(3));
+  for (int k = 0; k < planters; ++k) {
+    if (!place(0.8, &x, &y)) continue;
+    w->AddBox(BoxOf({x, y, rng.Uniform(0.4, 0.8), rng.Uniform(0.4, 0.8), rng.Uniform(0.0, kPi)}, 0.0f,
+                    static_cast<float>(rng.Uniform(0.5, 1.0)), 0.4f));
+  }
+  const int bollards = static_cast<int>(rng.Below(5));
+  for (int k = 0; k < bollards; ++k) {
+    if (!place(0.2, &x, &y)) continue;
+    VerticalCylinder bollard;
+    bollard.cx_m = static_cast<float>(x);
+    bollard.cy_m = static_cast<float>(y);
+    bollard.radius_m = 0.1f;
+    bollard.z_max_m = 0.9f;
+    bollard.reflectivity = 0.7f;
+    w->AddCylinder(bollard);
+  }
+}
 }  // namespace
 
 Result<World> BuildMissionWorld(const MissionPlan& plan) {
@@ -488,6 +598,10 @@ Result<World> BuildMissionWorld(const MissionPlan& plan) {
       cell_m = 4.0f;
       break;
     case WorldKind::kCave: BuildCave(plan, &world); break;
+    case WorldKind::kCourtyard:
+      BuildCourtyard(plan, &world);
+      cell_m = 4.0f;
+      break;
   }
   if (Status st = world.Build(cell_m); !st.ok()) return st;
   return world;

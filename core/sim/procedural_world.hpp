@@ -8,7 +8,10 @@
 //  * indoor: a floor of 3 m wide corridors on a 24 m grid under a 3 m ceiling, walls with a door every 6 m
 //    (closed, or open onto a small room), rare cabinets: long repetitive corridors (perceptual aliasing);
 //  * cave: tunnels along the driven edges (free space = noisy capsules of radius 2.6-3.6 m, chambers at the
-//    junctions) over a flat floor, with boulders.
+//    junctions) over a flat floor, with boulders;
+//  * courtyard (core/sim/courtyard.hpp): a courtyard of 18-26 x 36-50 m closed by building facades 8-18 m high
+//    (pilasters, floor ledges, entrance porches, one passage), with trees, a fountain, benches, bollards and
+//    planters between the walking loop and the facades: a small, nearly symmetric scene.
 // Nothing is placed within the driving corridor of any street the robots may use.
 #pragma once
 
