@@ -73,6 +73,13 @@ void AddDescriptorFlags(CLI::App* cmd, DescriptorFlags* flags) {
                   "0 = always 1 m (the paper) [points; ours]")
       ->check(CLI::Range(0, 1000000))
       ->capture_default_str();
+  cmd->add_option("--ground-up-min-tilt-deg", flags->ground_up_min_tilt_deg,
+                  "ring descriptor: the scan is levelled by the odometry frame's z, or, once the frame leans more than "
+                  "this from the ground the keyframes see (a handheld sensor's frame is its first pose's, held "
+                  "pitched), by that ground's up; 0 = by the frame's z alone (default: 2 for a spinning --lidar, 0 for a "
+                  "forward-looking one, whose cone sees too little ground to fit it). Every robot of a team needs the "
+                  "same value [deg; ours]")
+      ->check(CLI::Range(0.0, 45.0));
 }
 
 AdaptiveVoxelParams StoredScanVoxel(const DescriptorFlags& flags) {
@@ -124,6 +131,9 @@ DescriptorInputParams RingDescriptorInput(const std::string& lidar) {
   DescriptorInputParams input;
   input.level = true;
   input.local_map_window_m = NonRepetitive(lidar) ? 5.0 : 0.0;
+  // A forward-looking cone sees a patch of ground ahead: on the real Avia splits its fitted up scattered by
+  // 1-3 deg between robots of one frame (core/agent/decisions/030-level-by-the-ground.md).
+  input.ground_up.min_frame_tilt_deg = NonRepetitive(lidar) ? 0.0 : GroundUpParams{}.min_frame_tilt_deg;
   return input;
 }
 
@@ -166,6 +176,7 @@ Result<RobotDescriptor> MakeRobotDescriptor(const DescriptorFlags& flags, const 
   out.descriptor = std::make_unique<RingOccupancyDescriptor>(std::move(*ring));
   out.input = RingDescriptorInput(lidar);
   if (flags.window_m >= 0.0) out.input.local_map_window_m = flags.window_m;
+  if (flags.ground_up_min_tilt_deg >= 0.0) out.input.ground_up.min_frame_tilt_deg = flags.ground_up_min_tilt_deg;
   char text[128];
   std::snprintf(text, sizeof(text), "ring occupancy on the levelled scan%s", out.input.local_map_window_m > 0.0 ? "" : " alone");
   out.text = text;

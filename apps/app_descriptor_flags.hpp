@@ -50,6 +50,10 @@ struct DescriptorFlags {
   /// --record-descriptor-bits: ring and SOLiD keyframes travel in compact batches with this many bits per
   /// descriptor value, or as 92-byte records (0) (RobotAgentParams::record_descriptor_bits).
   int record_descriptor_bits = kDefaultRecordDescriptorBits;
+  /// --ground-up-min-tilt-deg: ring descriptor: level by the keyframes' ground once the odometry frame leans from
+  /// it by more than this (DescriptorInputParams::ground_up.min_frame_tilt_deg); 0 = by the frame's z alone;
+  /// -1 = the sensor's default (RingDescriptorInput).
+  double ground_up_min_tilt_deg = -1.0;
 };
 /// The robot's stored-scan voxel parameters from the flags (RobotMapperParams::voxel).
 AdaptiveVoxelParams StoredScanVoxel(const DescriptorFlags& flags);

@@ -422,7 +422,10 @@ void PrintRobots(RunJob* job) {
         std::to_string(m.stats().loops_implausible) + " refused as implausible" +
         (m.stats().scans_stored_finer > 0
              ? "; " + std::to_string(m.stats().scans_stored_finer) + " scans stored finer than 1 m (--min-scan-points)"
-             : std::string());
+             : std::string()) +
+        (m.levels_by_ground() ? "; odometry frame leans " + Fmt("%.1f", m.ground_up().tilt_deg()) +
+                                    " deg from its ground's up: descriptors levelled by the ground"
+                              : std::string());
     std::printf("  robot %d  %-40s %zu scans -> %zu keyframes (%llu invalid descriptors), %llu loops%s, store %zu "
                 "scans %s (%llu evicted), %.1f s; ground truth: %s\n",
                 ri, r.data.name.c_str(), r.scans, m.num_keyframes(),
@@ -654,7 +657,7 @@ void AddRunFlags(CLI::App* cmd, RunOptions* o) {
       ->delimiter(',')
       ->capture_default_str();
   cmd->add_option("--lidar", o->sensor, "SOLiD sensor preset of the robots' LiDAR (hdl-64e, vlp-16, os1-64, os1-128, "
-                                        "os2-128, avia, aeva)")
+                                        "os2-128, os0-128, avia, aeva)")
       ->capture_default_str();
   AddDescriptorFlags(cmd, &o->descriptor);
   cmd->add_flag("--gt-from-poses", o->gt_from_poses,

@@ -517,6 +517,8 @@ void WriteMetrics(const RunJob& job) {
        std::to_string(job.robots[static_cast<std::size_t>(ri)].agent->mapper().stats().loop_candidates_rejected));
     kv(p + "scans_stored_finer",
        std::to_string(job.robots[static_cast<std::size_t>(ri)].agent->mapper().stats().scans_stored_finer));
+    kv(p + "ground_up_tilt_deg",
+       Fmt("%.2f", job.robots[static_cast<std::size_t>(ri)].agent->mapper().ground_up().tilt_deg()));
     if (le.checked > 0) {
       kv(p + "loop_error_median_m", Fmt("%.4f", le.median_m));
       kv(p + "loop_error_max_m", Fmt("%.4f", le.max_m));

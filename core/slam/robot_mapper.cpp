@@ -28,6 +28,7 @@ Status ValidateRobotMapperParams(const RobotMapperParams& p) {
   if (!(d.voxel_m >= 0.05 && d.voxel_m <= 2.0)) {
     return InvalidArgument("robot mapper: descriptor voxel_m = " + std::to_string(d.voxel_m) + " is outside [0.05, 2]");
   }
+  if (Status s = ValidateGroundUpParams(d.ground_up); !s.ok()) return InvalidArgument("robot mapper: " + s.message());
   return Status::Ok();
 }
 
@@ -37,7 +38,15 @@ std::uint32_t DescriptorInputId(std::uint32_t descriptor_id, const DescriptorInp
   h = detail::Fnv1aByte(h, static_cast<std::uint8_t>('i'));
   h = detail::Fnv1aDouble(h, input.local_map_window_m);
   h = detail::Fnv1aDouble(h, input.voxel_m);
-  return detail::Fnv1aByte(h, input.level ? 1 : 0);
+  h = detail::Fnv1aByte(h, input.level ? 1 : 0);
+  // Levelling by the ground changes what the descriptor sees only on leaning frames; mixed in when it is on.
+  if (input.level && input.ground_up.min_frame_tilt_deg > 0.0) h = detail::Fnv1aDouble(h, input.ground_up.min_frame_tilt_deg);
+  return h;
+}
+
+bool RobotMapper::levels_by_ground() const noexcept {
+  const GroundUpParams& g = params_.descriptor_input.ground_up;
+  return params_.descriptor_input.level && g.min_frame_tilt_deg > 0.0 && ground_up_.tilt_deg() > g.min_frame_tilt_deg;
 }
 
 std::uint32_t RobotMapper::descriptor_parameter_id() const noexcept {
@@ -74,6 +83,7 @@ RobotMapper::RobotMapper(const RobotMapperParams& params, const RobotMapperCapac
   } else if (d.level) {
     local_cloud_.reserve(raw);
   }
+  if (d.level && d.ground_up.min_frame_tilt_deg > 0.0) ground_z_.reserve(raw);
 }
 
 std::size_t RobotMapper::scan_workspace_bytes() const {
@@ -85,12 +95,18 @@ std::size_t RobotMapper::scan_workspace_bytes() const {
 
 namespace {
 
-// Roll and pitch of the sensor in the odometry frame, as the rotation that removes them: R_level p has its z
-// along the odometry frame's z and keeps the sensor's heading.
-Eigen::Matrix3f LevellingRotation(const Eigen::Isometry3d& T_odom_sensor) {
-  const Eigen::Matrix3d R = T_odom_sensor.linear();
+// Roll and pitch of the sensor against `up_odom` (the odometry frame's z, or the ground's up when the frame
+// leans), as the rotation that removes them: R_level p has its z along up and keeps the sensor's heading.
+Eigen::Matrix3d LevellingRotation(const Eigen::Isometry3d& T_odom_sensor, const Eigen::Matrix3d& R_up_odom) {
+  const Eigen::Matrix3d R = R_up_odom * T_odom_sensor.linear();
   const Eigen::Matrix3d Rz = Eigen::AngleAxisd(YawRad(R), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  return (Rz.transpose() * R).cast<float>();
+  return Rz.transpose() * R;
+}
+
+// The rotation that takes `up` to the frame's z (identity when `use` is false).
+Eigen::Matrix3d UpRotation(const Eigen::Vector3d& up, bool use) {
+  if (!use) return Eigen::Matrix3d::Identity();
+  return Eigen::Quaterniond::FromTwoVectors(up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
 }
 
 void AppendTransformed(Span<const PointXYZI> points, const Eigen::Matrix3f& R, const Eigen::Vector3f& t,
@@ -107,7 +123,21 @@ Result<Span<const PointXYZI>> RobotMapper::DescriptorInput(Span<const PointXYZI>
                                                            const Eigen::Isometry3d& T_odom_sensor) {
   const DescriptorInputParams& d = params_.descriptor_input;
   if (d.local_map_window_m <= 0.0 && !d.level) return raw_scan;
-  const Eigen::Matrix3f R_level = d.level ? LevellingRotation(T_odom_sensor) : Eigen::Matrix3f::Identity();
+  Eigen::Matrix3f R_level = Eigen::Matrix3f::Identity();
+  if (d.level) {
+    Eigen::Matrix3d R = LevellingRotation(T_odom_sensor, UpRotation(ground_up_.up(), levels_by_ground()));
+    if (d.ground_up.min_frame_tilt_deg > 0.0) {
+      // This keyframe's ground, found in the cloud levelled so far, joins the estimate of up.
+      local_cloud_.clear();
+      AppendTransformed(raw_scan, R.cast<float>(), Eigen::Vector3f::Zero(), &local_cloud_);
+      Eigen::Vector3d n_levelled;
+      if (FitGroundNormal(Span<const PointXYZI>(local_cloud_), d.ground_up, &ground_z_, &n_levelled)) {
+        ground_up_.Add(T_odom_sensor.linear() * R.transpose() * n_levelled);
+        R = LevellingRotation(T_odom_sensor, UpRotation(ground_up_.up(), levels_by_ground()));
+      }
+    }
+    R_level = R.cast<float>();
+  }
   local_cloud_.clear();
   AppendTransformed(raw_scan, R_level, Eigen::Vector3f::Zero(), &local_cloud_);
   if (d.local_map_window_m <= 0.0) return Span<const PointXYZI>(local_cloud_);

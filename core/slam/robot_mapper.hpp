@@ -21,6 +21,7 @@
 
 #include "core/cloud/voxel_grid.hpp"
 #include "core/descriptor/place_descriptor.hpp"
+#include "core/slam/ground_up.hpp"
 #include "core/slam/keyframe_graph_distance.hpp"
 #include "core/slam/keyframer.hpp"
 #include "core/slam/loop_detector.hpp"
@@ -40,6 +41,9 @@ struct DescriptorInputParams {
   bool level = false;
   /// Voxel size of the past keyframes kept for the local map and of the joined cloud [m], in [0.05, 2].
   double voxel_m = 0.25;
+  /// With level: where up is in the odometry frame, from the keyframes' ground (core/slam/ground_up.hpp); a
+  /// frame that leans by more than ground_up.min_frame_tilt_deg (a handheld sensor's) is levelled by it.
+  GroundUpParams ground_up;
 };
 
 struct RobotMapperParams {
@@ -135,6 +139,9 @@ class RobotMapper {
   /// Id of the descriptors this mapper computes: PlaceDescriptor::parameter_id(), with the descriptor input's
   /// parameters mixed in when levelling or the local map is on (DescriptorInputId).
   std::uint32_t descriptor_parameter_id() const noexcept;
+  /// Up in the odometry frame as the keyframes' ground gives it so far, and whether levelling uses it.
+  const GroundUpEstimate& ground_up() const noexcept { return ground_up_; }
+  bool levels_by_ground() const noexcept;
   /// Kind of the descriptor this mapper computes (SOLiD, Scan Context, ring occupancy).
   DescriptorKind descriptor_kind() const noexcept { return descriptor_->kind(); }
   /// Bytes of the per-scan buffers (capacities): the voxel grid's sort workspace, the voxelised and the encoded
@@ -184,6 +191,8 @@ class RobotMapper {
   std::vector<PointXYZI> voxels_, voxel_scratch_, match_points_;
   std::vector<LocalKeyframe> local_keyframes_;        ///< oldest first
   std::vector<PointXYZI> local_points_, local_cloud_, local_scratch_;
+  GroundUpEstimate ground_up_;      ///< up in the odometry frame, from the keyframes' ground
+  std::vector<float> ground_z_;     ///< FitGroundNormal's scratch
   double path_m_ = 0.0;                               ///< odometry path length up to the last keyframe
   std::vector<std::uint8_t> encoded_, spill_buffer_;
   RobotMapperStats stats_;

@@ -251,6 +251,47 @@ TEST_CASE("Robot mapper descriptor input: levelling by the odometry's gravity re
   CHECK(a.mapper->descriptor_parameter_id() != raw_a.ring.parameter_id());
 }
 
+TEST_CASE("Robot mapper descriptor input: an odometry frame that leans (a handheld sensor's first pose) is levelled by its ground") {
+  // Two robots drive the same three poses 1 m apart. Robot A's sensor is level and its odometry frame too.
+  // Robot B's sensor is held pitched and rolled by (8, 4) deg all along, and its odometry frame is its first
+  // keyframe's sensor frame, so the odometry believes the sensor level: levelling by the frame's z leaves the
+  // lean in, levelling by the ground removes it.
+  const std::vector<Eigen::Vector3d> place = DescriptorTestPlace();
+  const Eigen::Matrix3d R_hold = (Eigen::AngleAxisd(8.0 * kDegToRad, Eigen::Vector3d::UnitY()) *
+                                  Eigen::AngleAxisd(4.0 * kDegToRad, Eigen::Vector3d::UnitX()))
+                                     .toRotationMatrix();
+  DescriptorInputParams by_ground;
+  by_ground.level = true;
+  DescriptorInputParams by_frame = by_ground;
+  by_frame.ground_up.min_frame_tilt_deg = 0.0;
+  MapperFixture a(by_ground), b(by_ground), b_frame(by_frame), a_frame(by_frame);
+  Eigen::Isometry3d T_world_b0 = Eigen::Isometry3d::Identity();
+  T_world_b0.linear() = R_hold;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Isometry3d T_world_a = Eigen::Isometry3d::Identity();
+    T_world_a.translation() = Eigen::Vector3d(k * 1.0, 0.0, 0.0);
+    Eigen::Isometry3d T_world_b = T_world_a;
+    T_world_b.linear() = R_hold;
+    const Eigen::Isometry3d T_odom_b = T_world_b0.inverse() * T_world_b;
+    const std::vector<float> da = a.Add(SeenFrom(place, T_world_a), T_world_a);
+    const std::vector<float> da_frame = a_frame.Add(SeenFrom(place, T_world_a), T_world_a);
+    const std::vector<float> db = b.Add(SeenFrom(place, T_world_b), T_odom_b);
+    const std::vector<float> db_frame = b_frame.Add(SeenFrom(place, T_world_b), T_odom_b);
+    MESSAGE("keyframe " << k << ": by the ground " << L2(da, db) << ", by the frame " << L2(da, db_frame));
+    CHECK(L2(da, db) < 0.02);
+    CHECK(L2(da, db_frame) > 0.1);  // the lean does change the descriptor when only the frame levels it
+    CHECK(L2(da, da_frame) == 0.0);  // a level frame levels exactly as before
+  }
+  // Up from the ground: the hold, as B's frame sees it (8.9 deg from its z), and nothing on A's.
+  const double hold_deg = std::acos((R_hold.transpose() * Eigen::Vector3d::UnitZ()).z()) / kDegToRad;
+  CHECK(b.mapper->ground_up().tilt_deg() == doctest::Approx(hold_deg).epsilon(0.01));
+  CHECK(b.mapper->levels_by_ground());
+  CHECK(a.mapper->ground_up().tilt_deg() < 0.01);
+  CHECK_FALSE(a.mapper->levels_by_ground());
+  CHECK_FALSE(b_frame.mapper->levels_by_ground());
+  CHECK(a.mapper->descriptor_parameter_id() != a_frame.mapper->descriptor_parameter_id());
+}
+
 TEST_CASE("Robot mapper descriptor input: a forward-looking sensor's local map keeps what it passed") {
   // A 70 deg cone drives 5 m along x in 1 m keyframes past two poles at (8, +-4) m, then sees them at 53 deg,
   // outside its cone. Ground everywhere, a wall ahead at x = 30 m. With a 5 m local map the last keyframe's
