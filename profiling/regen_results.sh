@@ -94,6 +94,7 @@ sections=(
   "scenarios-seq-smoothed|1 h (after scenarios-same-flat)|-|Generated scenarios: Sequence-smoothed stage A"
   "scenarios-smoothing|2 h (after the three settings and scenarios-seq-smoothed)|-|Generated scenarios: Sequence smoothing against the per-cell threshold"
   "long-missions|14 h (60 GB of data)|-|Long missions"
+  "small-scenes|10 min|-|Small scenes: a courtyard walked by hand"
   "network-faults|5 min|root (network namespaces, nftables, tc)|Network fault tests"
   "replay-load|45 min|root|Network fault tests: Exact replay under load"
   "five-robots-memory|5 min|-|Five robots and memory sized from the work"
@@ -780,6 +781,26 @@ sec_scenarios_smoothing() {
 
 sec_long_missions() {
   scenarios long-missions long --keyframes 3000 --direction same --wobble-deg 0 --detection-reflectivity 0.8
+}
+
+sec_small_scenes() {
+  echo "Command per overlap O: \`profiling/bench_courtyard.sh --overlap O --seeds S --baseline-run-args"
+  echo "\"--ground-up-min-tilt-deg 0\"\` (the run: default flags; the baseline: the descriptor levelled by the frame's z)."
+  stamp
+  echo
+  echo "| seeds | overlap | run | summary |"
+  echo "|---|---|---|---|"
+  local o seeds line
+  for o in partial moderate complete; do
+    seeds="101 102 103 104 105 106 107 108 109 110"
+    [ "$o" = partial ] && seeds="$seeds 111 112 113 114 115 116 117 118 119 120"
+    "$repo/profiling/bench_courtyard.sh" --commerge "$bin" --work "$work/small-scenes-$o" --overlap "$o" --seeds "$seeds" \
+        --baseline-run-args "--ground-up-min-tilt-deg 0" >"$work/small-scenes-$o.out" 2>&1 \
+        || { fail "bench_courtyard.sh failed (see $work/small-scenes-$o.out)"; return; }
+    while read -r line; do
+      printf '| %s | %s | %s | %s |\n' "${seeds%% *}-${seeds##* }" "$o" "${line%% summary:*}" "${line#*summary: }"
+    done < <(grep ' summary: ' "$work/small-scenes-$o.out")
+  done
 }
 
 # ---------------------------------------------------------------------------------------------------------------
