@@ -556,7 +556,7 @@ void BuildCourtyard(const MissionPlan& plan, World* w) {
   fountain.radius_m = static_cast<float>(rng.Uniform(1.2, 2.0));
   fountain.z_max_m = 0.7f;
   fountain.reflectivity = 0.6f;
-  if (CourtyardLoopDistance(g, fountain.cx_m, fountain.cy_m) > static_cast<double>(fountain.radius_m) + 1.2) w->AddCylinder(fountain);
+  if (CourtyardLoopDistance(g, static_cast<double>(fountain.cx_m), static_cast<double>(fountain.cy_m)) > static_cast<double>(fountain.radius_m) + 1.2) w->AddCylinder(fountain);
   const int trees = 1 + static_cast<int>(rng.Below(3));
   for (int t = 0; t < trees; ++t) {
     if (place(0.6, &x, &y)) AddTree(w, &rng, x, y, rng.Uniform(0.12, 0.25), rng.Uniform(2.0, 3.0), rng.Uniform(1.2, 2.2));

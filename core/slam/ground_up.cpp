@@ -32,7 +32,7 @@ bool FitGroundNormal(Span<const PointXYZI> levelled, const GroundUpParams& param
                      Eigen::Vector3d* normal) {
   const double r0 = params.min_range_m * params.min_range_m, r1 = params.max_range_m * params.max_range_m;
   auto in_ring = [&](const PointXYZI& p) {
-    const double x = p.x, y = p.y;
+    const double x = static_cast<double>(p.x), y = static_cast<double>(p.y);
     const double r2 = x * x + y * y;
     return r2 >= r0 && r2 < r1 && std::isfinite(p.z);
   };
