@@ -111,8 +111,8 @@ struct BudgetRecordSizes {
   /// twice that: 64 B), the voxelised and encoded copies of a stored scan and the finer attempt of the
   /// scene-scaled voxel size (38 B, when a stored scan may be as large as a raw one), and the descriptor input
   /// (RobotMapper: the joined cloud of up to two raw scans 32 B, the local map's points of at most one raw scan
-  /// 16 B, the voxelised joined cloud 32 B), rounded up. Measured worst case (stored = raw capacity, 10 m local
-  /// map, scene-scaled voxels on): 182 B (test_robot_mapper).
+  /// 16 B, the voxelised joined cloud 32 B, the ground fit's z values 4 B), rounded up. Measured worst case
+  /// (stored = raw capacity, 10 m local map, scene-scaled voxels on): 186 B (test_robot_mapper).
   static constexpr std::int64_t kRawPointWorkBytes = 192;
   static constexpr std::int64_t kStoredPointBytes = 6;    ///< int16 centimetres x 3
   /// A scan in a robot's scan store: its record header (8 B), the encoded scan's header (12 B) and points, and

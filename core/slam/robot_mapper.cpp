@@ -90,7 +90,8 @@ std::size_t RobotMapper::scan_workspace_bytes() const {
   return voxel_grid_.workspace_capacity_bytes() + (voxels_.capacity() + voxel_scratch_.capacity()) * sizeof(PointXYZI) +
          encoded_.capacity() +
          descriptor_scratch_.capacity() * sizeof(float) + local_keyframes_.capacity() * sizeof(LocalKeyframe) +
-         (local_points_.capacity() + local_cloud_.capacity() + local_scratch_.capacity()) * sizeof(PointXYZI);
+         (local_points_.capacity() + local_cloud_.capacity() + local_scratch_.capacity()) * sizeof(PointXYZI) +
+         ground_z_.capacity() * sizeof(float);
 }
 
 namespace {

@@ -146,7 +146,7 @@ class RobotMapper {
   DescriptorKind descriptor_kind() const noexcept { return descriptor_->kind(); }
   /// Bytes of the per-scan buffers (capacities): the voxel grid's sort workspace, the voxelised and the encoded
   /// scan, the descriptor scratch, and the descriptor input (the past keyframes of the local map, the joined
-  /// and levelled cloud).
+  /// and levelled cloud, the ground fit's z values).
   std::size_t scan_workspace_bytes() const;
   /// Bytes of the loop-closure buffers (capacities): the match's decoded scan and spill buffer, the verifier's
   /// k-d tree, ICP scratch and yaw restarts.
