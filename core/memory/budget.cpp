@@ -150,34 +150,34 @@ const BudgetEntry* BudgetTable::Find(const std::string& module) const {
 
 namespace {
 
-using R = BudgetRecordSizes;
+using Sizes = BudgetRecordSizes;
 
 // Modules of one robot; `prefix` is "" for a robot process, "robots." in `commerge run`; `n` robots.
 void AddRobotModules(BudgetTable* t, const MemoryConfig& c, const std::string& prefix, std::int64_t n) {
   const std::string times = n > 1 ? " x " + Str(n) + " robots" : "";
   const std::int64_t k = c.max_keyframes_per_robot;
-  const std::int64_t record = R::DescriptorRecordBytes(c.descriptor_floats);
+  const std::int64_t record = Sizes::DescriptorRecordBytes(c.descriptor_floats);
   t->Add(prefix + "descriptor_db", n * k * record,
          Str(k) + " keyframes (--max-keyframes) x " + Str(record) + " B" + times);
-  t->Add(prefix + "pose_graph", n * k * R::kPoseGraphBytesPerKeyframe,
-         Str(k) + " keyframes x " + Str(R::kPoseGraphBytesPerKeyframe) + " B" + times);
+  t->Add(prefix + "pose_graph", n * k * Sizes::kPoseGraphBytesPerKeyframe,
+         Str(k) + " keyframes x " + Str(Sizes::kPoseGraphBytesPerKeyframe) + " B" + times);
   t->Add(prefix + "scan_store", n * c.scan_store_bytes, "--scan-store-mb" + times);
-  t->Add(prefix + "scan_workspace", n * c.max_points_per_raw_scan * R::kRawPointWorkBytes,
-         Str(c.max_points_per_raw_scan) + " raw points x " + Str(R::kRawPointWorkBytes) + " B" + times);
+  t->Add(prefix + "scan_workspace", n * c.max_points_per_raw_scan * Sizes::kRawPointWorkBytes,
+         Str(c.max_points_per_raw_scan) + " raw points x " + Str(Sizes::kRawPointWorkBytes) + " B" + times);
   t->Add(prefix + "loop_closure",
-         n * (2 * c.max_points_per_stored_scan * R::kIcpPointBytes + k * R::kLoopPathBytesPerKeyframe),
-         "2 scans x " + Str(c.max_points_per_stored_scan) + " points x " + Str(R::kIcpPointBytes) + " B + " + Str(k) +
-             " keyframes x " + Str(R::kLoopPathBytesPerKeyframe) + " B" + times);
+         n * (2 * c.max_points_per_stored_scan * Sizes::kIcpPointBytes + k * Sizes::kLoopPathBytesPerKeyframe),
+         "2 scans x " + Str(c.max_points_per_stored_scan) + " points x " + Str(Sizes::kIcpPointBytes) + " B + " + Str(k) +
+             " keyframes x " + Str(Sizes::kLoopPathBytesPerKeyframe) + " B" + times);
   t->Add(prefix + "outbox", n * c.message_queue_bytes, "--queue-mb" + times);
 }
 
 void AddServerModules(BudgetTable* t, const MemoryConfig& c, const std::string& prefix) {
   const std::int64_t r = c.max_robots;
   const std::int64_t k = c.max_keyframes_per_robot;
-  const std::int64_t record = R::DescriptorRecordBytes(c.descriptor_floats);
-  t->Add(prefix + "descriptor_db", r * k * record + R::kCompactBatchScratchBytes,
+  const std::int64_t record = Sizes::DescriptorRecordBytes(c.descriptor_floats);
+  t->Add(prefix + "descriptor_db", r * k * record + Sizes::kCompactBatchScratchBytes,
          Str(r) + " robots (--robots) x " + Str(k) + " keyframes x " + Str(record) + " B + one compact batch " +
-             Str(R::kCompactBatchScratchBytes) + " B");
+             Str(Sizes::kCompactBatchScratchBytes) + " B");
   // Streaming affinity: two 256x256 float tiles plus O(N + M) labelling state per robot pair.
   const std::int64_t pairs = r * (r - 1) / 2;
   // Place consensus: one pair's cluster set at a time, at most kServerConsensusMaxCells cells.
@@ -187,21 +187,21 @@ void AddServerModules(BudgetTable* t, const MemoryConfig& c, const std::string& 
              " x 64 B of labelling state + " + Str(static_cast<std::int64_t>(kServerConsensusMaxCells)) + " x " +
              Str(static_cast<std::int64_t>(kConsensusCellBytes)) + " B of one pair's place-consensus clusters");
   t->Add(prefix + "solvers", c.solver_workspace_bytes, "--solver-mb");
-  t->Add(prefix + "scan_reassembly", c.max_scans_in_flight * c.max_points_per_stored_scan * R::kStoredPointBytes,
+  t->Add(prefix + "scan_reassembly", c.max_scans_in_flight * c.max_points_per_stored_scan * Sizes::kStoredPointBytes,
          Str(c.max_scans_in_flight) + " scans x " + Str(c.max_points_per_stored_scan) + " points x " +
-             Str(R::kStoredPointBytes) + " B");
+             Str(Sizes::kStoredPointBytes) + " B");
   // The union of one submap's scans, the grid's workspace and both voxelised submaps (each at most the union),
   // one decoded scan, and each submap's scan origins (24 B a selected keyframe).
-  const std::int64_t union_points = R::kSubmapUnionFactor * c.max_submap_points + c.max_points_per_stored_scan;
+  const std::int64_t union_points = Sizes::kSubmapUnionFactor * c.max_submap_points + c.max_points_per_stored_scan;
   t->Add(prefix + "submaps",
-         union_points * R::kSubmapUnionPointBytes + 16 * std::int64_t{c.max_points_per_stored_scan} + 2 * 24 * k,
-         "(" + Str(R::kSubmapUnionFactor) + " x " + Str(c.max_submap_points) + " points (--max-submap-points) + " +
-             Str(c.max_points_per_stored_scan) + ") x " + Str(R::kSubmapUnionPointBytes) +
+         union_points * Sizes::kSubmapUnionPointBytes + 16 * std::int64_t{c.max_points_per_stored_scan} + 2 * 24 * k,
+         "(" + Str(Sizes::kSubmapUnionFactor) + " x " + Str(c.max_submap_points) + " points (--max-submap-points) + " +
+             Str(c.max_points_per_stored_scan) + ") x " + Str(Sizes::kSubmapUnionPointBytes) +
              " B of union, grid and both submaps + one scan + 2 x " + Str(k) + " scan origins x 24 B");
   t->Add(prefix + "registration",
-         2 * std::int64_t{c.max_submap_points} * R::kRegistrationPointBytes + R::kRegistrationGridBytes,
-         "2 submaps x " + Str(c.max_submap_points) + " points x " + Str(R::kRegistrationPointBytes) + " B + " +
-             Str(R::kRegistrationGridBytes) + " B of bird's-eye-view grids");
+         2 * std::int64_t{c.max_submap_points} * Sizes::kRegistrationPointBytes + Sizes::kRegistrationGridBytes,
+         "2 submaps x " + Str(c.max_submap_points) + " points x " + Str(Sizes::kRegistrationPointBytes) + " B + " +
+             Str(Sizes::kRegistrationGridBytes) + " B of bird's-eye-view grids");
   t->Add(prefix + "merged_map", c.merged_map_bytes, "--merged-map-mb");
   t->Add(prefix + "inbox", c.message_queue_bytes, "--queue-mb");
 }
@@ -222,7 +222,7 @@ BudgetTable MakeBudgetTable(AppKind app, const MemoryConfig& c) {
       AddServerModules(&t, c, "server.");
       break;
   }
-  t.Add("runtime", R::kRuntimeBytes, "code, stacks, LCM/glib, allocator segments");
+  t.Add("runtime", Sizes::kRuntimeBytes, "code, stacks, LCM/glib, allocator segments");
   return t;
 }
 
