@@ -134,27 +134,10 @@ Result<RegistrationResult> SubmapRegistration::Register(const SubmapView& source
                                                         RegistrationStageObserver* observer) {
   const Status valid = ValidateSubmapRegistrationParams(params);
   if (!valid.ok()) return valid;
-  correspondences_.clear();
-  pruned_.clear();
-  geometry_ready_ = false;
   const RegistrationGates& gates = params.gates;
   RegistrationResult r;
-  r.num_source_points = source.points.size();
-  r.num_target_points = target.points.size();
-
   // 0. Input checks: bad data is a verdict, never a crash.
-  if (!AllFinite(source) || !AllFinite(target)) {
-    r.verdict = RegistrationVerdict::kNonFiniteInput;
-    return r;
-  }
-  if (r.num_source_points < gates.min_points || r.num_target_points < gates.min_points) {
-    r.verdict = RegistrationVerdict::kTooFewPoints;
-    return r;
-  }
-  if (r.num_source_points > gates.max_points || r.num_target_points > gates.max_points) {
-    r.verdict = RegistrationVerdict::kTooManyPoints;
-    return r;
-  }
+  if (!CheckInputs(source, target, gates, &r)) return r;
 
   // 1. Neighbourhoods, normals, covariances (spec §1.2 steps 2-3, §2.1).
   {
@@ -221,6 +204,48 @@ Result<RegistrationResult> SubmapRegistration::Register(const SubmapView& source
   const Status s = RunGlobalSearch(source, target, params, observer, &first);
   if (!s.ok()) return s;
   return first;
+}
+
+bool SubmapRegistration::CheckInputs(const SubmapView& source, const SubmapView& target,
+                                     const RegistrationGates& gates, RegistrationResult* r) {
+  correspondences_.clear();
+  pruned_.clear();
+  geometry_ready_ = false;
+  r->num_source_points = source.points.size();
+  r->num_target_points = target.points.size();
+  if (!AllFinite(source) || !AllFinite(target)) {
+    r->verdict = RegistrationVerdict::kNonFiniteInput;
+  } else if (r->num_source_points < gates.min_points || r->num_target_points < gates.min_points) {
+    r->verdict = RegistrationVerdict::kTooFewPoints;
+  } else if (r->num_source_points > gates.max_points || r->num_target_points > gates.max_points) {
+    r->verdict = RegistrationVerdict::kTooManyPoints;
+  } else {
+    return true;
+  }
+  return false;
+}
+
+Result<RegistrationResult> SubmapRegistration::RefineFrom(const SubmapView& source, const SubmapView& target,
+                                                          const SubmapRegistrationParams& params,
+                                                          const Eigen::Isometry3d& T_target_source_guess,
+                                                          RegistrationStageObserver* observer) {
+  const Status valid = ValidateSubmapRegistrationParams(params);
+  if (!valid.ok()) return valid;
+  if (!T_target_source_guess.matrix().allFinite()) {
+    return InvalidArgument("registration: RefineFrom needs a finite T_target_source_guess");
+  }
+  RegistrationResult r;
+  r.T_target_source_coarse = T_target_source_guess;
+  r.T_target_source = T_target_source_guess;
+  if (!CheckInputs(source, target, params.gates, &r)) return r;
+  {
+    StageScope scope(observer, RegistrationStage::kNormals);
+    source_.ComputeGeometry(source.points, source.sensor_origins_m, params.features);
+    target_.ComputeGeometry(target.points, target.sensor_origins_m, params.features);
+  }
+  geometry_ready_ = true;
+  RunFine(params, T_target_source_guess, observer, &r);
+  return r;
 }
 
 Status SubmapRegistration::RunGlobalSearch(const SubmapView& source, const SubmapView& target,

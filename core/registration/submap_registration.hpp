@@ -193,6 +193,17 @@ class SubmapRegistration {
   Result<RegistrationResult> VerifyFrom(const SubmapRegistrationParams& params,
                                         const Eigen::Isometry3d& T_target_source_guess);
 
+  /// Stages 1 and 6 alone on new submaps: neighbourhoods, normals and covariances of `source` and `target`, then
+  /// GICP from `T_target_source_guess` and the gates, as Register's fine stage. For submaps of a pair registered
+  /// before from fewer scans (a final refinement on more of the path the robots share). The input checks are
+  /// Register's (kNonFiniteInput, kTooFewPoints, kTooManyPoints), the fine stage's verdicts VerifyFrom's;
+  /// T_target_source_coarse is the guess. Errors (InvalidArgument): invalid params or a non-finite guess.
+  /// VerifyFrom may follow on these submaps.
+  Result<RegistrationResult> RefineFrom(const SubmapView& source, const SubmapView& target,
+                                        const SubmapRegistrationParams& params,
+                                        const Eigen::Isometry3d& T_target_source_guess,
+                                        RegistrationStageObserver* observer = nullptr);
+
   /// Inspection of the last call (tests, diagnostics).
   const SubmapFeatures& source_features() const noexcept { return source_; }
   const SubmapFeatures& target_features() const noexcept { return target_; }
@@ -204,6 +215,10 @@ class SubmapRegistration {
   std::size_t workspace_bytes() const;
 
  private:
+  // Step 0 of Register and RefineFrom: clears the last call's state, fills r's point counts and sets the verdict
+  // of a non-finite input or a point count outside the gates (false then).
+  bool CheckInputs(const SubmapView& source, const SubmapView& target, const RegistrationGates& gates,
+                   RegistrationResult* r);
   // Stages 4-6 (pruning, robust solver, GICP and gates) for one hypothesis; fills *out.
   Status RunHypothesis(const SubmapRegistrationParams& params, RegistrationStageObserver* observer,
                        RegistrationResult* out);

@@ -256,6 +256,51 @@ TEST_CASE("VerifyFrom runs the fine stage and its gates alone: Register's own co
   CHECK_FALSE(reg.VerifyFrom(params, src.truth).ok());
 }
 
+TEST_CASE("RefineFrom on fresh submaps equals Register then VerifyFrom from the same guess, and checks its inputs") {
+  const SyntheticSubmapPair& pair = StreetPair();
+  const MovedSource src = MoveSource(pair, YawOffset(-40.0, 5.0, 9.0, -0.1));
+  const SubmapRegistrationParams params = MakeSubmapRegistrationParams(1.0);
+  // A guess 0.6 m and 2 deg off the truth (a registration from a few scans), refined on the whole submaps.
+  const Eigen::Isometry3d guess = YawOffset(2.0, 0.5, -0.3, 0.1) * src.truth;
+  SubmapRegistration reference;
+  auto registered = reference.Register({src.points, src.origins}, View(pair.target), params);
+  REQUIRE(registered.ok());
+  auto verified = reference.VerifyFrom(params, guess);
+  REQUIRE(verified.ok());
+  SubmapRegistration fresh;
+  auto refined = fresh.RefineFrom({src.points, src.origins}, View(pair.target), params, guess);
+  REQUIRE(refined.ok());
+  CHECK(refined->verdict == verified->verdict);
+  CHECK(BitwiseEqual(refined->T_target_source, verified->T_target_source));
+  CHECK(BitwiseEqual(refined->T_target_source_coarse, guess));
+  CHECK(refined->num_fine_inliers == verified->num_fine_inliers);
+  REQUIRE(refined->success());
+  CHECK(TranslationErrorM(src.truth, refined->T_target_source) < 0.2);
+  CHECK(RotationErrorDeg(src.truth, refined->T_target_source) < 1.0);
+  // VerifyFrom reuses RefineFrom's submaps.
+  auto again = fresh.VerifyFrom(params, guess);
+  REQUIRE(again.ok());
+  CHECK(BitwiseEqual(again->T_target_source, refined->T_target_source));
+
+  // Bad data are verdicts (and leave nothing for VerifyFrom); a bad guess or bad params are errors.
+  const std::vector<PointXYZI> few(pair.source.points.begin(), pair.source.points.begin() + 20);
+  auto too_few = fresh.RefineFrom({few, {}}, View(pair.target), params, guess);
+  REQUIRE(too_few.ok());
+  CHECK(too_few->verdict == RegistrationVerdict::kTooFewPoints);
+  CHECK_FALSE(fresh.VerifyFrom(params, guess).ok());
+  std::vector<PointXYZI> nan_points(src.points.begin(), src.points.end());
+  nan_points[3].y = std::numeric_limits<float>::quiet_NaN();
+  auto nan = fresh.RefineFrom({nan_points, {}}, View(pair.target), params, guess);
+  REQUIRE(nan.ok());
+  CHECK(nan->verdict == RegistrationVerdict::kNonFiniteInput);
+  Eigen::Isometry3d nan_guess = guess;
+  nan_guess.linear()(0, 0) = std::numeric_limits<double>::infinity();
+  CHECK_FALSE(fresh.RefineFrom({src.points, src.origins}, View(pair.target), params, nan_guess).ok());
+  SubmapRegistrationParams bad = params;
+  bad.gates.max_fine_correction_m = 0.0;
+  CHECK_FALSE(fresh.RefineFrom({src.points, src.origins}, View(pair.target), bad, guess).ok());
+}
+
 TEST_CASE("Parameters scale with the voxel size and are validated") {
   const SubmapRegistrationParams p = MakeSubmapRegistrationParams(0.5);
   CHECK(p.features.normal_radius_m == doctest::Approx(1.5));
