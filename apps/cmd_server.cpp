@@ -600,6 +600,7 @@ void ServerProcess::WriteExchangeRound(const MergeResultMessage& result) {
     row.scans_requested += d.scans_requested;
     row.scans_widened += d.scans_widened;
   }
+  row.scans_refined = round.refined_scans;
   for (std::size_t k = 0; k < kTrafficKinds; ++k) row.bytes[k] = traffic_->KindTotal(static_cast<TrafficKind>(k));
   for (int r = 0; r < robots_; ++r) row.robot_bytes.push_back(traffic_->RobotTotal(r));
   row.pairs = ExchangeDecisionsText(Span<const PairExchangeDecision>(round.decisions));

@@ -116,6 +116,13 @@ const MergeFlag kMergeFlags[] = {
      "when registration refuses a pair, ask again for up to twice its scans (more of stage A's keyframes) and "
      "register again, at most this many times per round (0 = the paper's single exchange)",
      FlagType::kInt, [](MergeServerParams* p) -> void* { return &p->max_widen_steps; }},
+    {"--refine-scans", "refine.scans_per_robot", "scans", 0.0, 64.0, "ours",
+     "once a pair is accepted, ask for up to this many more scans per robot, spread along the path the two robots "
+     "share (at least 10 m apart and from the scans it was registered with), and refine its transform by GICP on "
+     "them and the scan nearest where it was registered; the refined transform is kept when it passes the "
+     "registration gates and moved at most 1 m and 2 deg; 0 = off (the paper; the default for a --lidar narrower "
+     "than 360 deg, such as avia)",
+     FlagType::kSize, [](MergeServerParams* p) -> void* { return &p->refine.scans_per_robot; }},
 };
 
 template <typename V>

@@ -157,6 +157,15 @@ double PairStageATrueFraction(const RunJob& job, int a, int b) {
                             Span<const Eigen::Isometry3d>(job.trajectories[static_cast<std::size_t>(b)].ground_truth));
 }
 
+// The final refinement of a pair (core/agent/pair_refinement.hpp), when it ran.
+template <typename KV>
+void WriteRefinement(const PairRefinement& f, const std::string& k, const KV& kv) {
+  if (!f.attempted) return;
+  kv(k + "refined", std::string(f.taken ? "taken" : "not taken") + " " + RegistrationVerdictName(f.verdict));
+  kv(k + "refined_scans", std::to_string(f.alpha_scans) + " " + std::to_string(f.beta_scans));
+  kv(k + "refined_moved_m_deg", Fmt("%.3f", f.moved_m) + " " + Fmt("%.3f", f.moved_deg));
+}
+
 // Every placed cluster of the pair's cascade, one key each (pair.A-B.placed.K): its keyframe ranges, weight,
 // consensus support, whether it was passed on, the descriptor agreement at its placement (co-located, ranked,
 // agreeing, median chance) and, with ground truth, how far its placement is from the true one at its place.
@@ -206,7 +215,7 @@ std::string ModeRow(const RunJob& job, const ModeOutcome& m) {
   }
   const std::string scans = std::to_string(m.scans_requested()) + " (" + std::to_string(m.round.plan.selected_scans) +
                             " + " + std::to_string(m.round.plan.padded_scans) + " + " +
-                            std::to_string(m.round.widened_scans) + ")";
+                            std::to_string(m.round.widened_scans) + " + " + std::to_string(m.round.refined_scans) + ")";
   return "| " + std::string(ExchangeModeName(m.mode)) + " | " + scans + " | " +
          Bytes(m.scan_bytes()) + " | " + Bytes(m.ledger->KindTotal(MessageKind::kPolicies).bytes) + " | " +
          Bytes(m.ledger->KindTotal(MessageKind::kPoseUpdates).bytes) + " | " + Bytes(total) + " | " + vs + " | " +
@@ -226,6 +235,11 @@ std::string PairText(const ModeOutcome& m, std::size_t i) {
        RegistrationVerdictName(g.verdict) + " (coarse inliers " + std::to_string(g.num_coarse_inliers) + ", overlap " +
        Fmt("%.2f", g.overlap_ratio) + ", fitness " + Fmt("%.3f m", g.fitness_rmse_m) + "), " +
        Fmt("%.2f s", m.round.registration_s[i]);
+  if (const PairRefinement& f = p.refinement; f.attempted) {
+    s += "\n    refined on " + std::to_string(f.alpha_scans) + " + " + std::to_string(f.beta_scans) +
+         " scans spread along the shared path: " + RegistrationVerdictName(f.verdict) + Fmt(" (overlap %.2f)", f.overlap_ratio) +
+         ", moved " + Fmt("%.3f m", f.moved_m) + " and " + Fmt("%.2f deg", f.moved_deg) + (f.taken ? ", taken" : ", not taken");
+  }
   if (m.round.widenings[i] > 0) {
     s += " (selection widened " + std::to_string(m.round.widenings[i]) +
          "x after registration refused it; core/README.md \"Server cascade\")";
@@ -541,6 +555,7 @@ void WriteMetrics(const RunJob& job) {
     const std::string stopped = StoppedAt(final_mode, i);
     kv(k + "stopped", no_place && stopped != "merged" ? "no shared place" : stopped);
     if (p.attempted) kv(k + "submap_voxel_m", Fmt("%.3f", p.voxel_size_m));
+    WriteRefinement(p.refinement, k, kv);
     if (const ExchangeCascadeResult* c = job.server->cascade(p.alpha, p.beta); c) {
       // status incumbent bound gap nodes LPs (stage C also the loops dropped beyond max_loops)
       for (const auto& [name, o] : {std::make_pair("stage_b", StageBOutcome(*c)), std::make_pair("stage_c", StageCOutcome(*c))}) {
@@ -611,6 +626,7 @@ void WriteMetrics(const RunJob& job) {
     kv(p + "scans_selected", std::to_string(m.round.plan.selected_scans));
     kv(p + "scans_padded", std::to_string(m.round.plan.padded_scans));
     kv(p + "scans_widened", std::to_string(m.round.widened_scans));
+    kv(p + "scans_refined", std::to_string(m.round.refined_scans));
     kv(p + "widened_pairs", std::to_string(widened_pairs));
     kv(p + "scan_bytes", std::to_string(m.scan_bytes()));
     kv(p + "total_bytes", std::to_string(job.stream_bytes() + m.ledger->Total().bytes));
@@ -681,7 +697,7 @@ std::string PrintResults(const RunJob& job) {
     summary += s + "\n";
   };
   line("");
-  line("| mode | scans sent (selected + padded + widened) | scan bytes | policies | pose refresh | total exchanged | vs send-all | pairs merged | e_rmse (robots vs robot 0) | merge s |");
+  line("| mode | scans sent (selected + padded + widened + refined) | scan bytes | policies | pose refresh | total exchanged | vs send-all | pairs merged | e_rmse (robots vs robot 0) | merge s |");
   line("|---|---|---|---|---|---|---|---|---|---|");
   for (const ModeOutcome& m : job.outcomes) line(ModeRow(job, m));
   line("(total exchanged = streamed keyframe records " + Bytes(job.stream_ledger->KindTotal(MessageKind::kKeyframes).bytes) +

@@ -7,10 +7,10 @@
 # --keyframes per robot) `commerge run --modes send-all,A,A+B,A+C,A+B+C` runs twice on the same data:
 #   ours         the default flags: every mode's selection is padded with stage A's keyframes until each robot's
 #                scans hold --min-submap-stored-points (3 000) points, and a refused pair is widened up to
-#                --max-widen-steps (2) times
-#   paper-exact  --min-submap-scans 0 --min-submap-stored-points 0 --max-widen-steps 0: exactly the mode's
-#                selection, one registration
-# One row per scenario and mode: scans sent as selected + padded + widened (the mode's own selection: send-all
+#                --max-widen-steps (2) times; an accepted pair is refined on --refine-scans (2) spread scans
+#   paper-exact  --min-submap-scans 0 --min-submap-stored-points 0 --max-widen-steps 0 --refine-scans 0: exactly
+#                the mode's selection, one registration
+# One row per scenario and mode: scans sent as selected + padded + widened (+ refined) (the mode's own selection: send-all
 # every stored scan, A L_seq's endpoints, A+B the cover, A+C the clique's endpoints, A+B+C L_K's endpoints),
 # total bytes exchanged (keyframe records included) and robots placed, for both columns. Then per mode the sums
 # over the scenarios. Exit 0 unless a run fails (a crash, an unreadable input).
@@ -48,7 +48,7 @@ sums="$work/sums.tsv"
 failures=0
 echo "commerge ablation: $keyframes keyframes per robot, seed $seed, worlds $worlds, robots $robot_counts, overlaps $overlaps${run_args:+, run options: $run_args}"
 echo
-echo "| scenario | mode | ours: scans (selected + padded + widened) | ours: bytes | ours: robots placed | paper-exact: scans (selected) | paper-exact: bytes | paper-exact: robots placed |"
+echo "| scenario | mode | ours: scans (selected + padded + widened + refined) | ours: bytes | ours: robots placed | paper-exact: scans (selected) | paper-exact: bytes | paper-exact: robots placed |"
 echo "|---|---|---|---|---|---|---|---|"
 for world in $worlds; do
   for robots in $robot_counts; do
@@ -64,7 +64,7 @@ for world in $worlds; do
       declare -A m=()
       for column in ours paper; do
         extra=""
-        [ "$column" = paper ] && extra="--min-submap-scans 0 --min-submap-stored-points 0 --max-widen-steps 0"
+        [ "$column" = paper ] && extra="--min-submap-scans 0 --min-submap-stored-points 0 --max-widen-steps 0 --refine-scans 0"
         out="$work/$name/$column"
         set +e
         # The simulator writes one scan per metre: a keyframe every 0.9 m keeps every scan despite odometry noise.
@@ -83,12 +83,12 @@ for world in $worlds; do
       for mode in "${modes[@]}"; do
         p="mode.$mode."
         o=${m[ours]} e=${m[paper]}
-        echo "| $name | $mode | $(get "${p}scans" "$o") ($(get "${p}scans_selected" "$o") + $(get "${p}scans_padded" "$o") + $(get "${p}scans_widened" "$o")) | $(get "${p}total_bytes" "$o") | $(get "${p}robots_merged" "$o") | $(get "${p}scans" "$e") ($(get "${p}scans_selected" "$e")) | $(get "${p}total_bytes" "$e") | $(get "${p}robots_merged" "$e") |"
-        printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$mode" "$(get "${p}scans_selected" "$o")" \
+        echo "| $name | $mode | $(get "${p}scans" "$o") ($(get "${p}scans_selected" "$o") + $(get "${p}scans_padded" "$o") + $(get "${p}scans_widened" "$o") + $(get "${p}scans_refined" "$o")) | $(get "${p}total_bytes" "$o") | $(get "${p}robots_merged" "$o") | $(get "${p}scans" "$e") ($(get "${p}scans_selected" "$e")) | $(get "${p}total_bytes" "$e") | $(get "${p}robots_merged" "$e") |"
+        printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$mode" "$(get "${p}scans_selected" "$o")" \
             "$(get "${p}scans_padded" "$o")" "$(get "${p}scans_widened" "$o")" "$(get "${p}total_bytes" "$o")" \
             "$(get "${p}robots_merged" "$o" | cut -d/ -f1)" "$(get "${p}scans_selected" "$e")" \
             "$(get "${p}total_bytes" "$e")" "$(get "${p}robots_merged" "$e" | cut -d/ -f1)" \
-            "$(get "${p}robots_merged" "$o" | cut -d/ -f2)" >> "$sums"
+            "$(get "${p}robots_merged" "$o" | cut -d/ -f2)" "$(get "${p}scans_refined" "$o")" >> "$sums"
       done
       unset m
       if [ "$drop_data" = 1 ]; then rm -rf "$data"; fi
@@ -98,11 +98,11 @@ done
 echo
 echo "Sums over the scenarios:"
 echo
-echo "| mode | ours: scans (selected + padded + widened) | ours: MiB | ours: robots placed | paper-exact: scans | paper-exact: MiB | paper-exact: robots placed |"
+echo "| mode | ours: scans (selected + padded + widened + refined) | ours: MiB | ours: robots placed | paper-exact: scans | paper-exact: MiB | paper-exact: robots placed |"
 echo "|---|---|---|---|---|---|---|"
 for mode in "${modes[@]}"; do
-  awk -F'\t' -v mode="$mode" '$1 == mode { s += $2; p += $3; w += $4; b += $5; r += $6; es += $7; eb += $8; er += $9; n += $10 }
-    END { printf "| %s | %d (%d + %d + %d) | %.2f | %d of %d | %d | %.2f | %d of %d |\n", mode, s + p + w, s, p, w,
+  awk -F'\t' -v mode="$mode" '$1 == mode { s += $2; p += $3; w += $4; b += $5; r += $6; es += $7; eb += $8; er += $9; n += $10; f += $11 }
+    END { printf "| %s | %d (%d + %d + %d + %d) | %.2f | %d of %d | %d | %.2f | %d of %d |\n", mode, s + p + w + f, s, p, w, f,
           b / 1048576, r, n, es, eb / 1048576, er, n }' "$sums"
 done
 [ "$failures" = 0 ] || { echo "bench_ablation.sh: $failures runs failed" >&2; exit 1; }

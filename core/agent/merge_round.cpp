@@ -6,6 +6,7 @@
 #include <string>
 #include <utility>
 
+#include "core/agent/pair_refinement.hpp"
 #include "core/common/number_text.hpp"
 
 namespace commerge {
@@ -206,6 +207,7 @@ Status MergeRound::Begin(Span<const std::int64_t> sessions, std::vector<ScanRequ
   sessions_.assign(sessions.begin(), sessions.end());
   RefreshHistories();
   widen_step_ = 0;
+  refining_ = false;
   jobs_.clear();
   entry_region_.clear();
   for (const PairSelection& p : plan->pairs) current_.decisions.push_back(DecidePair(p));
@@ -257,41 +259,102 @@ Status MergeRound::Register(std::vector<Job>* jobs) {
 Result<bool> MergeRound::Continue(std::vector<ScanRequest>* requests) {
   requests->clear();
   if (!active_) return InvalidArgument("MergeRound::Continue without a round begun (call Begin first)");
-  Status st = Register(&pending_);
-  pending_.clear();
-  // Step 4: widening. Pairs that registration refused ask for more of stage A's scans and register again.
-  while (st.ok() && widen_step_ < server_->params().max_widen_steps) {
-    auto wider = server_->WidenPlan(current_.plan, Span<const PairMergeResult>(current_.pairs), next_request_id_);
-    if (!wider.ok()) {
-      st = wider.status();
-      break;
-    }
-    if (wider->pairs.empty()) break;
-    ++widen_step_;
-    widened_selections_ += wider->pairs.size();
-    AdoptSelections(Span<const PairSelection>(wider->pairs), &current_.plan.pairs);
-    std::vector<Job> widened;
-    for (const PairSelection& w : wider->pairs) {
-      for (Job& job : jobs_) {  // the pair's registration this round (widening leaves verified pairs alone)
-        if (job.selection.alpha != w.alpha || job.selection.beta != w.beta) continue;
-        job.selection = w;
-        widened.push_back(job);
+  Status st = Status::Ok();
+  if (refining_) {  // the spread scans of step 4b arrived
+    st = Refine(pending_);
+    pending_.clear();
+  } else {
+    st = Register(&pending_);
+    pending_.clear();
+    // Step 4: widening. Pairs that registration refused ask for more of stage A's scans and register again.
+    while (st.ok() && widen_step_ < server_->params().max_widen_steps) {
+      auto wider = server_->WidenPlan(current_.plan, Span<const PairMergeResult>(current_.pairs), next_request_id_);
+      if (!wider.ok()) {
+        st = wider.status();
         break;
       }
+      if (wider->pairs.empty()) break;
+      ++widen_step_;
+      widened_selections_ += wider->pairs.size();
+      AdoptSelections(Span<const PairSelection>(wider->pairs), &current_.plan.pairs);
+      std::vector<Job> widened;
+      for (const PairSelection& w : wider->pairs) {
+        for (Job& job : jobs_) {  // the pair's registration this round (widening leaves verified pairs alone)
+          if (job.selection.alpha != w.alpha || job.selection.beta != w.beta) continue;
+          job.selection = w;
+          widened.push_back(job);
+          break;
+        }
+      }
+      Request(wider->requests, wider->predicted_scan_bytes, requests);
+      for (const ScanRequest& q : *requests) current_.widened_scans += q.keyframes.size();
+      AttributeRequests(widened, *requests, /*widened=*/true);
+      if (!requests->empty()) {  // wait for the extra scans, then register these pairs again
+        pending_ = std::move(widened);
+        return false;
+      }
+      st = Register(&widened);  // every scan is held already
     }
-    Request(wider->requests, wider->predicted_scan_bytes, requests);
-    for (const ScanRequest& q : *requests) current_.widened_scans += q.keyframes.size();
-    AttributeRequests(widened, *requests, /*widened=*/true);
-    if (!requests->empty()) {  // wait for the extra scans, then register these pairs again
-      pending_ = std::move(widened);
-      return false;
+    // Step 4b: the final refinement of the pairs accepted this round, once widening is done.
+    if (st.ok()) {
+      std::vector<Job> refine = RefineJobs();
+      if (!refine.empty()) {
+        refining_ = true;
+        std::vector<PairSelection> selections;
+        for (const Job& job : refine) selections.push_back(job.selection);
+        const ExchangePlan wanted = server_->RequestsFor(Span<const PairSelection>(selections), next_request_id_);
+        Request(wanted.requests, wanted.predicted_scan_bytes, requests);
+        for (const ScanRequest& q : *requests) current_.refined_scans += q.keyframes.size();
+        if (!requests->empty()) {
+          pending_ = std::move(refine);
+          return false;
+        }
+        st = Refine(refine);
+      }
     }
-    st = Register(&widened);  // every scan is held already
   }
   if (st.ok()) st = Finish();
   active_ = false;
+  refining_ = false;
   if (!st.ok()) return st;
   return true;
+}
+
+std::vector<MergeRound::Job> MergeRound::RefineJobs() const {
+  std::vector<Job> out;
+  const RefinementParams& params = server_->params().refine;
+  if (params.scans_per_robot == 0 || params_.mode == ExchangeMode::kSendAll) return out;
+  for (const Job& job : jobs_) {
+    const PairMergeResult& r = current_.pairs[job.slot];
+    if (!r.merged() || r.kept_from_round > 0) continue;
+    const PairSelection& sel = job.selection;
+    auto spread = SpreadAlongSharedPath(PosesOf(sel.alpha), PosesOf(sel.beta), r.registration.T_target_source,
+                                        Span<const std::uint32_t>(sel.beta_keyframes), params);
+    if (!spread.ok() || spread->beta_keyframes.size() < 2) continue;  // the anchor alone adds nothing
+    Job j = job;
+    const auto added = [](const std::vector<std::uint32_t>& picks, const std::vector<std::uint32_t>& held) {
+      std::size_t n = 0;
+      for (std::uint32_t k : picks) n += !std::binary_search(held.begin(), held.end(), k);
+      return n;
+    };
+    j.spread_alpha = added(spread->alpha_keyframes, sel.alpha_keyframes);
+    j.spread_beta = added(spread->beta_keyframes, sel.beta_keyframes);
+    j.selection.alpha_keyframes = std::move(spread->alpha_keyframes);
+    j.selection.beta_keyframes = std::move(spread->beta_keyframes);
+    out.push_back(std::move(j));
+  }
+  return out;
+}
+
+Status MergeRound::Refine(const std::vector<Job>& jobs) {
+  for (const Job& job : jobs) {
+    const auto t0 = std::chrono::steady_clock::now();
+    PairMergeResult& result = current_.pairs[job.slot];
+    const Status s = server_->RefinePair(job.selection, job.spread_alpha, job.spread_beta, &result);
+    if (!s.ok()) return s;
+    current_.registration_s[job.slot] += RoundSecondsSince(t0);
+  }
+  return Status::Ok();
 }
 
 void MergeRound::RecordJob(const Job& job) {

@@ -9,6 +9,8 @@
 //   3. registration of those pairs from the scans that arrived (MergeServer::MergePair: submaps, coarse, fine);
 //   4. widening (ours, MergeServer::WidenPlan): a pair that registration refused asks for more of stage A's scans
 //      and is registered again, at most MergeServerParams::max_widen_steps times;
+//   4b. the final refinement (ours, pair_refinement.hpp; MergeServerParams::refine): each pair accepted this round
+//      asks for a few scans spread along the path its robots share and refines its transform on them;
 //   5. the pair histories: what each pair's registrations verified, where it was tried, for the robot sessions
 //      (a pair registered with selected scans missing and refused keeps the registration verified before);
 //   6. the frame solver (MergeServer::SolveFrames): one T_world_map per robot, inconsistent pairs rejected (a
@@ -20,7 +22,7 @@
 //   std::vector<ScanRequest> requests;
 //   round.Begin(sessions, &requests);          // steps 1-2
 //   do deliver(requests);                      // the driver's business: memq, LCM, retransmission, timeouts
-//   while (!*round.Continue(&requests));       // steps 3-6; widening may ask for more scans
+//   while (!*round.Continue(&requests));       // steps 3-6; widening and refinement may ask for more scans
 //   round.result();                            // selections, decisions, registrations, frames
 //
 // The object lives across rounds (the pair histories, the request ids); Begin starts the next round. Its first
@@ -81,6 +83,8 @@ struct MergeRoundResult {
   /// plan's own by origin. On a server that held no scan before the round (each mode of `commerge run`), the three
   /// add up to the scans the round requested.
   std::size_t widened_scans = 0;
+  /// Scans the final refinement asked for (not held yet); on such a server the four add up.
+  std::size_t refined_scans = 0;
   bool frames_ok = false;
   FrameSolution frames;       ///< when frames_ok
   std::string frames_error;   ///< when !frames_ok
@@ -101,9 +105,10 @@ class MergeRound {
   Status Begin(Span<const std::int64_t> sessions, std::vector<ScanRequest>* requests);
 
   /// The scans of the last requests arrived, or the driver stopped waiting for them. Registers the pairs that
-  /// waited for them; then, while a refused pair can be widened, plans the widening: returns false with the new
-  /// *requests when scans must be delivered first (call Continue again afterwards), and registers at once when
-  /// every widened scan is held. Returns true when the round is finished (result()).
+  /// waited for them; then, while a refused pair can be widened, plans the widening; then the final refinement of
+  /// the pairs accepted this round (step 4b). Returns false with the new *requests when scans must be delivered
+  /// first (call Continue again afterwards), and goes on at once when every scan asked for is held. Returns true
+  /// when the round is finished (result()).
   /// Errors: Continue without Begin, bad parameters (the round is then abandoned).
   Result<bool> Continue(std::vector<ScanRequest>* requests);
 
@@ -129,7 +134,13 @@ class MergeRound {
     /// A verified region registered again at moved poses was refused with every scan present (not for missing
     /// scans): those poses are judged.
     bool refused_with_scans = false;
+    /// A refinement job (step 4b): the keyframes added to the selection for it.
+    std::size_t spread_alpha = 0, spread_beta = 0;
   };
+  /// Step 4b: the refinement jobs of the pairs accepted this round (their selections plus the spread keyframes).
+  std::vector<Job> RefineJobs() const;
+  /// Refines each job's pair from the scans that arrived.
+  Status Refine(const std::vector<Job>& jobs);
   /// Step 2 for one plan pair: its decision; then (AddPair) its slot(s) in current_.pairs and its job when it is
   /// registered.
   PairExchangeDecision DecidePair(const PairSelection& plan_pair) const;
@@ -162,6 +173,7 @@ class MergeRound {
   MergeRoundResult current_;                   ///< the round in progress
   std::vector<Job> jobs_;                      ///< every registration of the round in progress (widened ones updated)
   std::vector<Job> pending_;                   ///< to register when the requested scans arrived
+  bool refining_ = false;                      ///< pending_ are refinement jobs (step 4b)
   /// Per entry of current_.pairs: the verified region of its pair it is or becomes (-1: none).
   std::vector<int> entry_region_;
   MergeRoundResult result_;

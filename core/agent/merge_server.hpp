@@ -82,6 +82,12 @@ class MergeServer {
   /// Builds the two submaps of `pair` from the received scans, registers beta's onto alpha's and asks DecideAccept.
   Result<PairMergeResult> MergePair(const PairSelection& pair, RegistrationStageObserver* observer = nullptr);
   /// Combines accepted pairwise results into one frame per robot (world = robot 0's map frame).
+  /// The final refinement of an accepted pair (PairRegistrar::RefinePair): `spread` holds the pair's registered
+  /// selection plus the spread keyframes (spread_alpha and spread_beta of them).
+  Status RefinePair(const PairSelection& spread, std::size_t spread_alpha, std::size_t spread_beta,
+                    PairMergeResult* result) {
+    return registrar_.RefinePair(db_, inbox_, spread, spread_alpha, spread_beta, result, note_memory_);
+  }
   Result<FrameSolution> SolveFrames(Span<const PairMergeResult> pairs) const {
     return registrar_.SolveFrames(max_robots(), pairs);
   }

@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "core/cloud/scan_codec.hpp"
 
@@ -73,6 +74,22 @@ Result<StageBCover> StageBCoverFromName(const std::string& name) {
   return InvalidArgument("unknown stage B cover '" + name + "' (pairwise, joint)");
 }
 
+Status ValidateRefinementParams(const RefinementParams& params) {
+  if (params.scans_per_robot > 64) {
+    return InvalidArgument("refine.scans_per_robot = " + std::to_string(params.scans_per_robot) + " is above 64");
+  }
+  const std::pair<const char*, double> lengths[] = {{"colocated_m", params.colocated_m},
+                                                    {"min_spacing_m", params.min_spacing_m},
+                                                    {"max_correction_m", params.max_correction_m},
+                                                    {"max_correction_deg", params.max_correction_deg}};
+  for (const auto& [name, value] : lengths) {
+    if (!(std::isfinite(value) && value > 0.0)) {
+      return InvalidArgument(std::string("refine.") + name + " = " + std::to_string(value) + " must be finite and > 0");
+    }
+  }
+  return Status::Ok();
+}
+
 Status ValidateMergeServerParams(const MergeServerParams& params) {
   if (!(params.submap_voxel_size_m >= 5e-3) || !std::isfinite(params.submap_voxel_size_m)) {
     return InvalidArgument("submap_voxel_size_m = " + std::to_string(params.submap_voxel_size_m) +
@@ -105,6 +122,7 @@ Status ValidateMergeServerParams(const MergeServerParams& params) {
   if (params.max_widen_steps < 0 || params.max_widen_steps > 8) {
     return InvalidArgument("max_widen_steps = " + std::to_string(params.max_widen_steps) + " is outside 0..8");
   }
+  if (Status s = ValidateRefinementParams(params.refine); !s.ok()) return s;
   if (params.max_scan_bytes < (1u << 16)) {
     return InvalidArgument("max_scan_bytes = " + std::to_string(params.max_scan_bytes) + " must be >= 65536");
   }
@@ -134,7 +152,12 @@ Result<MergeProfile> MergeProfileFromName(const std::string& name) {
 
 MergeServerParams MergeProfileParams(MergeProfile profile, const LidarScanTraits& traits) {
   MergeServerParams p;
-  if (profile == MergeProfile::kCommerge) return p;
+  if (profile == MergeProfile::kCommerge) {
+    // A few scans of a sensor narrower than 360 deg see little of a place, and robots that pass it the other way
+    // round see other sides of it: the spread scans made the real forward-looking splits worse (decisions/031).
+    if (traits.horizontal_fov_deg < 360.0 || traits.non_repetitive) p.refine.scans_per_robot = 0;
+    return p;
+  }
   p.cascade.stage_a = SequentialMatchParams{};
   p.cascade.stage_a.tau_inter = PaperTauInter(traits);
   p.cascade.verification_area_fraction = 0.0;
@@ -148,6 +171,7 @@ MergeServerParams MergeProfileParams(MergeProfile profile, const LidarScanTraits
   p.decision.max_colocated_chance = 0.0;
   p.decision.disagree_odds = 0.0;
   p.max_widen_steps = 0;
+  p.refine.scans_per_robot = 0;
   p.cover = StageBCover::kPairwise;
   p.min_submap_points = 0;
   return p;

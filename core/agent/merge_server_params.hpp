@@ -58,6 +58,26 @@ ExchangeCascadeParams ServerCascadeDefaults();
 /// core/agent/decisions/006-place-check-across-pairs.md).
 PlaceConsensusParams ChainAgreementDefaults();
 
+/// The final refinement of an accepted pair (ours; core/agent/pair_refinement.hpp).
+struct RefinementParams {
+  /// Spread scans asked for per robot and accepted pair, beside the anchor (0 = off: the pair keeps its
+  /// registration, the paper; MergeProfileParams sets 0 for a sensor narrower than 360 deg;
+  /// decisions/031-final-refinement-on-spread-scans.md).
+  std::size_t scans_per_robot = 2;
+  /// A keyframe of beta placed by the transform within this of a keyframe of alpha is on the shared path [m].
+  double colocated_m = 5.0;
+  /// Spread scans are at least this far from each other and from the anchor (the held scan nearest the middle of
+  /// those the pair was registered with) [m].
+  double min_spacing_m = 10.0;
+  /// The refined transform is taken when it moved the accepted one at most this much (beta's map origin moved,
+  /// and the rotation between the two) [m, deg].
+  double max_correction_m = 1.0;
+  double max_correction_deg = 2.0;
+};
+
+/// InvalidArgument naming the field: scans_per_robot above 64, a length or angle not finite or not > 0.
+Status ValidateRefinementParams(const RefinementParams& params);
+
 struct MergeServerParams {
   ExchangeCascadeParams cascade = ServerCascadeDefaults();
   /// The thresholds of the three decisions about a pair (pair_decision.hpp).
@@ -96,6 +116,8 @@ struct MergeServerParams {
   /// loops next to the selected keyframes, and registers once more; at most this many times per pair and round
   /// (0 = the paper's single exchange; core/agent/decisions/007-widening.md).
   int max_widen_steps = 2;
+  /// Once a pair is accepted, a few scans spread along the path its robots share refine its transform.
+  RefinementParams refine;
   /// The A+C ablation (Plan(kStageAC)): stage C over every loop of L_seq, run with each pair's cascade. Off
   /// when no one plans mode A+C: it costs a clique solve per pair and round.
   bool stage_ac_ablation = true;
@@ -121,7 +143,8 @@ enum class MergeProfile : std::uint8_t {
 const char* MergeProfileName(MergeProfile profile) noexcept;
 /// Parses the names above; the error lists them.
 Result<MergeProfile> MergeProfileFromName(const std::string& name);
-/// The parameters of `profile` for a sensor of `traits` (the paper's tau_inter depends on its scan pattern).
+/// The parameters of `profile` for a sensor of `traits` (the paper's tau_inter depends on its scan pattern; ours
+/// refines accepted pairs on spread scans only for a 360 deg sensor: decisions/031).
 MergeServerParams MergeProfileParams(MergeProfile profile, const LidarScanTraits& traits);
 
 /// Counters of every message the server took or refused.

@@ -7,6 +7,7 @@
 #include "core/cloud/scan_codec.hpp"
 #include "core/common/number_text.hpp"
 #include "core/exchange/transform_agreement.hpp"
+#include "core/geometry/angles.hpp"
 #include "core/memory/budget.hpp"
 
 namespace commerge {
@@ -75,6 +76,24 @@ std::size_t PairRegistrar::BuildSubmap(const KeyframeDatabase& db, const ScanInb
   return used;
 }
 
+bool PairRegistrar::BuildBoth(const KeyframeDatabase& db, const ScanInbox& inbox, const PairSelection& pair,
+                              double voxel_size_m, std::size_t* alpha_scans, std::size_t* beta_scans,
+                              std::size_t* alpha_missing, std::size_t* beta_missing,
+                              const std::function<void()>& note_memory) {
+  *alpha_scans = BuildSubmap(db, inbox, pair.alpha, Span<const std::uint32_t>(pair.alpha_keyframes), voxel_size_m,
+                             &alpha_points_, &alpha_origins_, alpha_missing, note_memory);
+  *beta_scans = BuildSubmap(db, inbox, pair.beta, Span<const std::uint32_t>(pair.beta_keyframes), voxel_size_m,
+                            &beta_points_, &beta_origins_, beta_missing, note_memory);
+  return alpha_points_.size() <= params_.max_submap_points && beta_points_.size() <= params_.max_submap_points;
+}
+
+void PairRegistrar::GrowUntilFits(const std::function<bool(double)>& build_both, double* voxel_size_m) {
+  for (int step = 1; step <= 8; ++step) {
+    *voxel_size_m *= 1.25;
+    if (build_both(*voxel_size_m)) return;
+  }
+}
+
 Result<PairMergeResult> PairRegistrar::MergePair(const KeyframeDatabase& db, const ScanInbox& inbox,
                                                  const PairSelection& pair, const ExchangeCascadeResult* cascade,
                                                  const PairEvidence* evidence, RegistrationStageObserver* observer,
@@ -89,19 +108,12 @@ Result<PairMergeResult> PairRegistrar::MergePair(const KeyframeDatabase& db, con
   }
   // Both submaps at one voxel size; grown until both fit max_submap_points.
   auto build_both = [&](double voxel_size_m) {
-    out.alpha_scans = BuildSubmap(db, inbox, pair.alpha, Span<const std::uint32_t>(pair.alpha_keyframes), voxel_size_m,
-                                  &alpha_points_, &alpha_origins_, &out.alpha_missing, note_memory);
-    out.beta_scans = BuildSubmap(db, inbox, pair.beta, Span<const std::uint32_t>(pair.beta_keyframes), voxel_size_m,
-                                 &beta_points_, &beta_origins_, &out.beta_missing, note_memory);
-    return alpha_points_.size() <= params_.max_submap_points && beta_points_.size() <= params_.max_submap_points;
+    return BuildBoth(db, inbox, pair, voxel_size_m, &out.alpha_scans, &out.beta_scans, &out.alpha_missing,
+                     &out.beta_missing, note_memory);
   };
   double voxel = params_.submap_voxel_size_m;
-  bool grown = false;
-  for (int attempt = 0;; ++attempt) {
-    if (build_both(voxel) || attempt == 8) break;
-    voxel *= 1.25;
-    grown = true;
-  }
+  const bool grown = !build_both(voxel);
+  if (grown) GrowUntilFits(build_both, &voxel);
   if (!grown && params_.min_submap_points > 0) {
     // Small scene: finer while the smaller submap gains (the scans may be stored no finer than the grid).
     std::size_t smaller = std::min(alpha_points_.size(), beta_points_.size());
@@ -176,6 +188,46 @@ Result<PairMergeResult> PairRegistrar::MergePair(const KeyframeDatabase& db, con
                  FormatNumber(params_.decision.max_colocated_chance, 3) + ")";
   }
   return out;
+}
+
+Status PairRegistrar::RefinePair(const KeyframeDatabase& db, const ScanInbox& inbox, const PairSelection& spread,
+                                 std::size_t spread_alpha, std::size_t spread_beta, PairMergeResult* result,
+                                 const std::function<void()>& note_memory) {
+  if (!result->merged() || result->alpha != spread.alpha || result->beta != spread.beta) return Status::Ok();
+  PairRefinement& r = result->refinement;
+  r = PairRefinement{};
+  r.T_target_source_registered = result->registration.T_target_source;
+  std::size_t alpha_missing = 0, beta_missing = 0;
+  auto build_both = [&](double voxel_size_m) {
+    return BuildBoth(db, inbox, spread, voxel_size_m, &r.alpha_scans, &r.beta_scans, &alpha_missing, &beta_missing,
+                     note_memory);
+  };
+  double voxel = params_.submap_voxel_size_m;
+  if (!build_both(voxel)) GrowUntilFits(build_both, &voxel);
+  r.alpha_missing = std::min(alpha_missing, spread_alpha);
+  r.beta_missing = std::min(beta_missing, spread_beta);
+  // Spread scans were asked for and none arrived: nothing to refine on (picks that were all held cost nothing).
+  if (spread_alpha + spread_beta > 0 && r.alpha_missing == spread_alpha && r.beta_missing == spread_beta) {
+    return Status::Ok();
+  }
+  SubmapRegistrationParams reg = MakeSubmapRegistrationParams(voxel);
+  reg.gates = params_.gates;
+  reg.gates.max_points = std::max(reg.gates.max_points, params_.max_submap_points);
+  const SubmapView source{Span<const PointXYZI>(beta_points_), Span<const Eigen::Vector3d>(beta_origins_)};
+  const SubmapView target{Span<const PointXYZI>(alpha_points_), Span<const Eigen::Vector3d>(alpha_origins_)};
+  auto fine = registration_.RefineFrom(source, target, reg, r.T_target_source_registered);
+  note_memory();
+  if (!fine.ok()) return fine.status();
+  r.attempted = true;
+  r.verdict = fine->verdict;
+  r.overlap_ratio = fine->overlap_ratio;
+  const Eigen::Isometry3d change = fine->T_target_source * r.T_target_source_registered.inverse();
+  r.moved_m = (fine->T_target_source.translation() - r.T_target_source_registered.translation()).norm();
+  r.moved_deg = RotationAngleRad(change.linear()) * 180.0 / kPi;
+  const RefinementParams& bound = params_.refine;
+  r.taken = fine->success() && r.moved_m <= bound.max_correction_m && r.moved_deg <= bound.max_correction_deg;
+  if (r.taken) result->registration.T_target_source = fine->T_target_source;
+  return Status::Ok();
 }
 
 void PairRegistrar::MeasureColocation(const KeyframeDatabase& db, const ExchangeCascadeResult& cascade,

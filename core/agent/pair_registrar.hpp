@@ -27,6 +27,20 @@
 
 namespace commerge {
 
+/// The final refinement of an accepted pair (core/agent/pair_refinement.hpp).
+struct PairRefinement {
+  bool attempted = false;  ///< spread scans were received and the fine stage ran on them
+  bool taken = false;      ///< its transform replaced the registered one (gates passed, moved within bounds)
+  std::size_t alpha_scans = 0, beta_scans = 0;  ///< spread scans used (on top of the registered selection)
+  std::size_t alpha_missing = 0, beta_missing = 0;  ///< spread scans asked for and not received
+  RegistrationVerdict verdict = RegistrationVerdict::kTooFewPoints;  ///< the fine stage's on the refined submaps
+  double overlap_ratio = 0.0;
+  double moved_m = 0.0;    ///< beta's map origin moved by the refined transform against the registered one
+  double moved_deg = 0.0;  ///< rotation between the two
+  /// The registered transform (before refinement; registration.T_target_source holds the refined one when taken).
+  Eigen::Isometry3d T_target_source_registered = Eigen::Isometry3d::Identity();
+};
+
 /// What registering one pair produced.
 struct PairMergeResult {
   int alpha = 0, beta = 0;
@@ -47,6 +61,7 @@ struct PairMergeResult {
   /// A's cluster it places on top of alpha's, and their median chance (-1 when not measured).
   std::size_t colocated_keyframes = 0;
   double colocated_chance = -1.0;
+  PairRefinement refinement;
   /// Registered and accepted (DecideAccept): the transform joins the two maps.
   bool merged() const noexcept { return attempted && stop == PairStop::kNone; }
   /// Registered, with a transform (accepted, or refused by a check after registration's gates passed).
@@ -76,6 +91,14 @@ class PairRegistrar {
                                     const ExchangeCascadeResult* cascade, const PairEvidence* evidence,
                                     RegistrationStageObserver* observer, const std::function<void()>& note_memory);
 
+  /// The final refinement of an accepted `result` (pair_refinement.hpp): beta's submap onto alpha's from the scans of
+  /// `spread` (the pair's registered selection plus the spread keyframes) by the fine stage alone from the registered
+  /// transform; fills result->refinement and, when taken, result->registration.T_target_source. A pair not merged,
+  /// or whose spread scans all went missing, is left as it is.
+  Status RefinePair(const KeyframeDatabase& db, const ScanInbox& inbox, const PairSelection& spread,
+                    std::size_t spread_alpha, std::size_t spread_beta, PairMergeResult* result,
+                    const std::function<void()>& note_memory);
+
   /// Combines accepted pairwise results into one frame per robot (world = robot 0's map frame).
   Result<FrameSolution> SolveFrames(int max_robots, Span<const PairMergeResult> pairs) const;
 
@@ -85,6 +108,13 @@ class PairRegistrar {
   std::size_t RegistrationBytes() const { return registration_.workspace_bytes(); }
 
  private:
+  // Both submaps of `pair` at voxel_size_m (BuildSubmap each); true when both fit max_submap_points.
+  bool BuildBoth(const KeyframeDatabase& db, const ScanInbox& inbox, const PairSelection& pair, double voxel_size_m,
+                 std::size_t* alpha_scans, std::size_t* beta_scans, std::size_t* alpha_missing,
+                 std::size_t* beta_missing, const std::function<void()>& note_memory);
+  // After build_both(*voxel_size_m) did not fit: the voxel grows by 25 % steps, at most 8, until both fit (the last
+  // size taken stays built).
+  static void GrowUntilFits(const std::function<bool(double)>& build_both, double* voxel_size_m);
   // Fills result's colocated_keyframes / colocated_chance for its registered transform.
   void MeasureColocation(const KeyframeDatabase& db, const ExchangeCascadeResult& cascade,
                          PairMergeResult* result) const;

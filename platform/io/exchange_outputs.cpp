@@ -38,7 +38,7 @@ std::string Seconds(double s) {
 std::string ExchangeRoundsHeader(int robots) {
   std::string line;
   for (const char* c : {"round", "time_s", "robots_placed", "robots", "pairs_merged", "pairs_registered",
-                        "pairs_kept", "scans_requested", "scans_widened"}) {
+                        "pairs_kept", "scans_requested", "scans_widened", "scans_refined"}) {
     AddField(&line, c);
   }
   for (std::size_t k = 0; k < kTrafficKinds; ++k) AddField(&line, std::string(TrafficKindName(static_cast<TrafficKind>(k))) + "_B");
@@ -58,7 +58,8 @@ Status AppendExchangeRound(const std::string& path, const ExchangeRoundRow& row)
   AddField(&line, std::to_string(row.round));
   AddField(&line, Seconds(row.time_s));
   for (std::size_t v : {static_cast<std::size_t>(row.robots_placed), static_cast<std::size_t>(row.robots),
-                        row.pairs_merged, row.pairs_registered, row.pairs_kept, row.scans_requested, row.scans_widened}) {
+                        row.pairs_merged, row.pairs_registered, row.pairs_kept, row.scans_requested, row.scans_widened,
+                        row.scans_refined}) {
     AddField(&line, std::to_string(v));
   }
   std::uint64_t total = 0;

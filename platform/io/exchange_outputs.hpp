@@ -29,6 +29,7 @@ struct ExchangeRoundRow {
   std::size_t pairs_merged = 0;  ///< pair results that hold a transform (registered now or kept)
   std::size_t pairs_registered = 0, pairs_kept = 0;
   std::size_t scans_requested = 0, scans_widened = 0;
+  std::size_t scans_refined = 0;  ///< asked for by the final refinement of accepted pairs (MergeRoundResult)
   std::array<std::uint64_t, kTrafficKinds> bytes{};  ///< received so far, by TrafficKind
   std::vector<std::uint64_t> robot_bytes;           ///< received so far, per robot 0..n-1 (every kind)
   std::vector<int> placed;                          ///< the robots in the world frame after the round
@@ -36,7 +37,8 @@ struct ExchangeRoundRow {
 };
 
 /// The columns of exchange_rounds.tsv for `robots` robots, tab-separated: round, time_s, robots_placed, robots,
-/// pairs_merged, pairs_registered, pairs_kept, scans_requested, scans_widened, <kind>_B for every TrafficKind, total_B,
+/// pairs_merged, pairs_registered, pairs_kept, scans_requested, scans_widened, scans_refined, <kind>_B for every
+/// TrafficKind, total_B,
 /// robot<r>_B for r = 0..robots-1, placed (robot ids joined by ",", "-" for none), pairs.
 std::string ExchangeRoundsHeader(int robots);
 /// Creates (or empties) the file with its header line.

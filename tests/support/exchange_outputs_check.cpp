@@ -71,7 +71,7 @@ int main(int argc, char** argv) {
   expected.pop_back();  // its newline
   if (line != expected) return Fail("header is '" + line + "', not '" + expected + "'");
   const std::vector<std::string> columns = SplitTabs(line);
-  const std::size_t first_kind = 9, total_column = first_kind + kTrafficKinds, first_robot = total_column + 1;
+  const std::size_t first_kind = 10, total_column = first_kind + kTrafficKinds, first_robot = total_column + 1;
   std::vector<double> previous(columns.size(), 0.0);
   int rows = 0;
   const std::size_t scans_requested_column =

@@ -32,6 +32,13 @@ TEST_CASE("Merge profiles: commerge is the defaults, paper the paper's cascade w
   CHECK(ours.cascade.stage_a.tau_area == defaults.cascade.stage_a.tau_area);
   CHECK(ours.decision.min_ambiguous_support == defaults.decision.min_ambiguous_support);
   CHECK(ours.max_widen_steps == defaults.max_widen_steps);
+  CHECK(ours.refine.scans_per_robot == defaults.refine.scans_per_robot);
+  CHECK(ours.refine.scans_per_robot > 0);
+  // Forward-looking sensors are not refined on spread scans (decision 031).
+  CHECK(MergeProfileParams(MergeProfile::kCommerge, avia).refine.scans_per_robot == 0);
+  LidarScanTraits aeva;
+  aeva.horizontal_fov_deg = 120.0;
+  CHECK(MergeProfileParams(MergeProfile::kCommerge, aeva).refine.scans_per_robot == 0);
   CHECK(ValidateMergeServerParams(ours).ok());
 
   for (const LidarScanTraits& traits : {spinning, avia}) {
@@ -55,6 +62,7 @@ TEST_CASE("Merge profiles: commerge is the defaults, paper the paper's cascade w
     CHECK(paper.decision.max_colocated_chance == 0.0);
     CHECK(paper.decision.disagree_odds == 0.0);
     CHECK(paper.max_widen_steps == 0);
+    CHECK(paper.refine.scans_per_robot == 0);
     CHECK(paper.cover == StageBCover::kPairwise);
     CHECK(paper.min_submap_points == 0);
   }

@@ -269,6 +269,105 @@ std::size_t Scans(const std::vector<ScanRequest>& requests) {
 
 }  // namespace
 
+TEST_CASE("Merge round: an accepted pair asks for the scans spread along its shared path and refines its transform") {
+  // Robot 0's keyframes 0-3 at the origin (keyframe 3 matches robot 1's keyframe 0, stage A's only loop), 4 and 5
+  // at 6 and 12 m along x; robot 1's keyframes 1 and 2 where the truth places them on robot 0's 4 and 5. Every
+  // scan holds its robot's submap of the street, seen from its keyframe.
+  SyntheticSubmapPair pair;
+  REQUIRE(MakeStreetSubmapPair(test::LightStreetSpec(41, test::YawOffset(70.0, 12.0, -6.0, 0.3)), &pair).ok());
+  const Eigen::Isometry3d& truth = pair.T_target_source;
+  const std::vector<Eigen::Vector3d> alpha_at = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+                                                 Eigen::Vector3d::Zero(), Eigen::Vector3d(6.0, 0.0, 0.0),
+                                                 Eigen::Vector3d(12.0, 0.0, 0.0)};
+  const std::vector<Eigen::Vector3d> beta_at = {Eigen::Vector3d::Zero(), truth.inverse() * alpha_at[4],
+                                                truth.inverse() * alpha_at[5]};
+  for (std::size_t scans_per_robot : {0u, 2u}) {
+    CAPTURE(scans_per_robot);
+    MergeServerParams params;
+    params.cascade.stage_a = SequentialMatchParams{};
+    params.cascade.stage_a.tau_area = 1;
+    params.refine.scans_per_robot = scans_per_robot;
+    params.refine.colocated_m = 3.0;
+    params.refine.min_spacing_m = 4.0;
+    auto server = commerge::test::MakeTestServer(2, 100, params);
+    std::mt19937 rng(3);
+    std::vector<std::array<float, kKeyframeDescriptorDim>> da, db;
+    for (int k = 0; k < 6; ++k) da.push_back(RandomDescriptor(&rng));
+    db = {da[3], RandomDescriptor(&rng), RandomDescriptor(&rng)};
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(0, 0, da, alpha_at, 0)).ok());
+    REQUIRE(server->OnKeyframeBatch(MakeBatch(1, 0, db, beta_at, 0)).ok());
+    const auto deliver = [&](const std::vector<ScanRequest>& requests) {
+      for (const ScanRequest& q : requests) {
+        for (std::uint32_t k : q.keyframes) {
+          const bool alpha = q.robot_id == 0;
+          const Eigen::Vector3f at = (alpha ? alpha_at : beta_at)[k].cast<float>();
+          std::vector<PointXYZI> seen = alpha ? pair.target.points : pair.source.points;
+          for (PointXYZI& p : seen) {
+            p.x -= at.x();
+            p.y -= at.y();
+            p.z -= at.z();
+          }
+          for (const ScanChunk& c : ChunksOf(q.robot_id, k, EncodeForTest(seen), 1200)) {
+            REQUIRE(server->OnScanChunk(c).ok());
+          }
+        }
+      }
+    };
+    MergeRound round(server.get(), MergeRoundParams{});
+    std::vector<ScanRequest> requests;
+    REQUIRE(round.Begin(Span<const std::int64_t>(kSessions), &requests).ok());
+    REQUIRE(requests.size() == 2);
+    CHECK(requests[0].keyframes == std::vector<std::uint32_t>{3});
+    CHECK(requests[1].keyframes == std::vector<std::uint32_t>{0});
+    deliver(requests);
+    auto done = round.Continue(&requests);
+    REQUIRE(done.ok());
+    if (scans_per_robot == 0) {
+      CHECK(*done);
+      CHECK(requests.empty());
+      const MergeRoundResult& r = round.result();
+      REQUIRE(r.pairs.size() == 1);
+      CHECK(r.pairs[0].merged());
+      CHECK(r.refined_scans == 0);
+      CHECK_FALSE(r.pairs[0].refinement.attempted);
+      continue;
+    }
+    // Accepted: the round asks for robot 0's keyframes 4 and 5 and robot 1's 1 and 2, the spread picks. Robot 1's
+    // held keyframe 0 is not on the shared path (the truth places it 3.9 m from robot 0's keyframe 5, beyond 3 m), so
+    // the pick nearest it anchors the set.
+    REQUIRE_FALSE(*done);
+    REQUIRE(requests.size() == 2);
+    CHECK(requests[0].robot_id == 0);
+    CHECK(requests[0].keyframes == std::vector<std::uint32_t>{4, 5});
+    CHECK(requests[1].robot_id == 1);
+    CHECK(requests[1].keyframes == std::vector<std::uint32_t>{1, 2});
+    deliver(requests);
+    done = round.Continue(&requests);
+    REQUIRE(done.ok());
+    CHECK(*done);
+    CHECK(requests.empty());
+    const MergeRoundResult& r = round.result();
+    REQUIRE(r.pairs.size() == 1);
+    const PairMergeResult& p = r.pairs[0];
+    CHECK(p.merged());
+    CHECK(r.refined_scans == 4);
+    CHECK(r.plan.requests.size() == 4);
+    CHECK(p.refinement.attempted);
+    CHECK(p.refinement.taken);
+    CHECK(p.refinement.alpha_scans == 2);
+    CHECK(p.refinement.beta_scans == 2);
+    CHECK(p.refinement.alpha_missing + p.refinement.beta_missing == 0);
+    CHECK(p.refinement.verdict == RegistrationVerdict::kSuccess);
+    // The registered transform is kept beside the refined one; both lie at the truth.
+    CHECK(p.refinement.moved_m <= params.refine.max_correction_m);
+    CHECK(test::TranslationErrorM(truth, p.refinement.T_target_source_registered) < 0.3);
+    CHECK(test::TranslationErrorM(truth, p.registration.T_target_source) < 0.2);
+    CHECK(test::RotationErrorDeg(truth, p.registration.T_target_source) < 1.0);
+    REQUIRE(r.frames_ok);
+    CHECK(r.T_world_map(1).isApprox(p.registration.T_target_source));
+  }
+}
+
 TEST_CASE("Merge round: a verified pair keeps its result and asks for no scans while nothing changed, not after a restart") {
   StreetRounds s;
   MergeRound round(s.server.get(), MergeRoundParams{});

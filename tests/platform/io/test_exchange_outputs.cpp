@@ -72,6 +72,7 @@ TEST_CASE("Exchange outputs: rounds, summary and chart read back as written") {
   row.pairs_registered = 1;
   row.scans_requested = 100;
   row.scans_widened = 4;
+  row.scans_refined = 2;
   for (std::size_t k = 0; k < kTrafficKinds; ++k) row.bytes[k] = traffic.KindTotal(static_cast<TrafficKind>(k));
   row.robot_bytes = {traffic.RobotTotal(0), traffic.RobotTotal(1)};
   row.placed = {0, 1};
@@ -80,7 +81,7 @@ TEST_CASE("Exchange outputs: rounds, summary and chart read back as written") {
   row.round = 2;
   row.pairs_registered = 0;
   row.pairs_kept = 1;
-  row.scans_requested = row.scans_widened = 0;
+  row.scans_requested = row.scans_widened = row.scans_refined = 0;
   row.placed = {0};
   row.robots_placed = 1;
   row.pairs = "a\ttab";  // a tab in the text would shift the columns: written as a space
@@ -89,19 +90,20 @@ TEST_CASE("Exchange outputs: rounds, summary and chart read back as written") {
   const auto tsv = ReadTsv(rounds);
   REQUIRE(tsv.size() == 3);
   const std::vector<std::string> header = {"round", "time_s", "robots_placed", "robots", "pairs_merged", "pairs_registered",
-                                           "pairs_kept", "scans_requested", "scans_widened", "keyframe_records_B",
+                                           "pairs_kept", "scans_requested", "scans_widened", "scans_refined", "keyframe_records_B",
                                            "pose_updates_B", "scans_B", "resends_B", "robot_status_B", "total_B",
                                            "robot0_B", "robot1_B", "placed", "pairs"};
   CHECK(tsv[0] == header);
   // records 60 x 1100 + 60 x 1000, poses 660, scans 100 x 1250, re-sent 139, status 6 x 380; robot 0 66000 + 660 +
   // 139 + 2280, robot 1 60000 + 125000.
-  const std::vector<std::string> first = {"1", "31.250", "2", "2", "1", "1", "0", "100", "4", "126000", "660", "125000",
+  const std::vector<std::string> first = {"1", "31.250", "2", "2", "1", "1", "0", "100", "4", "2", "126000", "660", "125000",
                                           "139", "2280", "254079", "69079", "185000", "0,1", "0-1 robot_not_placed 100+4"};
   CHECK(tsv[1] == first);
   CHECK(tsv[2][0] == "2");
   CHECK(tsv[2][6] == "1");
-  CHECK(tsv[2][17] == "0");
-  CHECK(tsv[2][18] == "a tab");
+  CHECK(tsv[2][9] == "0");
+  CHECK(tsv[2][18] == "0");
+  CHECK(tsv[2][19] == "a tab");
 
   const std::string summary_path = test::ScratchFile("exchange_summary.tsv");
   platform::ExchangeSummary summary;
