@@ -74,6 +74,7 @@ sections=(
   "recall-joint-cover|2 h|-|Merge recall: Stage B: joint cover against pairwise"
   "ablation|2 h|-|Merge recall: Exchange-mode ablation"
   "recall-scan-context|1 h|-|Merge recall: Scan Context against the ring descriptor"
+  "recall-refinement|2 h (10 GB of data)|-|Merge recall: Final refinement on spread scans"
   "bench-voxel-grid|5 s|kitti|Component benchmarks: voxel grid"
   "bench-descriptor|5 s|kitti|Component benchmarks: SOLiD / Scan Context"
   "bench-robot-keyframe|5 s|kitti|Component benchmarks: robot per keyframe"
@@ -417,6 +418,23 @@ sec_recall_indoor_pairs() {
   "$here/placement_evidence.sh" --pairs --world indoor "$work/recall-indoor-pairs" \
       || fail "placement_evidence.sh failed"
   echo
+}
+
+sec_recall_refinement() {
+  echo "### Final refinement on spread scans"
+  echo
+  local slice='-(2r|3r)-(moderate|partial)-alternate-w0.5' seed outs=()
+  for seed in 11 23 83; do
+    recall "recall-refinement-s$seed" --slice generated --seeds "$seed" --keyframes 400 --only "$slice" --send-all \
+        --baseline-run-args "--refine-scans 0" --drop-data \
+        || { fail "bench_recall.sh failed (see $work/recall-refinement-s$seed.out, .err)"; return; }
+    outs+=("$work/recall-refinement-s$seed.out")
+  done
+  echo "Tune seeds 11 and 23, then test seed 83 (\`profiling/refinement_table.sh OUTPUT...\`):"
+  echo
+  "$here/refinement_table.sh" "${outs[0]}" "${outs[1]}" || fail "refinement_table.sh failed"
+  echo
+  "$here/refinement_table.sh" "${outs[2]}" || fail "refinement_table.sh failed"
 }
 
 sec_recall_livox() {
