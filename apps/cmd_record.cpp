@@ -49,6 +49,10 @@ std::string Summary(const platform::LcmRecorder& rec) {
   return line;
 }
 
+/// On a stop: keep writing until this long passes without a message, at most kDrainMaxMs [ms].
+constexpr int kDrainQuietMs = 200;
+constexpr int kDrainMaxMs = 2000;
+
 int RunRecord(const RecordOptions& o) {
   const char* tag = "commerge record";
   auto rec = platform::LcmRecorder::Open(o.params);
@@ -75,6 +79,14 @@ int RunRecord(const RecordOptions& o) {
     if (!o.quiet && now >= next_progress_us) {
       next_progress_us = now + 10000000;
       std::fprintf(stderr, "%s\n", Summary(**rec).c_str());
+    }
+  }
+  // A stop request comes right after the mission's last messages (the script or the operator saw it end): take what
+  // the network still holds for this process before closing, or the log can lack the final round step.
+  if (exit_code == kExitOk) {
+    if (auto drained = (*rec)->Drain(kDrainQuietMs, kDrainMaxMs); !drained.ok()) {
+      std::fprintf(stderr, "%s: %s\n", tag, drained.status().message().c_str());
+      exit_code = kExitFailure;
     }
   }
   if (Status st = (*rec)->Close(); !st.ok()) {

@@ -68,6 +68,7 @@ unity=${CM_UNITY_BUILD:-ON}
 
 summary=()
 failed_configs=()
+digests=()
 
 # Appends the summary lines of a finished ctest run: counts from ctest's own report ($dir/ctest.log), and for
 # each skipped test its first CM-SKIP line from $dir/Testing/Temporary/LastTest.log.
@@ -160,19 +161,23 @@ run_config() {
   if [ $rc -ne 0 ]; then failure_digest "$name" "$dir"; return $rc; fi
 }
 
-# After a failed ctest: the failed tests and the lines of their logs that say why, last in the output (a CI log
-# is often read from its tail, and -j2 interleaves the tests' own output).
+# After a failed ctest: the failed tests and the lines of their logs that say why (a test script's own error
+# lines, "name.sh: ...", included). -j interleaves the tests' own output, and a CI log is often read from its
+# tail: the digest goes to $dir/failure-digest.txt too, and is printed again after the summary.
 failure_digest() {
   local name=$1 dir=$2 log="$2/Testing/Temporary/LastTest.log"
-  echo "=== [$name] failure digest ==="
-  if [ -f "$dir/Testing/Temporary/LastTestsFailed.log" ]; then
-    sed 's/^/  failed: /' "$dir/Testing/Temporary/LastTestsFailed.log"
-  fi
-  if [ -f "$log" ]; then
-    grep -a -E "^[0-9]+/[0-9]+ Testing:|Test Failed|cm-fuzz:|libFuzzer: |==[0-9]+==ERROR|SUMMARY: |runtime error:|failed \(exit|the failing input|ERROR: CHECK|ERROR: REQUIRE|\[doctest\] test cases:.*[1-9][0-9]* failed|Segmentation|Aborted|Timeout" \
-      "$log" | cut -c1-300 | tail -n 60 | sed 's/^/  /'
-  fi
-  echo "=== [$name] FAILED (full log: $log) ==="
+  {
+    echo "=== [$name] failure digest ==="
+    if [ -f "$dir/Testing/Temporary/LastTestsFailed.log" ]; then
+      sed 's/^/  failed: /' "$dir/Testing/Temporary/LastTestsFailed.log"
+    fi
+    if [ -f "$log" ]; then
+      grep -a -E "^[0-9]+/[0-9]+ Testing:|Test Failed|^[A-Za-z0-9_.-]+\.sh: |MISMATCH|cm-fuzz:|libFuzzer: |==[0-9]+==ERROR|SUMMARY: |runtime error:|failed \(exit|the failing input|ERROR: CHECK|ERROR: REQUIRE|\[doctest\] test cases:.*[1-9][0-9]* failed|Segmentation|Aborted|Timeout" \
+        "$log" | cut -c1-300 | tail -n 60 | sed 's/^/  /'
+    fi
+    echo "=== [$name] FAILED (full log: $log) ==="
+  } | tee "$dir/failure-digest.txt"
+  digests+=("$dir/failure-digest.txt")
 }
 
 start=$SECONDS
@@ -193,6 +198,7 @@ done
 echo "=== summary ($((SECONDS - start)) s) ==="
 printf '  %s\n' "${summary[@]}"
 if [ ${#failed_configs[@]} -gt 0 ]; then
+  if [ ${#digests[@]} -gt 0 ]; then cat "${digests[@]}"; fi
   echo "=== FAILED: ${failed_configs[*]} ==="
   exit 1
 fi

@@ -122,6 +122,17 @@ Status LcmRecorder::Poll(int timeout_ms) {
   return Status::Ok();
 }
 
+Result<std::uint64_t> LcmRecorder::Drain(int quiet_ms, int max_ms) {
+  const std::uint64_t before = stats_.messages;
+  const std::int64_t end_us = MonotonicUs() + static_cast<std::int64_t>(std::max(0, max_ms)) * 1000;
+  for (;;) {
+    const std::uint64_t seen = stats_.messages;
+    if (Status st = Poll(std::max(1, quiet_ms)); !st.ok()) return st;
+    if (stats_.messages == seen || MonotonicUs() >= end_us) break;
+  }
+  return stats_.messages - before;
+}
+
 Status LcmRecorder::WriteQueued() {
   BusMessage m;
   while (bus_->Take(&m)) {

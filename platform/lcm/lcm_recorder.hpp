@@ -103,6 +103,10 @@ class LcmRecorder {
   /// Waits up to timeout_ms for traffic and writes every message that arrived, in arrival order, with LCM's
   /// receive time. An error names the file (disk full, ...); the log stays readable up to the last whole event.
   Status Poll(int timeout_ms);
+  /// Polls until quiet_ms pass without a new message, or max_ms in all: on a stop request, what the network
+  /// still holds for this process (the mission's last round step and result, sent just before everybody exited)
+  /// reaches the log before Close. Returns the messages it wrote; errors as Poll.
+  Result<std::uint64_t> Drain(int quiet_ms, int max_ms);
   /// Flushes the log to the file (Poll flushes once a second by itself).
   Status Flush();
   /// Writes what is still queued, flushes and closes; later Polls fail. Called by the destructor too.

@@ -250,6 +250,33 @@ TEST_CASE("record: the log holds every message of the recorded channels in order
   std::filesystem::remove(path);
 }
 
+TEST_CASE("record: Drain writes every message still arriving, returns their count, and returns 0 on a quiet bus") {
+  const std::string path = Temp("drain.lcmlog");
+  auto rec = LcmRecorder::Open(MemqParams(path));
+  REQUIRE_MESSAGE(rec.ok(), rec.status().message());
+  LcmBus* bus = (*rec)->bus_for_testing();
+  auto robot = Signer(2, 9);
+  REQUIRE((*rec)->Poll(0).ok());  // starts the bus's receive thread
+  // Nobody polls while these are published: they wait in LCM and the bus's queue, as a mission's last messages
+  // do when the stop request comes.
+  const std::size_t sent = 300;
+  for (std::size_t i = 0; i < sent; ++i) {
+    REQUIRE(bus->PublishRaw("COMMERGE_ROUND", SignedMessage(robot.get(), "COMMERGE_ROUND", 200)).ok());
+  }
+  auto drained = (*rec)->Drain(200, 10000);
+  REQUIRE_MESSAGE(drained.ok(), drained.status().message());
+  CHECK(*drained == sent);
+  CHECK((*rec)->stats().messages == sent);
+  auto quiet = (*rec)->Drain(50, 10000);
+  REQUIRE(quiet.ok());
+  CHECK(*quiet == 0);
+  REQUIRE((*rec)->Close().ok());
+  CHECK(ReadLog(path).size() == sent);
+  CHECK((*rec)->sequences().missing() == 0);
+  CHECK_FALSE((*rec)->Drain(10, 10).ok());  // closed
+  std::filesystem::remove(path);
+}
+
 TEST_CASE("record: an existing log is refused without overwrite, a missing directory and a full disk are named") {
   const std::string path = Temp("exists.lcmlog");
   {
