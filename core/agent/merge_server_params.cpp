@@ -78,7 +78,7 @@ Status ValidateRefinementParams(const RefinementParams& params) {
   if (params.scans_per_robot > 64) {
     return InvalidArgument("refine.scans_per_robot = " + std::to_string(params.scans_per_robot) + " is above 64");
   }
-  const std::pair<const char*, double> lengths[] = {{"colocated_m", params.colocated_m},
+  const std::pair<const char*, double> lengths[] = {{"shared_path_m", params.shared_path_m},
                                                     {"min_spacing_m", params.min_spacing_m},
                                                     {"max_correction_m", params.max_correction_m},
                                                     {"max_correction_deg", params.max_correction_deg}};

@@ -65,7 +65,7 @@ struct RefinementParams {
   /// decisions/031-final-refinement-on-spread-scans.md).
   std::size_t scans_per_robot = 2;
   /// A keyframe of beta placed by the transform within this of a keyframe of alpha is on the shared path [m].
-  double colocated_m = 5.0;
+  double shared_path_m = 5.0;
   /// Spread scans are at least this far from each other and from the anchor (the held scan nearest the middle of
   /// those the pair was registered with) [m].
   double min_spacing_m = 10.0;

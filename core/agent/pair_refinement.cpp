@@ -34,16 +34,16 @@ Result<SpreadKeyframes> SpreadAlongSharedPath(const RobotPoses& alpha, const Rob
   if (!T_alpha_beta.matrix().allFinite()) return InvalidArgument("SpreadAlongSharedPath: T_alpha_beta is not finite");
   SpreadKeyframes out;
   if (params.scans_per_robot == 0) return out;
-  // Alpha's keyframes by grid cell (side colocated_m): a keyframe's neighbours within colocated_m are in the 27
+  // Alpha's keyframes by grid cell (side shared_path_m): a keyframe's neighbours within shared_path_m are in the 27
   // cells around its own.
-  const double cell_m = params.colocated_m;
+  const double cell_m = params.shared_path_m;
   std::vector<std::pair<std::int64_t, std::uint32_t>> alpha_cells;
   for (std::size_t k = 0; k < alpha.T_map_sensor.size(); ++k) {
     if (Known(alpha, k)) alpha_cells.emplace_back(CellKey(alpha.T_map_sensor[k].translation(), cell_m), k);
   }
   std::sort(alpha_cells.begin(), alpha_cells.end());
   const auto nearest_alpha = [&](const Eigen::Vector3d& q, std::uint32_t* best) {
-    double best_d2 = params.colocated_m * params.colocated_m;
+    double best_d2 = params.shared_path_m * params.shared_path_m;
     bool found = false;
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {

@@ -29,7 +29,7 @@ struct SpreadKeyframes {
 };
 
 /// Keyframes spread along the path robots alpha and beta share under T_alpha_beta (p_alpha = T p_beta). Beta's
-/// keyframes placed within params.colocated_m of one of alpha's are on the shared path. The first pick anchors the
+/// keyframes placed within params.shared_path_m of one of alpha's are on the shared path. The first pick anchors the
 /// set where the pair was registered (the held beta keyframe on the path nearest the held ones' centroid); then up
 /// to scans_per_robot more by farthest-point sampling, each at least min_spacing_m from every pick; with each pick,
 /// alpha's keyframe nearest to it. Scans are weighed by what they see, not by how many of one place the pair

@@ -287,7 +287,7 @@ TEST_CASE("Merge round: an accepted pair asks for the scans spread along its sha
     params.cascade.stage_a = SequentialMatchParams{};
     params.cascade.stage_a.tau_area = 1;
     params.refine.scans_per_robot = scans_per_robot;
-    params.refine.colocated_m = 3.0;
+    params.refine.shared_path_m = 3.0;
     params.refine.min_spacing_m = 4.0;
     auto server = commerge::test::MakeTestServer(2, 100, params);
     std::mt19937 rng(3);

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The final refinement's choice of scans (core/agent/pair_refinement.hpp) against a brute force written from its
-// contract: beta's keyframes whose placed position lies within colocated_m of one of alpha's are on the shared path;
+// contract: beta's keyframes whose placed position lies within shared_path_m of one of alpha's are on the shared path;
 // the anchor is the held one nearest the held keyframes' centroid; each further pick is the candidate farthest from
 // every pick (ties to the lower keyframe), while that distance is at least min_spacing_m; with each pick alpha's
 // nearest keyframe (ties to the lower).
@@ -66,7 +66,7 @@ SpreadKeyframes BruteForce(const Robot& alpha, const Robot& beta, const Eigen::I
         partner = i;
       }
     }
-    if (best > params.colocated_m) continue;
+    if (best > params.shared_path_m) continue;
     cs.push_back({j, partner, q, std::find(held_beta.begin(), held_beta.end(), j) != held_beta.end()});
   }
   SpreadKeyframes out;
@@ -214,8 +214,8 @@ TEST_CASE("Pair refinement: bad parameters and a non-finite transform are errors
   for (int i = 0; i < 5; ++i) cases.push_back({params, ""});
   cases[0].params.scans_per_robot = 65;
   cases[0].field = "scans_per_robot";
-  cases[1].params.colocated_m = 0.0;
-  cases[1].field = "colocated_m";
+  cases[1].params.shared_path_m = 0.0;
+  cases[1].field = "shared_path_m";
   cases[2].params.min_spacing_m = std::numeric_limits<double>::infinity();
   cases[2].field = "min_spacing_m";
   cases[3].params.max_correction_m = -1.0;
