@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "apps/run_job.hpp"
+#include "core/agent/joint_edges.hpp"
 #include "core/agent/merge_round.hpp"
 #include "core/common/bytes.hpp"
 #include "core/eval/descriptor_separation.hpp"
@@ -17,6 +18,7 @@
 #include "core/eval/merge_judgement.hpp"
 #include "core/eval/shared_place.hpp"
 #include "core/eval/path_agreement.hpp"
+#include "core/merge/joint_graph.hpp"
 #include "core/eval/stage_a_truth.hpp"
 #include "core/geometry/angles.hpp"
 #include "core/geometry/se3.hpp"
@@ -111,6 +113,47 @@ PathAgreement PathAgreementOf(const RunJob& job, const ModeOutcome& m) {
   return agreement.ok() ? *agreement : PathAgreement{};
 }
 
+// The joint pose graph over mode m's accepted pairs (core/agent/joint_edges.hpp, core/merge/joint_graph.hpp) and
+// how its corrected keyframes agree along the shared path; pairs 0 when it cannot run or nothing is measured.
+struct JointOutcome {
+  PathAgreement agreement;
+  std::size_t edges = 0, used_edges = 0;
+  std::string error;
+};
+
+JointOutcome JointOutcomeOf(const RunJob& job, const ModeOutcome& m) {
+  JointOutcome out;
+  std::vector<std::vector<Eigen::Isometry3d>> T_map_keyframe;
+  std::vector<std::uint8_t> placed;
+  for (int r = 0; r < job.num_robots(); ++r) {
+    T_map_keyframe.push_back(job.trajectories[static_cast<std::size_t>(r)].estimated);
+    placed.push_back(m.round.in_world(r) ? 1 : 0);
+  }
+  const std::vector<InterRobotEdge> edges =
+      JointEdgesOf(Span<const PairMergeResult>(m.round.pairs),
+                   Span<const std::vector<Eigen::Isometry3d>>(T_map_keyframe), Span<const std::uint8_t>(placed));
+  out.edges = edges.size();
+  if (edges.empty() || T_map_keyframe[0].empty()) return out;
+  auto solved = SolveJointGraph(Span<const std::vector<Eigen::Isometry3d>>(T_map_keyframe),
+                                Span<const InterRobotEdge>(edges));
+  if (!solved.ok()) {
+    out.error = solved.status().message();
+    return out;
+  }
+  out.used_edges = solved->used_edges;
+  std::vector<RobotPathTruth> robots;
+  for (int r = 0; r < job.num_robots(); ++r) {
+    const Trajectories& t = job.trajectories[static_cast<std::size_t>(r)];
+    const std::vector<Eigen::Isometry3d>& w = solved->T_world_keyframe[static_cast<std::size_t>(r)];
+    const bool measured = !w.empty() && t.ground_truth.size() == w.size();
+    robots.push_back({measured ? Span<const Eigen::Isometry3d>(w) : Span<const Eigen::Isometry3d>(),
+                      measured ? Span<const Eigen::Isometry3d>(t.ground_truth) : Span<const Eigen::Isometry3d>()});
+  }
+  auto agreement = MeasurePathAgreement(Span<const RobotPathTruth>(robots));
+  if (agreement.ok()) out.agreement = *agreement;
+  return out;
+}
+
 // The stage that stopped pair i (PairStopName): "merged", the frame solver, registration with its verdict, or where
 // the pair stopped before.
 std::string StoppedAt(const ModeOutcome& m, std::size_t i) {
@@ -164,6 +207,27 @@ void WriteRefinement(const PairRefinement& f, const std::string& k, const KV& kv
   kv(k + "refined", std::string(f.taken ? "taken" : "not taken") + " " + RegistrationVerdictName(f.verdict));
   kv(k + "refined_scans", std::to_string(f.alpha_scans) + " " + std::to_string(f.beta_scans));
   kv(k + "refined_moved_m_deg", Fmt("%.3f", f.moved_m) + " " + Fmt("%.3f", f.moved_deg));
+  std::size_t registered = 0;
+  for (const PlaceRegistration& place : f.places) registered += place.success;
+  kv(k + "refined_places", std::to_string(registered) + " " + std::to_string(f.places.size()));
+}
+
+// How the placed robots agree along the shared path: the rigid merge, and the joint pose graph's correction.
+template <typename KV>
+void WritePathAgreement(const RunJob& job, const ModeOutcome& m, const KV& kv) {
+  const PathAgreement a = PathAgreementOf(job, m);
+  if (a.pairs == 0) return;
+  kv("path_agreement_pairs", std::to_string(a.pairs));
+  kv("path_agreement_rms_m", Fmt("%.4f", a.rms_m));
+  kv("path_agreement_p95_m", Fmt("%.4f", a.p95_m));
+  kv("path_agreement_max_m", Fmt("%.4f", a.max_m));
+  const JointOutcome j = JointOutcomeOf(job, m);
+  kv("joint_edges", std::to_string(j.edges));
+  kv("joint_edges_used", std::to_string(j.used_edges));
+  if (j.agreement.pairs > 0) {
+    kv("joint_path_agreement_rms_m", Fmt("%.4f", j.agreement.rms_m));
+    kv("joint_path_agreement_p95_m", Fmt("%.4f", j.agreement.p95_m));
+  }
 }
 
 // Every placed cluster of the pair's cascade, one key each (pair.A-B.placed.K): its keyframe ranges, weight,
@@ -239,6 +303,10 @@ std::string PairText(const ModeOutcome& m, std::size_t i) {
     s += "\n    refined on " + std::to_string(f.alpha_scans) + " + " + std::to_string(f.beta_scans) +
          " scans spread along the shared path: " + RegistrationVerdictName(f.verdict) + Fmt(" (overlap %.2f)", f.overlap_ratio) +
          ", moved " + Fmt("%.3f m", f.moved_m) + " and " + Fmt("%.2f deg", f.moved_deg) + (f.taken ? ", taken" : ", not taken");
+    std::size_t registered = 0;
+    for (const PlaceRegistration& place : f.places) registered += place.success;
+    s += "; " + std::to_string(registered) + " of " + std::to_string(f.places.size()) +
+         " places registered on their own (joint pose graph edges)";
   }
   if (m.round.widenings[i] > 0) {
     s += " (selection widened " + std::to_string(m.round.widenings[i]) +
@@ -295,6 +363,15 @@ void FinalResult(const RunJob& job, const ModeOutcome& m, const std::function<vo
     line("  along the shared path: keyframes of two robots within 10 m, relative position against ground truth " +
          Fmt("%.3f m RMS", a.rms_m) + ", " + Fmt("%.3f m", a.p95_m) + " at the 95th percentile, " +
          Fmt("%.3f m", a.max_m) + " at most (" + std::to_string(a.pairs) + " pairs)");
+    const JointOutcome j = JointOutcomeOf(job, m);
+    if (j.agreement.pairs > 0) {
+      line("  after the joint pose graph (" + std::to_string(j.used_edges) + " of " + std::to_string(j.edges) +
+           " inter-robot edges used): " + Fmt("%.3f m RMS", j.agreement.rms_m) + ", " +
+           Fmt("%.3f m", j.agreement.p95_m) + " at the 95th percentile, " + Fmt("%.3f m", j.agreement.max_m) +
+           " at most (" + std::to_string(j.agreement.pairs) + " pairs)");
+    } else if (!j.error.empty()) {
+      line("  joint pose graph: " + j.error);
+    }
   }
   for (const MeasurementOutcome& mo : m.round.frames.measurements) {
     if (mo.verdict == MeasurementVerdict::kRejected) {
@@ -540,12 +617,7 @@ void WriteMetrics(const RunJob& job) {
   }
   kv("stored_send_all_bytes", std::to_string(job.send_all_bytes));
   const ModeOutcome& final_mode = job.outcomes.back();
-  if (const PathAgreement a = PathAgreementOf(job, final_mode); a.pairs > 0) {
-    kv("path_agreement_pairs", std::to_string(a.pairs));
-    kv("path_agreement_rms_m", Fmt("%.4f", a.rms_m));
-    kv("path_agreement_p95_m", Fmt("%.4f", a.p95_m));
-    kv("path_agreement_max_m", Fmt("%.4f", a.max_m));
-  }
+  WritePathAgreement(job, final_mode, kv);
   const std::vector<SharedPlace> shared = SharedPlaces(job, final_mode);
   for (std::size_t i = 0; i < final_mode.round.pairs.size(); ++i) {
     const PairMergeResult& p = final_mode.round.pairs[i];

@@ -341,6 +341,7 @@ std::vector<MergeRound::Job> MergeRound::RefineJobs() const {
     j.spread_beta = added(spread->beta_keyframes, sel.beta_keyframes);
     j.selection.alpha_keyframes = std::move(spread->alpha_keyframes);
     j.selection.beta_keyframes = std::move(spread->beta_keyframes);
+    j.places = std::move(spread->places);
     out.push_back(std::move(j));
   }
   return out;
@@ -350,7 +351,8 @@ Status MergeRound::Refine(const std::vector<Job>& jobs) {
   for (const Job& job : jobs) {
     const auto t0 = std::chrono::steady_clock::now();
     PairMergeResult& result = current_.pairs[job.slot];
-    const Status s = server_->RefinePair(job.selection, job.spread_alpha, job.spread_beta, &result);
+    const Status s = server_->RefinePair(job.selection, job.spread_alpha, job.spread_beta,
+                                         Span<const std::pair<std::uint32_t, std::uint32_t>>(job.places), &result);
     if (!s.ok()) return s;
     current_.registration_s[job.slot] += RoundSecondsSince(t0);
   }

@@ -33,6 +33,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/agent/merge_server.hpp"
@@ -136,6 +137,7 @@ class MergeRound {
     bool refused_with_scans = false;
     /// A refinement job (step 4b): the keyframes added to the selection for it.
     std::size_t spread_alpha = 0, spread_beta = 0;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> places;  ///< its spread places (SpreadKeyframes::places)
   };
   /// Step 4b: the refinement jobs of the pairs accepted this round (their selections plus the spread keyframes).
   std::vector<Job> RefineJobs() const;

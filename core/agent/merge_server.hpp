@@ -85,8 +85,8 @@ class MergeServer {
   /// The final refinement of an accepted pair (PairRegistrar::RefinePair): `spread` holds the pair's registered
   /// selection plus the spread keyframes (spread_alpha and spread_beta of them).
   Status RefinePair(const PairSelection& spread, std::size_t spread_alpha, std::size_t spread_beta,
-                    PairMergeResult* result) {
-    return registrar_.RefinePair(db_, inbox_, spread, spread_alpha, spread_beta, result, note_memory_);
+                    Span<const std::pair<std::uint32_t, std::uint32_t>> places, PairMergeResult* result) {
+    return registrar_.RefinePair(db_, inbox_, spread, spread_alpha, spread_beta, places, result, note_memory_);
   }
   Result<FrameSolution> SolveFrames(Span<const PairMergeResult> pairs) const {
     return registrar_.SolveFrames(max_robots(), pairs);

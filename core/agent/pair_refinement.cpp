@@ -99,6 +99,7 @@ Result<SpreadKeyframes> SpreadAlongSharedPath(const RobotPoses& alpha, const Rob
   const auto take = [&](const Candidate& chosen) {
     out.beta_keyframes.push_back(chosen.beta);
     out.alpha_keyframes.push_back(chosen.alpha);
+    out.places.emplace_back(chosen.alpha, chosen.beta);
     for (Candidate& c : candidates) c.distance_m = std::min(c.distance_m, (c.position - chosen.position).norm());
   };
   take(*anchor);

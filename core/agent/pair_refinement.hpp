@@ -12,6 +12,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -26,6 +27,8 @@ namespace commerge {
 /// The keyframes a refinement registers (ascending; some may be held already).
 struct SpreadKeyframes {
   std::vector<std::uint32_t> alpha_keyframes, beta_keyframes;
+  /// The places in pick order (the anchor first): (alpha's keyframe, beta's keyframe) of each pick.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> places;
 };
 
 /// Keyframes spread along the path robots alpha and beta share under T_alpha_beta (p_alpha = T p_beta). Beta's

@@ -191,7 +191,8 @@ Result<PairMergeResult> PairRegistrar::MergePair(const KeyframeDatabase& db, con
 }
 
 Status PairRegistrar::RefinePair(const KeyframeDatabase& db, const ScanInbox& inbox, const PairSelection& spread,
-                                 std::size_t spread_alpha, std::size_t spread_beta, PairMergeResult* result,
+                                 std::size_t spread_alpha, std::size_t spread_beta,
+                                 Span<const std::pair<std::uint32_t, std::uint32_t>> places, PairMergeResult* result,
                                  const std::function<void()>& note_memory) {
   if (!result->merged() || result->alpha != spread.alpha || result->beta != spread.beta) return Status::Ok();
   PairRefinement& r = result->refinement;
@@ -227,6 +228,46 @@ Status PairRegistrar::RefinePair(const KeyframeDatabase& db, const ScanInbox& in
   const RefinementParams& bound = params_.refine;
   r.taken = fine->success() && r.moved_m <= bound.max_correction_m && r.moved_deg <= bound.max_correction_deg;
   if (r.taken) result->registration.T_target_source = fine->T_target_source;
+  return RegisterPlaces(db, inbox, spread.alpha, spread.beta, places, voxel, result, note_memory);
+}
+
+Status PairRegistrar::RegisterPlaces(const KeyframeDatabase& db, const ScanInbox& inbox, int alpha, int beta,
+                                     Span<const std::pair<std::uint32_t, std::uint32_t>> places,
+                                     double voxel_size_m, PairMergeResult* result,
+                                     const std::function<void()>& note_memory) {
+  const Eigen::Isometry3d T_final = result->registration.T_target_source;
+  const RefinementParams& bound = params_.refine;
+  SubmapRegistrationParams reg = MakeSubmapRegistrationParams(voxel_size_m);
+  reg.gates = params_.gates;
+  reg.gates.max_points = std::max(reg.gates.max_points, params_.max_submap_points);
+  for (const auto& [alpha_keyframe, beta_keyframe] : places) {
+    PlaceRegistration place;
+    place.alpha_keyframe = alpha_keyframe;
+    place.beta_keyframe = beta_keyframe;
+    place.T_alpha_beta = T_final;
+    PairSelection one;
+    one.alpha = alpha;
+    one.beta = beta;
+    one.alpha_keyframes = {alpha_keyframe};
+    one.beta_keyframes = {beta_keyframe};
+    std::size_t alpha_scans = 0, beta_scans = 0, alpha_missing = 0, beta_missing = 0;
+    BuildBoth(db, inbox, one, voxel_size_m, &alpha_scans, &beta_scans, &alpha_missing, &beta_missing, note_memory);
+    if (alpha_scans == 1 && beta_scans == 1) {
+      const SubmapView source{Span<const PointXYZI>(beta_points_), Span<const Eigen::Vector3d>(beta_origins_)};
+      const SubmapView target{Span<const PointXYZI>(alpha_points_), Span<const Eigen::Vector3d>(alpha_origins_)};
+      auto fine = registration_.RefineFrom(source, target, reg, T_final);
+      note_memory();
+      if (!fine.ok()) return fine.status();
+      place.verdict = fine->verdict;
+      const Eigen::Isometry3d change = fine->T_target_source * T_final.inverse();
+      place.moved_m = (fine->T_target_source.translation() - T_final.translation()).norm();
+      place.moved_deg = RotationAngleRad(change.linear()) * 180.0 / kPi;
+      place.success = fine->success() && place.moved_m <= bound.max_correction_m &&
+                      place.moved_deg <= bound.max_correction_deg;
+      if (place.success) place.T_alpha_beta = fine->T_target_source;
+    }
+    result->refinement.places.push_back(place);
+  }
   return Status::Ok();
 }
 

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -28,6 +29,18 @@
 namespace commerge {
 
 /// The final refinement of an accepted pair (core/agent/pair_refinement.hpp).
+/// One place along the shared path registered on its own (one scan of each robot, the fine stage alone from the
+/// pair's final transform): an inter-robot edge for the joint pose graph (core/merge/joint_graph.hpp). Where the
+/// robots' maps drift apart along their shared path, the places' transforms differ from the pair's one.
+struct PlaceRegistration {
+  std::uint32_t alpha_keyframe = 0, beta_keyframe = 0;
+  bool success = false;  ///< both scans held, the fine stage's gates passed, moved within the refinement's bounds
+  RegistrationVerdict verdict = RegistrationVerdict::kTooFewPoints;
+  /// T_alpha_beta measured at this place (p_alpha = T p_beta); the pair's final transform when not success.
+  Eigen::Isometry3d T_alpha_beta = Eigen::Isometry3d::Identity();
+  double moved_m = 0.0, moved_deg = 0.0;  ///< against the pair's final transform
+};
+
 struct PairRefinement {
   bool attempted = false;  ///< spread scans were received and the fine stage ran on them
   bool taken = false;      ///< its transform replaced the registered one (gates passed, moved within bounds)
@@ -39,6 +52,8 @@ struct PairRefinement {
   double moved_deg = 0.0;  ///< rotation between the two
   /// The registered transform (before refinement; registration.T_target_source holds the refined one when taken).
   Eigen::Isometry3d T_target_source_registered = Eigen::Isometry3d::Identity();
+  /// The spread places registered one by one (the anchor first), when the refinement ran.
+  std::vector<PlaceRegistration> places;
 };
 
 /// What registering one pair produced.
@@ -94,9 +109,11 @@ class PairRegistrar {
   /// The final refinement of an accepted `result` (pair_refinement.hpp): beta's submap onto alpha's from the scans of
   /// `spread` (the pair's registered selection plus the spread keyframes) by the fine stage alone from the registered
   /// transform; fills result->refinement and, when taken, result->registration.T_target_source. A pair not merged,
-  /// or whose spread scans all went missing, is left as it is.
+  /// or whose spread scans all went missing, is left as it is. Then each of `places` (alpha's keyframe, beta's)
+  /// is registered on its own from the final transform (result->refinement.places).
   Status RefinePair(const KeyframeDatabase& db, const ScanInbox& inbox, const PairSelection& spread,
-                    std::size_t spread_alpha, std::size_t spread_beta, PairMergeResult* result,
+                    std::size_t spread_alpha, std::size_t spread_beta,
+                    Span<const std::pair<std::uint32_t, std::uint32_t>> places, PairMergeResult* result,
                     const std::function<void()>& note_memory);
 
   /// Combines accepted pairwise results into one frame per robot (world = robot 0's map frame).
@@ -115,6 +132,11 @@ class PairRegistrar {
   // After build_both(*voxel_size_m) did not fit: the voxel grows by 25 % steps, at most 8, until both fit (the last
   // size taken stays built).
   static void GrowUntilFits(const std::function<bool(double)>& build_both, double* voxel_size_m);
+  // Registers each place on its own (one scan per robot) from result's final transform into
+  // result->refinement.places.
+  Status RegisterPlaces(const KeyframeDatabase& db, const ScanInbox& inbox, int alpha, int beta,
+                        Span<const std::pair<std::uint32_t, std::uint32_t>> places, double voxel_size_m,
+                        PairMergeResult* result, const std::function<void()>& note_memory);
   // Fills result's colocated_keyframes / colocated_chance for its registered transform.
   void MeasureColocation(const KeyframeDatabase& db, const ExchangeCascadeResult& cascade,
                          PairMergeResult* result) const;

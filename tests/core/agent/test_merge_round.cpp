@@ -365,6 +365,18 @@ TEST_CASE("Merge round: an accepted pair asks for the scans spread along its sha
     CHECK(test::RotationErrorDeg(truth, p.registration.T_target_source) < 1.0);
     REQUIRE(r.frames_ok);
     CHECK(r.T_world_map(1).isApprox(p.registration.T_target_source));
+    // Each spread place registered on its own (one scan of each robot): the same transform, the truth's.
+    REQUIRE(p.refinement.places.size() == 2);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> places;
+    for (const PlaceRegistration& place : p.refinement.places) {
+      places.emplace_back(place.alpha_keyframe, place.beta_keyframe);
+      CHECK(place.success);
+      CHECK(place.verdict == RegistrationVerdict::kSuccess);
+      CHECK(test::TranslationErrorM(truth, place.T_alpha_beta) < 0.2);
+      CHECK(test::RotationErrorDeg(truth, place.T_alpha_beta) < 1.0);
+    }
+    std::sort(places.begin(), places.end());
+    CHECK(places == std::vector<std::pair<std::uint32_t, std::uint32_t>>{{4, 1}, {5, 2}});
   }
 }
 

@@ -106,6 +106,7 @@ SpreadKeyframes BruteForce(const Robot& alpha, const Robot& beta, const Eigen::I
   for (std::size_t p : picks) {
     out.beta_keyframes.push_back(cs[p].beta);
     out.alpha_keyframes.push_back(cs[p].alpha);
+    out.places.emplace_back(cs[p].alpha, cs[p].beta);
   }
   for (auto* v : {&out.alpha_keyframes, &out.beta_keyframes}) {
     std::sort(v->begin(), v->end());
@@ -147,6 +148,7 @@ TEST_CASE("Pair refinement: the spread scans are the brute force's on random wal
     const SpreadKeyframes want = BruteForce(alpha, beta, T_alpha_beta, held, params);
     CHECK(got->beta_keyframes == want.beta_keyframes);
     CHECK(got->alpha_keyframes == want.alpha_keyframes);
+    CHECK(got->places == want.places);  // pick order, the anchor first, each with alpha's nearest keyframe
     CHECK(got->beta_keyframes.size() == params.scans_per_robot + 1);
     CHECK(std::find(got->beta_keyframes.begin(), got->beta_keyframes.end(), 20u) == got->beta_keyframes.end());
     for (std::uint32_t j : got->beta_keyframes) {
