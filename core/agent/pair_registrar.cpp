@@ -140,9 +140,7 @@ Result<PairMergeResult> PairRegistrar::MergePair(const KeyframeDatabase& db, con
                  std::to_string(pair.beta) + " missing)";
     return out;
   }
-  SubmapRegistrationParams reg = MakeSubmapRegistrationParams(voxel);
-  reg.gates = params_.gates;
-  reg.gates.max_points = std::max(reg.gates.max_points, params_.max_submap_points);
+  SubmapRegistrationParams reg = SubmapParams(voxel);
   reg.max_hypotheses = params_.registration_hypotheses;
   SubmapView source{Span<const PointXYZI>(beta_points_), Span<const Eigen::Vector3d>(beta_origins_)};
   SubmapView target{Span<const PointXYZI>(alpha_points_), Span<const Eigen::Vector3d>(alpha_origins_)};
@@ -211,9 +209,7 @@ Status PairRegistrar::RefinePair(const KeyframeDatabase& db, const ScanInbox& in
   if (spread_alpha + spread_beta > 0 && r.alpha_missing == spread_alpha && r.beta_missing == spread_beta) {
     return Status::Ok();
   }
-  SubmapRegistrationParams reg = MakeSubmapRegistrationParams(voxel);
-  reg.gates = params_.gates;
-  reg.gates.max_points = std::max(reg.gates.max_points, params_.max_submap_points);
+  SubmapRegistrationParams reg = SubmapParams(voxel);
   const SubmapView source{Span<const PointXYZI>(beta_points_), Span<const Eigen::Vector3d>(beta_origins_)};
   const SubmapView target{Span<const PointXYZI>(alpha_points_), Span<const Eigen::Vector3d>(alpha_origins_)};
   auto fine = registration_.RefineFrom(source, target, reg, r.T_target_source_registered);
@@ -222,13 +218,27 @@ Status PairRegistrar::RefinePair(const KeyframeDatabase& db, const ScanInbox& in
   r.attempted = true;
   r.verdict = fine->verdict;
   r.overlap_ratio = fine->overlap_ratio;
-  const Eigen::Isometry3d change = fine->T_target_source * r.T_target_source_registered.inverse();
-  r.moved_m = (fine->T_target_source.translation() - r.T_target_source_registered.translation()).norm();
-  r.moved_deg = RotationAngleRad(change.linear()) * 180.0 / kPi;
-  const RefinementParams& bound = params_.refine;
-  r.taken = fine->success() && r.moved_m <= bound.max_correction_m && r.moved_deg <= bound.max_correction_deg;
+  Moved(fine->T_target_source, r.T_target_source_registered, &r.moved_m, &r.moved_deg);
+  r.taken = fine->success() && WithinCorrection(r.moved_m, r.moved_deg);
   if (r.taken) result->registration.T_target_source = fine->T_target_source;
   return RegisterPlaces(db, inbox, spread.alpha, spread.beta, places, voxel, result, note_memory);
+}
+
+SubmapRegistrationParams PairRegistrar::SubmapParams(double voxel_size_m) const {
+  SubmapRegistrationParams reg = MakeSubmapRegistrationParams(voxel_size_m);
+  reg.gates = params_.gates;
+  reg.gates.max_points = std::max(reg.gates.max_points, params_.max_submap_points);
+  return reg;
+}
+
+void PairRegistrar::Moved(const Eigen::Isometry3d& T_new, const Eigen::Isometry3d& T_old, double* moved_m,
+                          double* moved_deg) {
+  *moved_m = (T_new.translation() - T_old.translation()).norm();
+  *moved_deg = RotationAngleRad((T_new * T_old.inverse()).linear()) * 180.0 / kPi;
+}
+
+bool PairRegistrar::WithinCorrection(double moved_m, double moved_deg) const {
+  return moved_m <= params_.refine.max_correction_m && moved_deg <= params_.refine.max_correction_deg;
 }
 
 Status PairRegistrar::RegisterPlaces(const KeyframeDatabase& db, const ScanInbox& inbox, int alpha, int beta,
@@ -236,10 +246,7 @@ Status PairRegistrar::RegisterPlaces(const KeyframeDatabase& db, const ScanInbox
                                      double voxel_size_m, PairMergeResult* result,
                                      const std::function<void()>& note_memory) {
   const Eigen::Isometry3d T_final = result->registration.T_target_source;
-  const RefinementParams& bound = params_.refine;
-  SubmapRegistrationParams reg = MakeSubmapRegistrationParams(voxel_size_m);
-  reg.gates = params_.gates;
-  reg.gates.max_points = std::max(reg.gates.max_points, params_.max_submap_points);
+  const SubmapRegistrationParams reg = SubmapParams(voxel_size_m);
   for (const auto& [alpha_keyframe, beta_keyframe] : places) {
     PlaceRegistration place;
     place.alpha_keyframe = alpha_keyframe;
@@ -259,11 +266,8 @@ Status PairRegistrar::RegisterPlaces(const KeyframeDatabase& db, const ScanInbox
       note_memory();
       if (!fine.ok()) return fine.status();
       place.verdict = fine->verdict;
-      const Eigen::Isometry3d change = fine->T_target_source * T_final.inverse();
-      place.moved_m = (fine->T_target_source.translation() - T_final.translation()).norm();
-      place.moved_deg = RotationAngleRad(change.linear()) * 180.0 / kPi;
-      place.success = fine->success() && place.moved_m <= bound.max_correction_m &&
-                      place.moved_deg <= bound.max_correction_deg;
+      Moved(fine->T_target_source, T_final, &place.moved_m, &place.moved_deg);
+      place.success = fine->success() && WithinCorrection(place.moved_m, place.moved_deg);
       if (place.success) place.T_alpha_beta = fine->T_target_source;
     }
     result->refinement.places.push_back(place);

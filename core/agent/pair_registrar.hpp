@@ -132,6 +132,14 @@ class PairRegistrar {
   // After build_both(*voxel_size_m) did not fit: the voxel grows by 25 % steps, at most 8, until both fit (the last
   // size taken stays built).
   static void GrowUntilFits(const std::function<bool(double)>& build_both, double* voxel_size_m);
+  // The registration parameters at a submap voxel: MakeSubmapRegistrationParams with the server's gates (max_points
+  // at least max_submap_points).
+  SubmapRegistrationParams SubmapParams(double voxel_size_m) const;
+  // How far T_new moved from T_old: translation [m] and the angle of the rotation between them [deg].
+  static void Moved(const Eigen::Isometry3d& T_new, const Eigen::Isometry3d& T_old, double* moved_m,
+                    double* moved_deg);
+  // A refinement's correction within refine.max_correction_m / max_correction_deg.
+  bool WithinCorrection(double moved_m, double moved_deg) const;
   // Registers each place on its own (one scan per robot) from result's final transform into
   // result->refinement.places.
   Status RegisterPlaces(const KeyframeDatabase& db, const ScanInbox& inbox, int alpha, int beta,
