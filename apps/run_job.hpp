@@ -21,6 +21,7 @@
 #include "core/eval/alignment_metrics.hpp"
 #include "core/eval/byte_ledger.hpp"
 #include "core/eval/loop_errors.hpp"
+#include "core/eval/path_agreement.hpp"
 #include "core/slam/scan_store.hpp"
 #include "platform/io/kitti_dataset_reader.hpp"
 
@@ -105,6 +106,13 @@ struct RunJob {
   std::vector<Trajectories> trajectories;
   std::vector<LoopErrors> loop_errors;
   std::vector<ModeOutcome> outcomes;
+  /// The joint pose graph over the final mode's accepted pairs (SolveJoint, after the modes): how its corrected
+  /// keyframes agree along the shared path (pairs 0 when not measured).
+  struct Joint {
+    std::size_t edges = 0, used_edges = 0;
+    PathAgreement agreement;
+    std::string error;  ///< the solver's, when it refused
+  } joint;
   double robots_s = 0.0, cascade_s = 0.0;
   std::int64_t robots_peak_rss = 0;
   /// Bytes the send-all mode puts on the wire (every stored scan and its fresh pose, beside the stream),
@@ -118,6 +126,8 @@ struct RunJob {
 
 // run_report.cpp: the results, side by side; the output files and pictures.
 /// Prints the mode table and the final mode's result (and keeps the text for the report's summary.md).
+/// Solves the joint pose graph over the final mode's accepted pairs into job->joint.
+void SolveJoint(RunJob* job);
 std::string PrintResults(const RunJob& job);
 /// Writes transforms.txt, trajectories/, merged_map.pcd/.ply, and with --report the pictures, summary.md and
 /// metrics.tsv. Returns the merged map's size: "N points", and the scans left out when it was full.

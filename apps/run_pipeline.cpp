@@ -693,6 +693,7 @@ int RunMergeJob(const RunOptions& o, RunSummary* summary_out) {
   for (ExchangeMode mode : job.modes) {
     if (int rc = RunMode(&job, mode, &progress); rc != kExitOk) return rc;
   }
+  SolveJoint(&job);
   const std::string summary = PrintResults(job);
   const std::string map_text = WriteRunOutputs(job, summary);
   const platform::RssFigures rss = platform::ReadRss();

@@ -113,37 +113,32 @@ PathAgreement PathAgreementOf(const RunJob& job, const ModeOutcome& m) {
   return agreement.ok() ? *agreement : PathAgreement{};
 }
 
-// The joint pose graph over mode m's accepted pairs (core/agent/joint_edges.hpp, core/merge/joint_graph.hpp) and
-// how its corrected keyframes agree along the shared path; pairs 0 when it cannot run or nothing is measured.
-struct JointOutcome {
-  PathAgreement agreement;
-  std::size_t edges = 0, used_edges = 0;
-  std::string error;
-};
+}  // namespace
 
-JointOutcome JointOutcomeOf(const RunJob& job, const ModeOutcome& m) {
-  JointOutcome out;
+void SolveJoint(RunJob* job) {
+  const ModeOutcome& m = job->outcomes.back();
+  RunJob::Joint& out = job->joint;
   std::vector<std::vector<Eigen::Isometry3d>> T_map_keyframe;
   std::vector<std::uint8_t> placed;
-  for (int r = 0; r < job.num_robots(); ++r) {
-    T_map_keyframe.push_back(job.trajectories[static_cast<std::size_t>(r)].estimated);
+  for (int r = 0; r < job->num_robots(); ++r) {
+    T_map_keyframe.push_back(job->trajectories[static_cast<std::size_t>(r)].estimated);
     placed.push_back(m.round.in_world(r) ? 1 : 0);
   }
   const std::vector<InterRobotEdge> edges =
       JointEdgesOf(Span<const PairMergeResult>(m.round.pairs),
                    Span<const std::vector<Eigen::Isometry3d>>(T_map_keyframe), Span<const std::uint8_t>(placed));
   out.edges = edges.size();
-  if (edges.empty() || T_map_keyframe[0].empty()) return out;
+  if (edges.empty() || T_map_keyframe[0].empty()) return;
   auto solved = SolveJointGraph(Span<const std::vector<Eigen::Isometry3d>>(T_map_keyframe),
                                 Span<const InterRobotEdge>(edges));
   if (!solved.ok()) {
     out.error = solved.status().message();
-    return out;
+    return;
   }
   out.used_edges = solved->used_edges;
   std::vector<RobotPathTruth> robots;
-  for (int r = 0; r < job.num_robots(); ++r) {
-    const Trajectories& t = job.trajectories[static_cast<std::size_t>(r)];
+  for (int r = 0; r < job->num_robots(); ++r) {
+    const Trajectories& t = job->trajectories[static_cast<std::size_t>(r)];
     const std::vector<Eigen::Isometry3d>& w = solved->T_world_keyframe[static_cast<std::size_t>(r)];
     const bool measured = !w.empty() && t.ground_truth.size() == w.size();
     robots.push_back({measured ? Span<const Eigen::Isometry3d>(w) : Span<const Eigen::Isometry3d>(),
@@ -151,8 +146,9 @@ JointOutcome JointOutcomeOf(const RunJob& job, const ModeOutcome& m) {
   }
   auto agreement = MeasurePathAgreement(Span<const RobotPathTruth>(robots));
   if (agreement.ok()) out.agreement = *agreement;
-  return out;
 }
+
+namespace {
 
 // The stage that stopped pair i (PairStopName): "merged", the frame solver, registration with its verdict, or where
 // the pair stopped before.
@@ -221,7 +217,7 @@ void WritePathAgreement(const RunJob& job, const ModeOutcome& m, const KV& kv) {
   kv("path_agreement_rms_m", Fmt("%.4f", a.rms_m));
   kv("path_agreement_p95_m", Fmt("%.4f", a.p95_m));
   kv("path_agreement_max_m", Fmt("%.4f", a.max_m));
-  const JointOutcome j = JointOutcomeOf(job, m);
+  const RunJob::Joint& j = job.joint;
   kv("joint_edges", std::to_string(j.edges));
   kv("joint_edges_used", std::to_string(j.used_edges));
   if (j.agreement.pairs > 0) {
@@ -363,7 +359,7 @@ void FinalResult(const RunJob& job, const ModeOutcome& m, const std::function<vo
     line("  along the shared path: keyframes of two robots within 10 m, relative position against ground truth " +
          Fmt("%.3f m RMS", a.rms_m) + ", " + Fmt("%.3f m", a.p95_m) + " at the 95th percentile, " +
          Fmt("%.3f m", a.max_m) + " at most (" + std::to_string(a.pairs) + " pairs)");
-    const JointOutcome j = JointOutcomeOf(job, m);
+    const RunJob::Joint& j = job.joint;
     if (j.agreement.pairs > 0) {
       line("  after the joint pose graph (" + std::to_string(j.used_edges) + " of " + std::to_string(j.edges) +
            " inter-robot edges used): " + Fmt("%.3f m RMS", j.agreement.rms_m) + ", " +

@@ -27,7 +27,7 @@ std::uint32_t NearestAlphaKeyframe(const std::vector<Eigen::Isometry3d>& alpha, 
 
 std::vector<InterRobotEdge> JointEdgesOf(Span<const PairMergeResult> pairs,
                                          Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe,
-                                         Span<const std::uint8_t> placed) {
+                                         Span<const std::uint8_t> placed, const JointEdgeParams& params) {
   std::vector<InterRobotEdge> edges;
   const auto robot_ok = [&](int r) {
     return r >= 0 && static_cast<std::size_t>(r) < T_map_keyframe.size() &&
@@ -38,25 +38,21 @@ std::vector<InterRobotEdge> JointEdgesOf(Span<const PairMergeResult> pairs,
     if (!p.merged() || !robot_ok(p.alpha) || !robot_ok(p.beta)) continue;
     const std::vector<Eigen::Isometry3d>& A = T_map_keyframe[static_cast<std::size_t>(p.alpha)];
     const std::vector<Eigen::Isometry3d>& B = T_map_keyframe[static_cast<std::size_t>(p.beta)];
-    const auto edge = [&](std::uint32_t ka, std::uint32_t kb, const Eigen::Isometry3d& T_alpha_beta) {
+    const auto edge = [&](std::uint32_t ka, std::uint32_t kb, const Eigen::Isometry3d& T_alpha_beta, double weight) {
       edges.push_back(EdgeFromMapTransform(p.alpha, ka, A[ka], p.beta, kb, B[kb], T_alpha_beta));
+      edges.back().weight = weight;
     };
-    std::size_t added = 0;
-    const PlaceRegistration* first = nullptr;
+    const Eigen::Isometry3d& T = p.registration.T_target_source;
+    bool refined = false;
     for (const PlaceRegistration& place : p.refinement.places) {
       if (place.alpha_keyframe >= A.size() || place.beta_keyframe >= B.size()) continue;
-      if (first == nullptr) first = &place;
-      if (!place.success) continue;
-      edge(place.alpha_keyframe, place.beta_keyframe, place.T_alpha_beta);
-      ++added;
+      refined = true;
+      edge(place.alpha_keyframe, place.beta_keyframe, T, params.spread_fit_weight);
+      if (place.success) edge(place.alpha_keyframe, place.beta_keyframe, place.T_alpha_beta, 1.0);
     }
-    if (added > 0) continue;
-    const Eigen::Isometry3d& T = p.registration.T_target_source;
-    if (first != nullptr) {
-      edge(first->alpha_keyframe, first->beta_keyframe, T);
-    } else {
+    if (!refined) {
       const auto kb = static_cast<std::uint32_t>(B.size() / 2);
-      edge(NearestAlphaKeyframe(A, T * B[kb].translation()), kb, T);
+      edge(NearestAlphaKeyframe(A, T * B[kb].translation()), kb, T, params.spread_fit_weight);
     }
   }
   return edges;

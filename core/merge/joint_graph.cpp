@@ -32,6 +32,7 @@ struct Oriented {
   std::size_t input = 0;
   std::uint32_t k_lo = 0, k_hi = 0;
   Eigen::Isometry3d T_lo_hi = Eigen::Isometry3d::Identity();
+  double weight = 1.0;
 };
 
 }  // namespace
@@ -121,12 +122,16 @@ Status CheckAndGroup(Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe, 
                              std::to_string(e.robot_b) + " out of range");
     }
     if (!IsValidRigidTransform(e.T_a_b)) return InvalidArgument(name + ": T_a_b is not finite and rigid");
+    if (!(std::isfinite(e.weight) && e.weight > 0.0)) {
+      return InvalidArgument(name + ": weight " + std::to_string(e.weight) + " is not finite and > 0");
+    }
     Oriented o;
     o.input = i;
     const bool flip = e.robot_a > e.robot_b;
     o.k_lo = flip ? e.keyframe_b : e.keyframe_a;
     o.k_hi = flip ? e.keyframe_a : e.keyframe_b;
     o.T_lo_hi = flip ? e.T_a_b.inverse() : e.T_a_b;
+    o.weight = e.weight;
     const int lo = std::min(e.robot_a, e.robot_b), hi = std::max(e.robot_a, e.robot_b);
     std::vector<Oriented>& list = (*by_pair)[{lo, hi}];
     list.push_back(o);
@@ -139,8 +144,8 @@ Status CheckAndGroup(Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe, 
   return Status::Ok();
 }
 
-// Defence 1: each pair's largest set of mutually agreeing edges (a lone edge is kept; a pair whose edges all
-// disagree keeps none).
+// Defence 1: each pair's heaviest set of mutually agreeing edges (by InterRobotEdge::weight; a lone edge is kept; a
+// pair whose edges all disagree keeps none).
 Status KeepConsistent(Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe, const PairEdges& by_pair,
                       const JointGraphParams& params, PairEdges* kept) {
   // Chain length along each robot's keyframes (the drift allowance).
@@ -164,6 +169,9 @@ Status KeepConsistent(Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe,
     auto graph = CliqueGraph::Create(static_cast<int>(list.size()), false);
     if (!graph.ok()) return graph.status();
     for (std::size_t i = 0; i < list.size(); ++i) {
+      if (Status st = graph->SetVertexWeight(static_cast<int>(i), list[i].weight); !st.ok()) return st;
+    }
+    for (std::size_t i = 0; i < list.size(); ++i) {
       for (std::size_t j = i + 1; j < list.size(); ++j) {
         const Oriented& e = list[i];
         const Oriented& f = list[j];
@@ -177,7 +185,7 @@ Status KeepConsistent(Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe,
       }
     }
     CliqueSearchParams search;
-    search.objective = CliqueObjective::kCardinality;
+    search.objective = CliqueObjective::kVertexWeight;
     search.lp_bound = false;
     auto clique = SolveMaxClique(*graph, search);
     if (!clique.ok()) return clique.status();
@@ -311,7 +319,7 @@ Result<JointGraphResult> SolveJointGraph(Span<const std::vector<Eigen::Isometry3
       e.from = node_of(pair.first, o.k_lo);
       e.to = node_of(pair.second, o.k_hi);
       e.T_from_to = o.T_lo_hi;
-      e.information = edge_info;
+      e.information = o.weight * edge_info;
       e.kind = EdgeKind::kLoop;
       if (Status st = graph.AddEdge(e); !st.ok()) return st;
       inter.emplace_back(o.input, e);

@@ -9,8 +9,8 @@
 //  1. Pairwise consistency per robot pair: edges e = (a_i, b_j, T_e) and f = (a_k, b_l, T_f) agree when the cycle
 //     a_i -> a_k (robot a's chain) -> b_l (T_f) -> b_j (robot b's chain) -> a_i (T_e^-1) closes within
 //     consistency_m + drift_per_m * L and consistency_deg + drift_deg_per_m * L, L the chain length between the
-//     two edges' keyframes on both robots. The largest set of mutually agreeing edges (maximum clique,
-//     core/solvers/max_clique.hpp) is kept; a pair with several edges none of which agrees with another keeps
+//     two edges' keyframes on both robots. The heaviest set of mutually agreeing edges (maximum vertex-weighted
+//     clique, each edge weighing its InterRobotEdge::weight; core/solvers/max_clique.hpp) is kept; a pair with several edges none of which agrees with another keeps
 //     none (nothing verifies any); a pair with a single edge keeps it (as the rigid merge does).
 //  2. The kept edges enter the graph with a Cauchy kernel (PoseGraph's loop kernel), chain edges by least squares,
 //     after a least-squares pass over all of them from the rigid placement.
@@ -41,6 +41,8 @@ struct InterRobotEdge {
   std::uint32_t keyframe_b = 0;
   /// Pose of keyframe_b in keyframe_a's frame: p_keyframe_a = T_a_b p_keyframe_b.
   Eigen::Isometry3d T_a_b = Eigen::Isometry3d::Identity();
+  /// The edge's information is weight times that of JointGraphParams::edge_sigma_m / edge_sigma_deg; finite, > 0.
+  double weight = 1.0;
 };
 
 /// The inter-robot edge a registration gives: T_mapa_mapb (p_mapa = T p_mapb) read at keyframe_a of robot a
@@ -116,7 +118,8 @@ struct JointGraphResult {
 
 /// Solves the joint graph. `T_map_keyframe[r]`: robot r's keyframe poses in its own map frame (robot 0 first;
 /// index = keyframe index). Errors (InvalidArgument, naming the value): bad params, no robot, an edge's robot or
-/// keyframe out of range, robot_a == robot_b, a non-finite or non-rigid pose or edge; ResourceExhausted: more
+/// keyframe out of range, robot_a == robot_b, a non-finite or non-rigid pose or edge, a weight not finite and > 0;
+/// ResourceExhausted: more
 /// keyframes than max_nodes or more edges in a pair than max_edges_per_pair (counts named). The solver's own
 /// errors are passed on.
 Result<JointGraphResult> SolveJointGraph(Span<const std::vector<Eigen::Isometry3d>> T_map_keyframe,

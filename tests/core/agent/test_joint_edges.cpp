@@ -51,7 +51,9 @@ PlaceRegistration PlaceAt(std::uint32_t ka, std::uint32_t kb, bool success, cons
 }
 
 void CheckJointEdge(const InterRobotEdge& e, int a, std::uint32_t ka, int b, std::uint32_t kb,
-               const std::vector<std::vector<Eigen::Isometry3d>>& poses, const Eigen::Isometry3d& T_alpha_beta) {
+                    const std::vector<std::vector<Eigen::Isometry3d>>& poses, const Eigen::Isometry3d& T_alpha_beta,
+                    double weight) {
+  CHECK(e.weight == weight);
   CHECK(e.robot_a == a);
   CHECK(e.robot_b == b);
   CHECK(e.keyframe_a == ka);
@@ -63,18 +65,20 @@ void CheckJointEdge(const InterRobotEdge& e, int a, std::uint32_t ka, int b, std
 
 }  // namespace
 
-TEST_CASE("Joint edges: successful places become edges, a pair refined nowhere gives its transform at one place, "
-          "unmerged pairs and unplaced robots give none") {
+TEST_CASE("Joint edges: each place gives the pair's transform (spread_fit_weight) and, when it succeeded, its own "
+          "registration (weight 1); a pair refined nowhere gives its transform at one place; unmerged pairs and "
+          "unplaced robots give none") {
   std::mt19937 rng(8);
   const std::vector<std::vector<Eigen::Isometry3d>> poses = {ChainWalk(&rng, 60), ChainWalk(&rng, 41), ChainWalk(&rng, 30),
                                                              ChainWalk(&rng, 20)};
   const Eigen::Isometry3d T01 = YawPose(3.0, -2.0, 0.4), T02 = YawPose(-5.0, 1.0, -1.1), T12 = YawPose(0.5, 0.5, 2.0);
-  const Eigen::Isometry3d T01_place = YawPose(3.1, -2.05, 0.41);
+  const Eigen::Isometry3d T01_place = YawPose(3.1, -2.05, 0.41), T01_third = YawPose(2.95, -1.9, 0.39);
   std::vector<PairMergeResult> pairs;
-  // 0-1: three places, the second failed; its two successful places are the edges, each with its own transform.
+  // 0-1: three places, the second failed.
   pairs.push_back(MergedPair(0, 1, T01));
-  pairs.back().refinement.places = {PlaceAt(10, 5, true, T01_place), PlaceAt(30, 20, false, T01), PlaceAt(50, 40, true, T01)};
-  // 0-2: every place failed: the pair's transform at its first place.
+  pairs.back().refinement.places = {PlaceAt(10, 5, true, T01_place), PlaceAt(30, 20, false, T01),
+                                    PlaceAt(50, 40, true, T01_third)};
+  // 0-2: every place failed: the pair's transform at each.
   pairs.push_back(MergedPair(0, 2, T02));
   pairs.back().refinement.places = {PlaceAt(7, 9, false, T02), PlaceAt(40, 25, false, T02)};
   // 1-2: no place (refinement off): at robot 2's middle keyframe and robot 1's nearest under the transform.
@@ -85,13 +89,19 @@ TEST_CASE("Joint edges: successful places become edges, a pair refined nowhere g
   pairs.push_back(MergedPair(2, 3, T01));
   const std::vector<std::uint8_t> placed = {1, 1, 1, 0};
 
+  JointEdgeParams params;
+  params.spread_fit_weight = 2.5;
   const std::vector<InterRobotEdge> edges =
       JointEdgesOf(Span<const PairMergeResult>(pairs), Span<const std::vector<Eigen::Isometry3d>>(poses),
-                   Span<const std::uint8_t>(placed));
-  REQUIRE(edges.size() == 4);
-  CheckJointEdge(edges[0], 0, 10, 1, 5, poses, T01_place);
-  CheckJointEdge(edges[1], 0, 50, 1, 40, poses, T01);
-  CheckJointEdge(edges[2], 0, 7, 2, 9, poses, T02);
+                   Span<const std::uint8_t>(placed), params);
+  REQUIRE(edges.size() == 8);
+  CheckJointEdge(edges[0], 0, 10, 1, 5, poses, T01, 2.5);
+  CheckJointEdge(edges[1], 0, 10, 1, 5, poses, T01_place, 1.0);
+  CheckJointEdge(edges[2], 0, 30, 1, 20, poses, T01, 2.5);
+  CheckJointEdge(edges[3], 0, 50, 1, 40, poses, T01, 2.5);
+  CheckJointEdge(edges[4], 0, 50, 1, 40, poses, T01_third, 1.0);
+  CheckJointEdge(edges[5], 0, 7, 2, 9, poses, T02, 2.5);
+  CheckJointEdge(edges[6], 0, 40, 2, 25, poses, T02, 2.5);
   // Brute force: robot 1's keyframe nearest robot 2's keyframe 15 placed by T12.
   const Eigen::Vector3d q = T12 * poses[2][15].translation();
   std::uint32_t nearest = 0;
@@ -102,16 +112,17 @@ TEST_CASE("Joint edges: successful places become edges, a pair refined nowhere g
       nearest = k;
     }
   }
-  CheckJointEdge(edges[3], 1, nearest, 2, 15, poses, T12);
+  CheckJointEdge(edges[7], 1, nearest, 2, 15, poses, T12, 2.5);
 
-  // A place whose keyframe lies beyond the poses is skipped, not read.
+  // A place whose keyframe lies beyond the poses is skipped, not read; the default weight is decision 032's.
   std::vector<PairMergeResult> beyond = {MergedPair(0, 1, T01)};
   beyond.back().refinement.places = {PlaceAt(60, 5, true, T01), PlaceAt(12, 3, true, T01_place)};
-  const std::vector<InterRobotEdge> one =
+  const std::vector<InterRobotEdge> two =
       JointEdgesOf(Span<const PairMergeResult>(beyond), Span<const std::vector<Eigen::Isometry3d>>(poses),
                    Span<const std::uint8_t>(placed));
-  REQUIRE(one.size() == 1);
-  CheckJointEdge(one[0], 0, 12, 1, 3, poses, T01_place);
+  REQUIRE(two.size() == 2);
+  CheckJointEdge(two[0], 0, 12, 1, 3, poses, T01, JointEdgeParams{}.spread_fit_weight);
+  CheckJointEdge(two[1], 0, 12, 1, 3, poses, T01_place, 1.0);
 }
 
 }  // namespace commerge

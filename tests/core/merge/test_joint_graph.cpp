@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -226,6 +227,72 @@ TEST_CASE("Joint graph: nodes every 5th keyframe agree with the truth as well as
   }
 }
 
+TEST_CASE("Joint graph: two edges at one place meet at their weighted mean (weights 1 and 3: three quarters of the "
+          "way)") {
+  // Two straight 20-keyframe robots joined only at keyframe 10 of each, by two edges 0.06 m apart along x: nothing
+  // else fixes robot 1, so least squares puts it at the weighted mean of the two (the Cauchy kernel of width 3
+  // barely discounts residuals of 0.45 and 0.26 sigma: within 2 mm of it).
+  std::vector<std::vector<Eigen::Isometry3d>> maps(2);
+  for (int k = 0; k < 20; ++k) {
+    maps[0].push_back(Pose(static_cast<double>(k), 0.0, 0.0));
+    maps[1].push_back(Pose(static_cast<double>(k), 5.0, 0.0));
+  }
+  InterRobotEdge light, heavy;
+  light.robot_a = heavy.robot_a = 0;
+  light.robot_b = heavy.robot_b = 1;
+  light.keyframe_a = heavy.keyframe_a = light.keyframe_b = heavy.keyframe_b = 10;
+  light.T_a_b = Pose(0.0, 2.0, 0.0);
+  heavy.T_a_b = Pose(0.06, 2.0, 0.0);
+  const auto x_at = [&](double light_weight, double heavy_weight) {
+    std::vector<InterRobotEdge> edges = {light, heavy};
+    edges[0].weight = light_weight;
+    edges[1].weight = heavy_weight;
+    auto result = SolveJointGraph(Span<const std::vector<Eigen::Isometry3d>>(maps.data(), maps.size()),
+                                  Span<const InterRobotEdge>(edges.data(), edges.size()));
+    REQUIRE(result.ok());
+    REQUIRE(result->used_edges == 2);
+    return (result->T_world_keyframe[0][10].inverse() * result->T_world_keyframe[1][10]).translation();
+  };
+  const Eigen::Vector3d even = x_at(1.0, 1.0), weighted = x_at(1.0, 3.0);
+  CHECK(std::abs(even.x() - 0.03) < 2e-3);
+  CHECK(std::abs(weighted.x() - 0.045) < 2e-3);
+  CHECK(std::abs(weighted.y() - 2.0) < 1e-3);
+}
+
+TEST_CASE("Joint graph: a pair keeps its heaviest agreeing set: two right edges of weight 2 outweigh three wrong ones "
+          "that agree with each other, which outnumber them at weight 1") {
+  std::vector<std::vector<Eigen::Isometry3d>> maps(2);
+  for (int k = 0; k < 20; ++k) {
+    maps[0].push_back(Pose(static_cast<double>(k), 0.0, 0.0));
+    maps[1].push_back(Pose(static_cast<double>(k), 5.0, 0.0));
+  }
+  const Eigen::Isometry3d T_right = Eigen::Isometry3d::Identity(), T_wrong = Pose(8.0, 0.0, 0.35);
+  const auto edges_with = [&](double right_weight) {
+    std::vector<InterRobotEdge> edges;
+    for (std::uint32_t k : {2u, 6u, 8u, 10u, 14u}) {
+      const bool right = k == 2u || k == 14u;
+      edges.push_back(EdgeFromMapTransform(0, k, maps[0][k], 1, k, maps[1][k], right ? T_right : T_wrong));
+      edges.back().weight = right ? right_weight : 1.0;
+    }
+    return edges;
+  };
+  for (double right_weight : {1.0, 2.0}) {
+    CAPTURE(right_weight);
+    const std::vector<InterRobotEdge> edges = edges_with(right_weight);
+    auto result = SolveJointGraph(Span<const std::vector<Eigen::Isometry3d>>(maps.data(), maps.size()),
+                                  Span<const InterRobotEdge>(edges.data(), edges.size()));
+    REQUIRE(result.ok());
+    const bool right_kept = right_weight > 1.5;  // 2 x 2 > 3 x 1; 2 x 1 < 3 x 1
+    for (std::size_t i = 0; i < edges.size(); ++i) {
+      const bool right = i == 0 || i == 4;
+      CHECK((result->verdicts[i] == JointEdgeVerdict::kUsed) == (right == right_kept));
+    }
+    const Eigen::Isometry3d T_world_map1 = result->T_world_keyframe[1][0] * maps[1][0].inverse();
+    const Eigen::Isometry3d& want = right_kept ? T_right : T_wrong;
+    CHECK((T_world_map1.translation() - want.translation()).norm() < 1e-3);
+  }
+}
+
 TEST_CASE("Joint graph: EdgeFromMapTransform reads a map transform at two keyframes") {
   SimRandom rng(3);
   const Eigen::Isometry3d T_mapa_ka = RandomPerturbation(rng, 20.0, 60.0), T_mapb_kb = RandomPerturbation(rng, 20.0, 60.0);
@@ -262,6 +329,11 @@ TEST_CASE("Joint graph: bad input is refused with the value named") {
   bad = e;
   bad.T_a_b.linear() *= 1.01;
   CHECK(solve({bad}).code() == StatusCode::kInvalidArgument);
+  for (double weight : {0.0, -1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    bad = e;
+    bad.weight = weight;
+    CHECK(solve({bad}).message().find("edge 0: weight") != std::string::npos);
+  }
   JointGraphParams p;
   p.max_nodes = 899;  // keyframes, whatever the node stride
   const Status big = solve({e}, p);
