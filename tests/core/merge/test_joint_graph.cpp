@@ -58,6 +58,16 @@ double LargestMove(const JointGraphResult& a, const JointGraphResult& b) {
   return worst;
 }
 
+// Two robots, 20 keyframes each 1 m apart along x of their own map frames; robot 1's map has it 5 m along y.
+std::vector<std::vector<Eigen::Isometry3d>> TwoStraightRobots() {
+  std::vector<std::vector<Eigen::Isometry3d>> maps(2);
+  for (int k = 0; k < 20; ++k) {
+    maps[0].push_back(Pose(static_cast<double>(k), 0.0, 0.0));
+    maps[1].push_back(Pose(static_cast<double>(k), 5.0, 0.0));
+  }
+  return maps;
+}
+
 Span<const std::vector<Eigen::Isometry3d>> Maps(const SyntheticTeam& t) {
   return Span<const std::vector<Eigen::Isometry3d>>(t.T_map_keyframe.data(), t.T_map_keyframe.size());
 }
@@ -232,11 +242,7 @@ TEST_CASE("Joint graph: two edges at one place meet at their weighted mean (weig
   // Two straight 20-keyframe robots joined only at keyframe 10 of each, by two edges 0.06 m apart along x: nothing
   // else fixes robot 1, so least squares puts it at the weighted mean of the two (the Cauchy kernel of width 3
   // barely discounts residuals of 0.45 and 0.26 sigma: within 2 mm of it).
-  std::vector<std::vector<Eigen::Isometry3d>> maps(2);
-  for (int k = 0; k < 20; ++k) {
-    maps[0].push_back(Pose(static_cast<double>(k), 0.0, 0.0));
-    maps[1].push_back(Pose(static_cast<double>(k), 5.0, 0.0));
-  }
+  const std::vector<std::vector<Eigen::Isometry3d>> maps = TwoStraightRobots();
   InterRobotEdge light, heavy;
   light.robot_a = heavy.robot_a = 0;
   light.robot_b = heavy.robot_b = 1;
@@ -261,11 +267,7 @@ TEST_CASE("Joint graph: two edges at one place meet at their weighted mean (weig
 
 TEST_CASE("Joint graph: a pair keeps its heaviest agreeing set: two right edges of weight 2 outweigh three wrong ones "
           "that agree with each other, which outnumber them at weight 1") {
-  std::vector<std::vector<Eigen::Isometry3d>> maps(2);
-  for (int k = 0; k < 20; ++k) {
-    maps[0].push_back(Pose(static_cast<double>(k), 0.0, 0.0));
-    maps[1].push_back(Pose(static_cast<double>(k), 5.0, 0.0));
-  }
+  const std::vector<std::vector<Eigen::Isometry3d>> maps = TwoStraightRobots();
   const Eigen::Isometry3d T_right = Eigen::Isometry3d::Identity(), T_wrong = Pose(8.0, 0.0, 0.35);
   const auto edges_with = [&](double right_weight) {
     std::vector<InterRobotEdge> edges;
