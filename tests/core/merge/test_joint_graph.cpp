@@ -249,7 +249,7 @@ TEST_CASE("Joint graph: two edges at one place meet at their weighted mean (weig
   light.keyframe_a = heavy.keyframe_a = light.keyframe_b = heavy.keyframe_b = 10;
   light.T_a_b = Pose(0.0, 2.0, 0.0);
   heavy.T_a_b = Pose(0.06, 2.0, 0.0);
-  const auto x_at = [&](double light_weight, double heavy_weight) {
+  const auto x_at = [&](double light_weight, double heavy_weight) -> Eigen::Vector3d {
     std::vector<InterRobotEdge> edges = {light, heavy};
     edges[0].weight = light_weight;
     edges[1].weight = heavy_weight;
