@@ -125,9 +125,9 @@ struct RunJob {
 };
 
 // run_report.cpp: the results, side by side; the output files and pictures.
-/// Prints the mode table and the final mode's result (and keeps the text for the report's summary.md).
 /// Solves the joint pose graph over the final mode's accepted pairs into job->joint.
 void SolveJoint(RunJob* job);
+/// Prints the mode table and the final mode's result (and keeps the text for the report's summary.md).
 std::string PrintResults(const RunJob& job);
 /// Writes transforms.txt, trajectories/, merged_map.pcd/.ply, and with --report the pictures, summary.md and
 /// metrics.tsv. Returns the merged map's size: "N points", and the scans left out when it was full.
